@@ -1,0 +1,74 @@
+"""Typed, time-stamped frames that the drivers hand to the rest of the daemon.
+
+All geometry is in the body frame (FRD, metres) once it leaves a driver; all times are seconds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class LidarScan:
+    """One VLP-16 revolution, already in the body frame.
+
+    ``xyz`` is (N, 3) float64 body FRD; ``t`` is each point's time on the same clock as ``stamp``
+    (host clock for live data and replay, so that ego poses can be interpolated per point).
+    """
+
+    stamp: float  # time of the revolution's last firing, host clock, s
+    stamp_device: float  # same instant on the sensor's clock (Unix s; hour from the host)
+    xyz: np.ndarray  # (N, 3) float64, body FRD, m
+    intensity: np.ndarray  # (N,) float32, calibrated reflectivity 0..255
+    ring: np.ndarray  # (N,) uint8, 0 = lowest beam (-15 deg)
+    t: np.ndarray  # (N,) float64, per-point time, s (same clock as stamp)
+    packets: int = 0  # data packets that went into this revolution
+    packets_missing: int = 0  # gaps in the 1327.104 us packet clock
+    return_mode: str = "strongest"  # strongest | last | dual
+    model: str = "VLP16"
+    pps_locked: bool = False
+
+    @property
+    def n_points(self) -> int:
+        return int(self.xyz.shape[0])
+
+
+@dataclass
+class RadarFrame:
+    """One AWR1843 out-of-box-demo frame, already in the body frame."""
+
+    stamp: float  # host receive time of the frame header, s
+    frame_number: int
+    xyz: np.ndarray  # (N, 3) float64, body FRD, m
+    doppler: np.ndarray  # (N,) float64, m/s along the line of sight, positive = moving away
+    snr: np.ndarray  # (N,) float64, dB (NaN when TLV 7 is absent)
+    noise: np.ndarray  # (N,) float64, dB (NaN when TLV 7 is absent)
+    time_cpu_cycles: int = 0
+    sdk_version: tuple[int, int, int, int] = (0, 0, 0, 0)
+    platform: int = 0
+    tlv_types: tuple[int, ...] = ()
+    bytes_skipped: int = 0  # garbage skipped before this frame's magic word
+    stats: dict[str, int] | None = None  # TLV 6
+    temperature: dict[str, float] | None = None  # TLV 9, deg C per sensor, plus "valid"/"time_ms"
+    range_profile: np.ndarray | None = None  # TLV 2, log2 magnitude per range bin
+    noise_profile: np.ndarray | None = None  # TLV 3
+    extra: dict[int, bytes] = field(default_factory=dict)  # heat maps etc. kept raw
+
+    @property
+    def n_points(self) -> int:
+        return int(self.xyz.shape[0])
+
+
+@dataclass(frozen=True)
+class EgoPose:
+    """The boat's pose in the world frame (local NED), at time ``t`` on the host clock."""
+
+    t: float
+    position: np.ndarray  # (3,) NED, m
+    velocity: np.ndarray  # (3,) NED, m/s
+    roll: float
+    pitch: float
+    yaw: float  # rad, 0 = north, clockwise positive
+    yaw_rate: float = 0.0
