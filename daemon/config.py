@@ -1,0 +1,230 @@
+"""The daemon's configuration: one TOML file, sections lidar, radar, mavlink, boat, output, tracker.
+
+Every paper parameter lives in the tracker sections with the paper's value as its default, so an empty file is a
+valid configuration of the algorithms as published. Lengths in metres, angles in DEGREES in the file (people edit
+it) and radians inside (converted here, once).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from daemon.config_schema import ConfigError, build
+from daemon.source_url import SourceUrlError, parse_source_url
+from drivers.mount import Mount
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Ubuntu 22.04 / Jetson ships Python 3.10
+    import tomli as tomllib
+
+DEFAULT_CONFIG_PATH = Path("/etc/usv-tracker/usv-tracker.toml")
+
+
+@dataclass
+class MountConfig:
+    """Sensor pose in the body frame (FRD): metres and degrees."""
+
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    roll: float = 0.0
+    pitch: float = 0.0
+    yaw: float = 0.0
+
+    def to_mount(self) -> Mount:
+        return Mount.from_degrees(self.x, self.y, self.z, self.roll, self.pitch, self.yaw)
+
+    def validate(self) -> list[str]:
+        bad = [
+            f"{k}: must be within -360..360 degrees" for k in ("roll", "pitch", "yaw") if abs(getattr(self, k)) > 360
+        ]
+        bad += [
+            f"{k}: {getattr(self, k)} m is not a plausible mount offset" for k in "xyz" if abs(getattr(self, k)) > 50
+        ]
+        return bad
+
+
+@dataclass
+class LidarConfig:
+    enabled: bool = True
+    source: str = "udp://0.0.0.0:2368"
+    position_port: int = 8308
+    accept_ip: str = ""  # empty: any sender
+    model: str = "auto"  # auto | VLP16 (forces VLP-16 geometry on early firmware reporting 0x21)
+    cut_angle_deg: float = 180.0  # revolution boundary in the sensor frame; astern keeps the bow whole
+    silence_timeout_s: float = 2.0
+    min_range_m: float = 0.5
+    max_range_m: float = 100.0
+    mount: MountConfig = field(default_factory=lambda: MountConfig(z=-1.0))
+
+    def validate(self) -> list[str]:
+        out = []
+        if self.enabled:
+            try:
+                parse_source_url(self.source, {"udp", "pcap", "sim"})
+            except SourceUrlError as exc:
+                out.append(f"source: {exc}")
+        if self.model not in ("auto", "VLP16"):
+            out.append(f"model: expected 'auto' or 'VLP16', got {self.model!r}")
+        if not 0 < self.position_port < 65536:
+            out.append(f"position_port: {self.position_port} is not a UDP port")
+        if not 0 <= self.min_range_m < self.max_range_m:
+            out.append("min_range_m/max_range_m: need 0 <= min_range_m < max_range_m")
+        if self.silence_timeout_s <= 0:
+            out.append("silence_timeout_s: must be > 0")
+        return out
+
+
+@dataclass
+class RadarConfig:
+    enabled: bool = True
+    cli: str = "serial:///dev/ttyACM0?baud=115200"
+    data: str = "serial:///dev/ttyACM1?baud=921600"
+    profile: str = "/etc/usv-tracker/awr1843.cfg"
+    required: bool = False  # false: a radar that fails to start leaves the daemon running LiDAR-only
+    silence_timeout_s: float = 2.0
+    fov_deg: float = 120.0  # horizontal field of view, centred on the mount's yaw
+    max_range_m: float = 50.0
+    mount: MountConfig = field(default_factory=lambda: MountConfig(x=0.5, z=-0.5))
+
+    def validate(self) -> list[str]:
+        out = []
+        if self.enabled:
+            for key in ("cli", "data"):
+                value = getattr(self, key)
+                if key == "cli" and not value:
+                    continue  # no CLI port: replay, or a radar configured by someone else
+                try:
+                    parse_source_url(value, {"serial", "file", "sim"})
+                except SourceUrlError as exc:
+                    out.append(f"{key}: {exc}")
+        if not 0 < self.fov_deg <= 360:
+            out.append(f"fov_deg: {self.fov_deg} must be in (0, 360]")
+        if self.max_range_m <= 0:
+            out.append("max_range_m: must be > 0")
+        return out
+
+
+@dataclass
+class MavlinkConfig:
+    url: str = "udpout:127.0.0.1:14550"
+    system_id: int = 1
+    component_id: int = 196  # MAV_COMP_ID_OBSTACLE_AVOIDANCE
+    target_system: int = 1
+    baud: int = 921600
+    signing_passphrase: str = ""  # MAVLink 2 signing key = SHA-256 of this (MAVProxy's convention)
+    send_obstacle_distance_3d: bool = False
+
+    def validate(self) -> list[str]:
+        out = []
+        if not self.url:
+            out.append("url: empty (use e.g. udpout:127.0.0.1:14550 or /dev/ttyAMA0)")
+        for k in ("system_id", "component_id", "target_system"):
+            if not 1 <= getattr(self, k) <= 255:
+                out.append(f"{k}: {getattr(self, k)} must be 1..255")
+        return out
+
+
+@dataclass
+class BoatConfig:
+    """The own boat's box in the body frame: returns inside it are the boat itself (hull, mast, crew)."""
+
+    bow_m: float = 0.8  # x of the bow
+    stern_m: float = -0.8  # x of the stern
+    port_m: float = -0.5  # y of the port side
+    starboard_m: float = 0.5
+    water_z_m: float = 0.0  # water line in body z (down positive)
+
+    def validate(self) -> list[str]:
+        out = []
+        if self.stern_m >= self.bow_m:
+            out.append("stern_m: must be less than bow_m")
+        if self.port_m >= self.starboard_m:
+            out.append("port_m: must be less than starboard_m")
+        return out
+
+
+@dataclass
+class OutputConfig:
+    rate_hz: float = 10.0
+    min_distance_m: float = 0.5
+    max_distance_m: float = 100.0
+    no_data_timeout_s: float = 0.5  # both autopilots time a proximity sensor out after 0.5 s
+    min_height_above_water_m: float = 0.15  # lidar returns lower than this are water/spray, not obstacles
+    tracks_out: str = ""  # JSON lines, one per tick
+    record_dir: str = ""  # raw captures of every source, for replay at the desk
+    health_interval_s: float = 5.0
+
+    def validate(self) -> list[str]:
+        out = []
+        if not 1 <= self.rate_hz <= 50:
+            out.append(f"rate_hz: {self.rate_hz} must be within 1..50")
+        if not 0 < self.min_distance_m < self.max_distance_m:
+            out.append("min_distance_m/max_distance_m: need 0 < min < max")
+        if self.max_distance_m * 100 + 1 >= 65535:
+            out.append("max_distance_m: must be below 655 m (OBSTACLE_DISTANCE carries uint16 centimetres)")
+        if self.no_data_timeout_s <= 0:
+            out.append("no_data_timeout_s: must be > 0")
+        return out
+
+
+@dataclass
+class TrackerConfig:
+    """Tracker tables are passed through to the trackers' own config classes, which check them."""
+
+    lidar: dict[str, Any] = field(default_factory=dict)
+    radar: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class Config:
+    lidar: LidarConfig = field(default_factory=LidarConfig)
+    radar: RadarConfig = field(default_factory=RadarConfig)
+    mavlink: MavlinkConfig = field(default_factory=MavlinkConfig)
+    boat: BoatConfig = field(default_factory=BoatConfig)
+    output: OutputConfig = field(default_factory=OutputConfig)
+    tracker: TrackerConfig = field(default_factory=TrackerConfig)
+
+
+def load_config(path: str | Path | None, overrides: dict[str, Any] | None = None) -> Config:
+    """Read a TOML file (None: built-in defaults), apply dotted-key overrides, check everything."""
+    table: dict[str, Any] = {}
+    source = str(path) if path else "<defaults>"
+    if path is not None:
+        p = Path(path)
+        try:
+            text = p.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise ConfigError([f"file not found: {p}"], source) from None
+        except OSError as exc:
+            raise ConfigError([f"cannot read {p}: {exc.strerror}"], source) from None
+        try:
+            table = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise ConfigError([f"not valid TOML: {exc}"], source) from None
+    for dotted, value in (overrides or {}).items():
+        node = table
+        *parents, leaf = dotted.split(".")
+        for part in parents:
+            node = node.setdefault(part, {})
+        node[leaf] = value
+    config = build(Config, table, source)
+    _check_tracker_tables(config, source)
+    return config
+
+
+def _check_tracker_tables(config: Config, source: str) -> None:
+    from daemon.tracker_configs import tracker_config_problems
+
+    problems = tracker_config_problems(config.tracker)
+    if problems:
+        raise ConfigError(problems, source)
+
+
+def radians(deg: float) -> float:
+    return math.radians(deg)

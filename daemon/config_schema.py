@@ -1,0 +1,113 @@
+"""Typed TOML -> dataclass loading that names every bad key, value and why.
+
+A crew editing /etc/usv-tracker/usv-tracker.toml on a quay needs "radar.mount.yaw: expected a number, got 'left'",
+not a traceback. So loading collects every problem it finds before failing, and unknown keys are errors (a typo
+such as ``max_ditance_m`` would otherwise silently keep the default).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import types
+import typing
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+
+
+class ConfigError(ValueError):
+    """One or more problems in a configuration; ``problems`` lists them as 'key: why'."""
+
+    def __init__(self, problems: list[str], source: str = "") -> None:
+        self.problems = problems
+        self.source = source
+        where = f"{source}: " if source else ""
+        super().__init__(where + "; ".join(problems))
+
+
+def _type_name(tp: Any) -> str:
+    return {bool: "true or false", int: "an integer", float: "a number", str: "a string"}.get(tp, str(tp))
+
+
+def _coerce(value: Any, tp: Any, key: str, problems: list[str]) -> Any:
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        if value is None:
+            return None
+        return _coerce(value, args[0], key, problems)
+    if dataclasses.is_dataclass(tp):
+        if not isinstance(value, dict):
+            problems.append(f"{key}: expected a table, got {value!r}")
+            return None
+        return _build(tp, value, key, problems)
+    if origin in (list, tuple):
+        (item_tp, *_) = typing.get_args(tp) or (Any,)
+        if not isinstance(value, list):
+            problems.append(f"{key}: expected a list, got {value!r}")
+            return None
+        items = [_coerce(v, item_tp, f"{key}[{i}]", problems) for i, v in enumerate(value)]
+        return tuple(items) if origin is tuple else items
+    if tp is bool:
+        if not isinstance(value, bool):
+            problems.append(f"{key}: expected true or false, got {value!r}")
+        return value
+    if tp is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            problems.append(f"{key}: expected a number, got {value!r}")
+            return value
+        if not math.isfinite(value):
+            problems.append(f"{key}: must be a finite number, got {value!r}")
+        return float(value)
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            problems.append(f"{key}: expected an integer, got {value!r}")
+        return value
+    if tp is str:
+        if not isinstance(value, str):
+            problems.append(f"{key}: expected a string, got {value!r}")
+        return value
+    return value
+
+
+def _build(cls: type[T], table: dict[str, Any], prefix: str, problems: list[str]) -> T:
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}  # type: ignore[arg-type]
+    kwargs: dict[str, Any] = {}
+    for key, value in table.items():
+        full = f"{prefix}.{key}" if prefix else key
+        if key not in fields:
+            close = difflib.get_close_matches(key, list(fields), n=1)
+            hint = f" (did you mean '{close[0]}'?)" if close else f" (known keys: {', '.join(sorted(fields))})"
+            problems.append(f"{full}: unknown key{hint}")
+            continue
+        kwargs[key] = _coerce(value, hints[key], full, problems)
+    try:
+        obj = cls(**{k: v for k, v in kwargs.items() if v is not None})
+    except (TypeError, ValueError) as exc:
+        problems.append(f"{prefix or 'config'}: {exc}")
+        return cls()  # type: ignore[call-arg]
+    check = getattr(obj, "validate", None)
+    if check is not None:
+        try:
+            found = check()
+        except TypeError:
+            found = []  # a value of the wrong type was already reported; its range cannot be checked
+        problems.extend(f"{prefix}.{p}" if prefix else p for p in found)
+    return obj
+
+
+def build(cls: type[T], table: dict[str, Any], source: str = "") -> T:
+    """Build ``cls`` from a parsed TOML table, raising ConfigError with every problem found."""
+    problems: list[str] = []
+    obj = _build(cls, table, "", problems)
+    if problems:
+        raise ConfigError(problems, source)
+    return obj
+
+
+def to_table(obj: Any) -> dict[str, Any]:
+    """Dataclass -> plain dict, for printing the effective configuration."""
+    return dataclasses.asdict(obj)

@@ -1,0 +1,104 @@
+"""The 72-bin polar obstacle map that becomes MAVLink OBSTACLE_DISTANCE.
+
+Bins are in the body frame (FRD): bin j is centred on the bearing 5*j degrees clockwise from the bow and spans
++-2.5 degrees (ArduPilot takes element j's angle as j*increment + angle_offset, i.e. the bin centre).
+
+Values follow the message's semantics, which the autopilots act on differently (see specs/mavlink-obstacles.md):
+  * an obstacle: its range in cm, clamped to [max(min_distance, 1), max_distance];
+  * a bearing some live sensor covers with nothing in range: max_distance + 1 ("looked, clear");
+  * a bearing no live sensor covers: 65535 ("unknown") — never "clear" where we simply have no data.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+N_BINS = 72
+BIN_WIDTH_RAD = 2 * np.pi / N_BINS
+UNKNOWN = 65535
+
+
+@dataclass(frozen=True)
+class SensorCoverage:
+    """A horizontal wedge a sensor sees, in the body frame: centre bearing (rad, clockwise from the bow),
+    full width (rad; 2*pi = all round), and the range out to which "nothing seen" means "clear"."""
+
+    centre: float
+    width: float
+    max_range: float
+
+    def bins(self) -> np.ndarray:
+        """Boolean (72,) mask of bins whose centre lies inside the wedge."""
+        if self.width >= 2 * np.pi - 1e-9:
+            return np.ones(N_BINS, dtype=bool)
+        centres = np.arange(N_BINS) * BIN_WIDTH_RAD
+        off = np.angle(np.exp(1j * (centres - self.centre)))
+        return np.abs(off) <= self.width / 2 + 1e-9
+
+
+def bearing_bins(points_fwd_stbd: np.ndarray) -> np.ndarray:
+    """Bin index of each (forward, starboard) point: bearing = atan2(starboard, forward), clockwise from the bow."""
+    bearing = np.arctan2(points_fwd_stbd[:, 1], points_fwd_stbd[:, 0])
+    return np.rint(bearing / BIN_WIDTH_RAD).astype(np.int64) % N_BINS
+
+
+def nearest_per_bin(points_fwd_stbd: np.ndarray) -> np.ndarray:
+    """(72,) nearest horizontal range in metres per bin (inf where no point)."""
+    out = np.full(N_BINS, np.inf)
+    if points_fwd_stbd.size == 0:
+        return out
+    finite = np.all(np.isfinite(points_fwd_stbd), axis=1)
+    pts = points_fwd_stbd[finite]
+    if pts.shape[0] == 0:
+        return out
+    np.minimum.at(out, bearing_bins(pts), np.hypot(pts[:, 0], pts[:, 1]))
+    return out
+
+
+def outline_points(corners_fwd_stbd: np.ndarray, spacing: float = 0.25) -> np.ndarray:
+    """Points every ``spacing`` metres along a closed polygon, so a hull marks every bin its extent overlaps."""
+    a = corners_fwd_stbd
+    b = np.roll(a, -1, axis=0)
+    lengths = np.hypot(*(b - a).T)
+    n = np.maximum(np.ceil(lengths / spacing).astype(int), 1)
+    seg = np.repeat(np.arange(len(a)), n)
+    frac = np.concatenate([np.arange(k) / k for k in n])
+    return a[seg] + (b[seg] - a[seg]) * frac[:, None]
+
+
+def to_distances_cm(
+    nearest_m: np.ndarray, covered: np.ndarray, min_distance_m: float, max_distance_m: float
+) -> np.ndarray:
+    """Metres per bin + coverage mask -> the uint16 array OBSTACLE_DISTANCE carries."""
+    max_cm = round(max_distance_m * 100)
+    min_cm = max(round(min_distance_m * 100), 1)
+    out = np.full(N_BINS, UNKNOWN, dtype=np.uint16)
+    out[covered] = max_cm + 1
+    hit = covered & (nearest_m <= max_distance_m)
+    out[hit] = np.clip(np.rint(nearest_m[hit] * 100), min_cm, max_cm).astype(np.uint16)
+    return out
+
+
+def build_obstacle_distances(
+    solid_points_fwd_stbd: list[np.ndarray],
+    coverages: list[SensorCoverage],
+    min_distance_m: float,
+    max_distance_m: float,
+) -> np.ndarray:
+    """Fuse every source of solid returns (LiDAR points, radar points, track hull outlines, shore) into one array.
+
+    One message carries everything: ArduPilot resets its whole proximity boundary on each OBSTACLE_DISTANCE, so
+    separate partial arrays per sensor would overwrite each other.
+    """
+    nearest = np.full(N_BINS, np.inf)
+    for pts in solid_points_fwd_stbd:
+        if pts is not None and len(pts):
+            nearest = np.minimum(nearest, nearest_per_bin(np.asarray(pts, float)[:, :2]))
+    covered = np.zeros(N_BINS, dtype=bool)
+    for cov in coverages:
+        covered |= cov.bins()
+    # A return is real even where the coverage model says the sensor should not see (e.g. a wide radar beam edge).
+    covered |= np.isfinite(nearest) & (nearest <= max_distance_m)
+    return to_distances_cm(nearest, covered, min_distance_m, max_distance_m)
