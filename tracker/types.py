@@ -34,18 +34,18 @@ class Detection:
     """One object seen in one sensor frame, in the world frame."""
 
     t: float
-    center: np.ndarray           # (2,) north, east, m
-    heading: float               # rad, in [0, pi) for symmetric shapes
-    length: float                # m, along heading
-    width: float                 # m
-    height: float                # m
+    center: np.ndarray  # (2,) north, east, m
+    heading: float  # rad, in [0, pi) for symmetric shapes
+    length: float  # m, along heading
+    width: float  # m
+    height: float  # m
     shape: ShapeKind = ShapeKind.BOX
     mse: float = 0.0
     n_points: int = 0
-    range_m: float = 0.0         # distance from the own boat, for visibility weighting
-    points: np.ndarray | None = None          # (n, 2) world north/east, kept for hull IoU and obstacle bins
-    velocity: np.ndarray | None = None        # (2,) measured (radar Doppler), NaN where not determined
-    velocity_cov: np.ndarray | None = None    # (2, 2)
+    range_m: float = 0.0  # distance from the own boat, for visibility weighting
+    points: np.ndarray | None = None  # (n, 2) world north/east, kept for hull IoU and obstacle bins
+    velocity: np.ndarray | None = None  # (2,) measured (radar Doppler), NaN where not determined
+    velocity_cov: np.ndarray | None = None  # (2, 2)
     source: str = "lidar"
 
 
@@ -55,20 +55,20 @@ class Track:
 
     id: int
     t: float
-    position: np.ndarray         # (2,) north, east, m (world)
-    velocity: np.ndarray         # (2,) m/s (world); NaN when speed is not known (motion state "wait")
-    heading: float               # rad, 0 = north, clockwise
-    yaw_rate: float              # rad/s
+    position: np.ndarray  # (2,) north, east, m (world)
+    velocity: np.ndarray  # (2,) m/s (world); NaN when speed is not known (motion state "wait")
+    heading: float  # rad, 0 = north, clockwise
+    yaw_rate: float  # rad/s
     length: float
     width: float
     height: float
     shape: ShapeKind = ShapeKind.BOX
     confirmed: bool = False
-    source: str = "lidar"        # lidar | radar | fused
+    source: str = "lidar"  # lidar | radar | fused
     motion: MotionState | None = None
     position_cov: np.ndarray = field(default_factory=lambda: np.eye(2))
     hits: int = 0
-    age: float = 0.0             # s since the first detection
+    age: float = 0.0  # s since the first detection
     time_since_update: float = 0.0
 
     @property

@@ -1,0 +1,54 @@
+"""Cycle timing, deadline misses and the one-line health summary the crew reads in the journal."""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class CycleStats:
+    period_s: float
+    window: int = 600  # the last minute at 10 Hz
+    cycles: int = 0
+    deadline_misses: int = 0
+    _durations_ms: deque[float] = field(default_factory=deque)
+    stage_ms: dict[str, deque[float]] = field(default_factory=dict)
+
+    def record(self, duration_ms: float, stages: dict[str, float]) -> None:
+        self.cycles += 1
+        if duration_ms > self.period_s * 1e3:
+            self.deadline_misses += 1
+        self._push(self._durations_ms, duration_ms)
+        for k, v in stages.items():
+            self._push(self.stage_ms.setdefault(k, deque()), v)
+
+    def _push(self, d: deque[float], v: float) -> None:
+        d.append(v)
+        if len(d) > self.window:
+            d.popleft()
+
+    def percentiles(self) -> tuple[float, float]:
+        if not self._durations_ms:
+            return float("nan"), float("nan")
+        a = np.fromiter(self._durations_ms, float)
+        return float(np.percentile(a, 50)), float(np.percentile(a, 99))
+
+    def stage_p50(self) -> dict[str, float]:
+        return {k: float(np.median(np.fromiter(v, float))) for k, v in self.stage_ms.items() if v}
+
+
+@dataclass
+class RateCounter:
+    """Items per second over the interval between two summaries."""
+
+    last_count: int = 0
+    last_t: float = 0.0
+
+    def rate(self, count: int, t: float) -> float:
+        dt = t - self.last_t
+        r = (count - self.last_count) / dt if dt > 0 else 0.0
+        self.last_count, self.last_t = count, t
+        return r

@@ -1,0 +1,239 @@
+"""The fixed-rate 10 Hz loop: take what the readers delivered, run the pipeline, publish, feed the watchdog.
+
+Live, the loop ticks on time.monotonic() and sleeps to the next deadline (deadlines are absolute, so a slow tick
+does not shift the phase of all later ones). Replay with --fast ticks on the data's own clock and never sleeps, so
+the same capture always gives the same output, as fast as the CPU allows.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import IO, Any, Protocol
+
+import numpy as np
+
+from daemon.buffers import BoundedQueue, LatestSlot
+from daemon.health import CycleStats, RateCounter
+from daemon.sdnotify import SystemdNotifier
+from drivers.frames import LidarScan, RadarFrame
+from tracker.pipeline import PerceptionOutput, PerceptionPipeline, PoseLookup
+
+log = logging.getLogger(__name__)
+
+MAV_DISTANCE_SENSOR_LASER = 0
+MAV_STATE_ACTIVE = 4
+MAV_STATE_CRITICAL = 5
+MAV_SEVERITY_WARNING = 4
+MAV_SEVERITY_INFO = 6
+
+
+class ObstaclePublisher(Protocol):
+    """The autopilot side as the loop sees it (daemon.autopilot.AutopilotLink provides it)."""
+
+    def send_obstacle_distance(
+        self, distances_cm: np.ndarray, min_cm: int, max_cm: int, sensor_type: int, time_usec: int
+    ) -> None: ...
+
+    def send_statustext(self, severity: int, text: str) -> None: ...
+
+    def set_system_status(self, status: int) -> None: ...
+
+
+@dataclass
+class LoopSettings:
+    rate_hz: float = 10.0
+    min_distance_m: float = 0.5
+    max_distance_m: float = 100.0
+    no_data_timeout_s: float = 0.5
+    health_interval_s: float = 5.0
+    lidar_expected: bool = True
+    radar_expected: bool = True
+
+
+@dataclass
+class SensorInputs:
+    """What the readers fill; the loop only ever takes from these, never reads a device itself."""
+
+    lidar: LatestSlot[LidarScan] = field(default_factory=LatestSlot)
+    radar: BoundedQueue[RadarFrame] = field(default_factory=BoundedQueue)
+
+
+class DaemonLoop:
+    def __init__(
+        self,
+        pipeline: PerceptionPipeline,
+        inputs: SensorInputs,
+        publisher: ObstaclePublisher | None,
+        poses: PoseLookup | None,
+        settings: LoopSettings,
+        notifier: SystemdNotifier | None = None,
+        tracks_out: IO[str] | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        wall_clock: Callable[[], float] = time.time,
+    ) -> None:
+        self.pipeline = pipeline
+        self.inputs = inputs
+        self.publisher = publisher
+        self.poses = poses
+        self.s = settings
+        self.notifier = notifier or SystemdNotifier("")
+        self.tracks_out = tracks_out
+        self.clock = clock
+        self.wall_clock = wall_clock
+        self.stats = CycleStats(period_s=1.0 / settings.rate_hz)
+        self.sent = 0
+        self.withheld = 0
+        self._publishing: bool | None = None
+        self._last_health = -math.inf
+        self._rates = {"lidar": RateCounter(), "radar": RateCounter(), "sent": RateCounter()}
+        self.last_output: PerceptionOutput | None = None
+        self.on_output: Callable[[PerceptionOutput], None] | None = None
+        self.status_text: Callable[[], str] | None = None
+
+    # ---- one cycle -------------------------------------------------------------------------------------------
+    def tick(self, t: float) -> PerceptionOutput:
+        t0 = time.perf_counter()
+        scan = self.inputs.lidar.take()
+        frames = self.inputs.radar.take_all()
+        out = self.pipeline.step(t, scan, frames, self.poses)
+        t_pub = time.perf_counter()
+        self._publish(out)
+        stages = dict(out.timings_ms)
+        stages["publish"] = (time.perf_counter() - t_pub) * 1e3
+        self.stats.record((time.perf_counter() - t0) * 1e3, stages)
+        self.last_output = out
+        if self.on_output is not None:
+            self.on_output(out)
+        return out
+
+    def _publish(self, out: PerceptionOutput) -> None:
+        has_data = out.lidar_fresh or out.radar_fresh
+        if has_data != self._publishing:
+            self._on_data_state_change(has_data)
+        if has_data:
+            if self.publisher is not None:
+                self.publisher.send_obstacle_distance(
+                    out.distances_cm,
+                    max(round(self.s.min_distance_m * 100), 1),
+                    round(self.s.max_distance_m * 100),
+                    MAV_DISTANCE_SENSOR_LASER,
+                    self._time_usec(),
+                )
+            self.sent += 1
+            self.notifier.watchdog()
+        else:
+            self.withheld += 1
+            # The loop itself is healthy; systemd must not restart us because a cable is out.
+            self.notifier.watchdog()
+        if self.tracks_out is not None:
+            self.tracks_out.write(json.dumps(tick_record(out, sent=has_data), separators=(",", ":")) + "\n")
+
+    def _on_data_state_change(self, has_data: bool) -> None:
+        first = self._publishing is None
+        self._publishing = has_data
+        if has_data:
+            if not first:
+                log.info("sensor data is back: sending OBSTACLE_DISTANCE again")
+                self._statustext(MAV_SEVERITY_INFO, "usv-tracker: sensor data back")
+            self._set_status(MAV_STATE_ACTIVE)
+        else:
+            log.error(
+                "no sensor has delivered for %.1f s: OBSTACLE_DISTANCE withheld so the autopilot reports No Data",
+                self.s.no_data_timeout_s,
+            )
+            self._statustext(MAV_SEVERITY_WARNING, "usv-tracker: no sensor data, obstacle output stopped")
+            self._set_status(MAV_STATE_CRITICAL)
+
+    def _statustext(self, severity: int, text: str) -> None:
+        if self.publisher is not None:
+            self.publisher.send_statustext(severity, text)
+
+    def _set_status(self, status: int) -> None:
+        if self.publisher is not None:
+            self.publisher.set_system_status(status)
+
+    def _time_usec(self) -> int:
+        now = self.wall_clock()
+        # A companion clock stuck near 1970 (no RTC, no GPS yet) must not be sent as a Unix time: 0 means "unknown".
+        return int(now * 1e6) if now > 1.6e9 else 0
+
+    # ---- health ----------------------------------------------------------------------------------------------
+    def health_line(self, t: float) -> str:
+        p50, p99 = self.stats.percentiles()
+        li, ra = self.inputs.lidar.stats, self.inputs.radar.stats
+        out = self.last_output
+        n_tracks = sum(1 for tr in out.tracks if tr.confirmed) if out else 0
+        line = (
+            f"lidar {self._rates['lidar'].rate(li.received, t):.1f}/s (dropped {li.dropped}) "
+            f"radar {self._rates['radar'].rate(ra.received, t):.1f}/s (dropped {ra.dropped}) "
+            f"sent {self._rates['sent'].rate(self.sent, t):.1f}/s withheld {self.withheld} "
+            f"cycle p50 {p50:.1f} ms p99 {p99:.1f} ms misses {self.stats.deadline_misses} tracks {n_tracks}"
+        )
+        if self.status_text is not None:
+            line += " " + self.status_text()
+        return line
+
+    def maybe_log_health(self, t: float) -> None:
+        if t - self._last_health >= self.s.health_interval_s:
+            if self._last_health > -math.inf:
+                line = self.health_line(t)
+                log.info("health: %s", line)
+                self.notifier.status(line[:200])
+            else:
+                self.health_line(t)  # prime the rate counters
+            self._last_health = t
+
+    # ---- drivers of the loop -----------------------------------------------------------------------------------
+    def run_live(self, stop: threading.Event, duration_s: float | None = None) -> None:
+        period = 1.0 / self.s.rate_hz
+        start = self.clock()
+        next_deadline = start + period
+        while not stop.is_set():
+            now = self.clock()
+            if duration_s is not None and now - start >= duration_s:
+                break
+            self.tick(now)
+            self.maybe_log_health(now)
+            now = self.clock()
+            if now > next_deadline + period:
+                # More than a whole period late (e.g. the machine was suspended): re-phase instead of bursting.
+                next_deadline = now
+            stop.wait(max(0.0, next_deadline - now))
+            next_deadline += period
+
+
+def tick_record(out: PerceptionOutput, sent: bool) -> dict[str, Any]:
+    """One --tracks-out line: time, tracks and the 72 bins (as sent, or null when withheld)."""
+
+    def f(x: float) -> float | None:
+        return None if not math.isfinite(x) else round(float(x), 3)
+
+    return {
+        "t": round(out.t, 4),
+        "tracks": [
+            {
+                "id": tr.id,
+                "source": tr.source,
+                "confirmed": tr.confirmed,
+                "position_ne": [f(v) for v in tr.position],
+                "velocity_ne": [f(v) for v in tr.velocity],
+                "heading_deg": f(math.degrees(tr.heading)),
+                "yaw_rate_dps": f(math.degrees(tr.yaw_rate)),
+                "length": f(tr.length),
+                "width": f(tr.width),
+                "height": f(tr.height),
+                "shape": tr.shape.value,
+                "motion": tr.motion.value if tr.motion else None,
+            }
+            for tr in out.tracks
+        ],
+        "obstacle_distance_cm": out.distances_cm.tolist() if sent else None,
+        "lidar_fresh": out.lidar_fresh,
+        "radar_fresh": out.radar_fresh,
+    }
