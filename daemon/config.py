@@ -55,7 +55,7 @@ class LidarConfig:
     source: str = "udp://0.0.0.0:2368"
     position_port: int = 8308
     accept_ip: str = ""  # empty: any sender
-    model: str = "auto"  # auto | VLP16 (forces VLP-16 geometry on early firmware reporting 0x21)
+    model: str = "VLP16"  # VLP16: VLP-16 geometry whatever the product byte says (early firmware: 0x21); auto: trust it
     cut_angle_deg: float = 180.0  # revolution boundary in the sensor frame; astern keeps the bow whole
     silence_timeout_s: float = 2.0
     min_range_m: float = 0.5

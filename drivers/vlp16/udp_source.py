@@ -1,0 +1,284 @@
+"""Live VLP-16 source: UDP data (port 2368) and position (port 8308) packets -> ``LidarScan`` per revolution.
+
+Meant to run in one reader thread: ``scans(stop)`` blocks on the sockets with a short timeout, so a set
+``stop`` is honoured within ``poll_s``. Bad input never raises: wrong sizes, other senders and garbage are
+counted in ``stats`` and dropped. A silent cable is logged (naming the port and the expected sender) at
+most once per ``silence_timeout_s`` while the source keeps listening, because cables come back.
+
+Bind to 0.0.0.0 for a sensor on its factory settings: it broadcasts to 255.255.255.255, and Linux does not
+deliver broadcasts to a socket bound to a unicast address.
+"""
+
+from __future__ import annotations
+
+import errno
+import logging
+import math
+import selectors
+import socket
+import threading
+import time
+from collections.abc import Callable, Iterator
+
+from drivers.frames import LidarScan
+from drivers.mount import Mount
+from drivers.vlp16.decoder import ScanAssembler
+from drivers.vlp16.packet import DATA_PACKET_SIZE, DATA_PORT, POSITION_PORT
+from drivers.vlp16.source_stats import LidarSourceStats
+
+log = logging.getLogger(__name__)
+
+RCVBUF_BYTES = 4 * 1024 * 1024  # ~2 s of dual-return data; a reader stall must not drop packets
+_RECV_BUFFER = 65536  # a merged or jumbo datagram is read whole so its real size is counted
+_DRAIN_MAX = 512  # datagrams per socket per wake-up, so a flood cannot starve the stop check
+
+
+class LidarPortError(OSError):
+    """The UDP port cannot be bound (in use, address not on this host, privileged)."""
+
+
+def _bind_udp(host: str, port: int, what: str) -> socket.socket:
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        # No SO_REUSEADDR: a second listener (another daemon, VeloView, a ROS driver) must be an error,
+        # not a silent split of the packets between the two.
+        sock.bind((host, port))
+    except OSError as exc:
+        sock.close()
+        if exc.errno == errno.EADDRINUSE:
+            msg = (
+                f"VLP-16 {what} port: UDP {host}:{port} is already in use by another program "
+                "(another usv-tracker, VeloView or a ROS velodyne driver?); stop it or configure another port"
+            )
+        elif exc.errno == errno.EADDRNOTAVAIL:
+            msg = f"VLP-16 {what} port: cannot bind UDP {host}:{port}: {host} is not an address of this host"
+        elif exc.errno == errno.EACCES:
+            msg = f"VLP-16 {what} port: UDP port {port} needs privileges on this host"
+        else:
+            msg = f"VLP-16 {what} port: cannot bind UDP {host}:{port}: {exc.strerror}"
+        raise LidarPortError(exc.errno, msg) from exc
+    sock.setblocking(False)
+    return sock
+
+
+def _grow_receive_buffer(sock: socket.socket, wanted: int, port: int) -> int:
+    """Ask for ``wanted`` bytes of socket buffer; return (and log) what the kernel granted."""
+    force = getattr(socket, "SO_RCVBUFFORCE", None)
+    granted_by_force = False
+    if force is not None:
+        try:  # beyond net.core.rmem_max, only with CAP_NET_ADMIN
+            sock.setsockopt(socket.SOL_SOCKET, force, wanted)
+            granted_by_force = True
+        except OSError:
+            pass
+    if not granted_by_force:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, wanted)
+    # Linux reports twice the asked size (it counts its bookkeeping); anything below `wanted` is a cap.
+    granted = sock.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF)
+    if granted < wanted:
+        log.warning(
+            "UDP port %d: receive buffer %d bytes granted, %d asked; raise it with "
+            "`sysctl -w net.core.rmem_max=%d` to ride out reader stalls without losing packets",
+            port,
+            granted,
+            wanted,
+            wanted,
+        )
+    else:
+        log.info("UDP port %d: receive buffer %d bytes", port, granted)
+    return granted
+
+
+class VelodyneUdpSource:
+    """Listen for one VLP-16; iterate revolutions with ``scans(stop)``.
+
+    ``accept_ip`` keeps only datagrams from that sender (None: any). ``clock`` is the host clock that
+    stamps packets (and so scans); ``wall_clock`` only picks the hour of the sensor's clock.
+    ``position_port=None`` disables the position socket; if that port is taken the source logs an error
+    and runs without PPS/NMEA status, because point data matter more than telemetry.
+    """
+
+    def __init__(
+        self,
+        host: str = "0.0.0.0",
+        port: int = DATA_PORT,
+        position_port: int | None = POSITION_PORT,
+        accept_ip: str | None = None,
+        mount: Mount | None = None,
+        cut_angle: float | None = math.pi,
+        model: str | None = "VLP16",
+        min_range_m: float = 0.1,
+        max_range_m: float = 200.0,
+        silence_timeout_s: float = 2.0,
+        rcvbuf_bytes: int = RCVBUF_BYTES,
+        poll_s: float = 0.1,
+        clock: Callable[[], float] = time.monotonic,
+        wall_clock: Callable[[], float] = time.time,
+    ) -> None:
+        self.host = host
+        self.port = port
+        self.position_port = position_port
+        self.accept_ip = accept_ip or None
+        self.silence_timeout_s = silence_timeout_s
+        self.rcvbuf_bytes = rcvbuf_bytes
+        self.poll_s = poll_s
+        self.clock = clock
+        self.wall_clock = wall_clock
+        self.assembler = ScanAssembler(
+            mount=mount, cut_angle=cut_angle, model=model, min_range_m=min_range_m, max_range_m=max_range_m
+        )
+        self.stats = LidarSourceStats()
+        self.rcvbuf_granted = 0
+        self._data: socket.socket | None = None
+        self._position: socket.socket | None = None
+        self._buffer = bytearray(_RECV_BUFFER)
+        self._silent_since: float = 0.0
+        self._last_silence_log: float | None = None
+        self.polls = 0  # wake-ups of the reader loop (a health counter; lets tests step an injected clock)
+
+    # --- sockets ------------------------------------------------------------------------------------------
+    @property
+    def is_open(self) -> bool:
+        return self._data is not None
+
+    @property
+    def bound_port(self) -> int:
+        """The data port actually bound (useful with port 0 in tests)."""
+        if self._data is None:
+            raise RuntimeError("source is not open")
+        return int(self._data.getsockname()[1])
+
+    @property
+    def bound_position_port(self) -> int | None:
+        return None if self._position is None else int(self._position.getsockname()[1])
+
+    def open(self) -> None:
+        """Bind the sockets now (``scans`` does it otherwise); raises ``LidarPortError`` naming the port."""
+        if self._data is not None:
+            return
+        self._data = _bind_udp(self.host, self.port, "data")
+        self.rcvbuf_granted = _grow_receive_buffer(self._data, self.rcvbuf_bytes, self.bound_port)
+        if self.position_port is not None:
+            try:
+                self._position = _bind_udp(self.host, self.position_port, "position")
+            except LidarPortError as exc:
+                log.error("%s; running without PPS/NMEA status", exc.strerror)
+                self._position = None
+        log.info(
+            "listening for VLP-16 data on UDP %s:%d%s%s",
+            self.host,
+            self.bound_port,
+            "" if self._position is None else f", position on {self.bound_position_port}",
+            "" if self.accept_ip is None else f", accepting only {self.accept_ip}",
+        )
+        self._silent_since = self.clock()
+        self._last_silence_log = None
+
+    def close(self) -> None:
+        for sock in (self._data, self._position):
+            if sock is not None:
+                sock.close()
+        self._data = None
+        self._position = None
+
+    def __enter__(self) -> VelodyneUdpSource:
+        self.open()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # --- reading ----------------------------------------------------------------------------------------
+    def scans(self, stop: threading.Event) -> Iterator[LidarScan]:
+        """Revolutions as they complete, until ``stop`` is set. Closes the sockets when it ends."""
+        self.open()
+        assert self._data is not None
+        selector = selectors.DefaultSelector()
+        selector.register(self._data, selectors.EVENT_READ, "data")
+        if self._position is not None:
+            selector.register(self._position, selectors.EVENT_READ, "position")
+        try:
+            while not stop.is_set():
+                for key, _ in selector.select(timeout=self.poll_s):
+                    if key.data == "data":
+                        yield from self._drain_data(key.fileobj)  # type: ignore[arg-type]
+                    else:
+                        self._drain_position(key.fileobj)  # type: ignore[arg-type]
+                    if stop.is_set():
+                        break
+                now = self.clock()
+                for scan in self.assembler.flush_if_stalled(now):
+                    self.stats.take_assembler(self.assembler)
+                    yield scan
+                self.stats.position_stale(now, self.silence_timeout_s, self.assembler)
+                self._check_silence(now)
+                self.polls += 1
+        finally:
+            selector.close()
+            self.close()
+
+    def _accepted(self, address: tuple[str, int]) -> bool:
+        if self.accept_ip is None or address[0] == self.accept_ip:
+            return True
+        self.stats.foreign_source += 1
+        self.stats.last_foreign_ip = address[0]
+        return False
+
+    def _drain_data(self, sock: socket.socket) -> Iterator[LidarScan]:
+        view = memoryview(self._buffer)
+        for _ in range(_DRAIN_MAX):
+            try:
+                n, address = sock.recvfrom_into(self._buffer)
+            except (BlockingIOError, InterruptedError):
+                return
+            now = self.clock()
+            if not self._accepted(address):
+                continue
+            if n != DATA_PACKET_SIZE:
+                self.stats.wrong_size += 1
+                log.debug("dropped %d-byte datagram from %s on port %d", n, address[0], self.port)
+                continue
+            self.stats.packets += 1
+            self.stats.bytes += n
+            self.stats.last_packet_time = now
+            if self.stats.silent:
+                log.info("VLP-16 data on UDP port %d resumed after %.1f s", self.bound_port, now - self._silent_since)
+                self.stats.silent = False
+            self._silent_since = now
+            completed = self.assembler.push(now, bytes(view[:n]), self.wall_clock())
+            self.stats.take_assembler(self.assembler)
+            yield from completed
+
+    def _drain_position(self, sock: socket.socket) -> None:
+        for _ in range(_DRAIN_MAX):
+            try:
+                n, address = sock.recvfrom_into(self._buffer)
+            except (BlockingIOError, InterruptedError):
+                return
+            if self._accepted(address):
+                self.stats.take_position(self.clock(), bytes(self._buffer[:n]), self.assembler)
+
+    def _check_silence(self, now: float) -> None:
+        quiet = now - self._silent_since
+        if quiet < self.silence_timeout_s:
+            return
+        self.stats.silent = True
+        if self._last_silence_log is not None and now - self._last_silence_log < self.silence_timeout_s:
+            return
+        self._last_silence_log = now
+        sender = "any sender" if self.accept_ip is None else self.accept_ip
+        extra = []
+        if self.stats.foreign_source:
+            extra.append(
+                f"{self.stats.foreign_source} datagrams from other senders ignored (last {self.stats.last_foreign_ip})"
+            )
+        if self.stats.wrong_size:
+            extra.append(f"{self.stats.wrong_size} wrong-size datagrams dropped")
+        log.error(
+            "no VLP-16 data on UDP %s:%d from %s for %.1f s (check power, cable, sensor IP and destination)%s",
+            self.host,
+            self.bound_port,
+            sender,
+            quiet,
+            "; " + "; ".join(extra) if extra else "",
+        )
