@@ -1,0 +1,157 @@
+"""Ego pose from the autopilot's separate attitude and position messages.
+
+ATTITUDE (50 Hz) and the position messages (20 Hz) arrive at different instants. One EgoPose is made per
+ATTITUDE, with the latest position carried to the attitude's instant by its own velocity (dead reckoning
+over <= 50 ms: a boat turning at 0.5 m/s^2 moves < 1 mm off the straight line in that time). Positions
+older than ``position_timeout`` make no pose: a pose with a stale position would place targets wrongly.
+
+World frame (local NED, see design.md):
+* LOCAL_POSITION_NED when the autopilot sends it (origin = its EKF origin). Once seen it is the only
+  position source, because GLOBAL_POSITION_INT projected around our own first fix is a different plane.
+* else GLOBAL_POSITION_INT projected to a NED tangent plane at the first fix used (``autopilot_geo``). Fixes
+  only become the world after ``global_grace`` seconds without any LOCAL_POSITION_NED, because at start-up the
+  two streams begin in no particular order and an early switch would change the world at once.
+A switch of source, or an autopilot reboot while on LOCAL_POSITION_NED (new EKF origin), changes the world
+frame: ``world_epoch`` counts up and the history is cleared, so consumers know to drop world-frame state.
+
+All times are host monotonic seconds, already mapped from the autopilot clock by the caller.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+
+import numpy as np
+
+from daemon.autopilot_geo import LocalTangentPlane
+from daemon.pose_history import PoseHistory
+from drivers.frames import EgoPose
+
+log = logging.getLogger(__name__)
+
+LOCAL = "local_ned"
+GLOBAL = "global"
+
+
+class PoseAssembler:
+    """Turns decoded ATTITUDE / LOCAL_POSITION_NED / GLOBAL_POSITION_INT into EgoPose samples."""
+
+    def __init__(self, history: PoseHistory, position_timeout: float = 1.0, global_grace: float = 2.0) -> None:
+        self.history = history
+        self.position_timeout = position_timeout
+        self.global_grace = global_grace
+        self._first_fix_t: float | None = None
+        self.position_source: str | None = None
+        self.world_epoch = 0
+        self.samples = 0
+        self.skipped_no_position = 0
+        self.rejected = 0  # non-finite attitude (autopilots send NaN before their estimator is up)
+        self.global_ignored = 0
+        self._lock = threading.Lock()  # guards the geodetic anchor read by other threads
+        self._pos: tuple[float, np.ndarray, np.ndarray] | None = None  # (t, position NED, velocity NED)
+        self._plane: LocalTangentPlane | None = None  # projection of GLOBAL_POSITION_INT (first fix)
+        self._last_fix: tuple[float, float, float, float] | None = None  # (t, lat, lon, alt) of the newest fix
+        self._last_local: tuple[float, np.ndarray, np.ndarray] | None = None
+
+    # ------------------------------------------------------------------ inputs
+    def on_attitude(
+        self, t: float, roll: float, pitch: float, yaw: float, p: float, q: float, r: float
+    ) -> EgoPose | None:
+        """One pose at the attitude's instant ``t``; None without a recent position."""
+        if self._pos is None or abs(t - self._pos[0]) > self.position_timeout:
+            self.skipped_no_position += 1
+            return None
+        t_pos, pos, vel = self._pos
+        cos_pitch = math.cos(pitch)
+        # body rates (p, q, r) -> Euler yaw rate; ATTITUDE.yawspeed alone is the body z rate
+        yaw_rate = (q * math.sin(roll) + r * math.cos(roll)) / cos_pitch if abs(cos_pitch) > 1e-6 else r
+        pose = EgoPose(
+            t=t,
+            position=pos + vel * (t - t_pos),
+            velocity=vel.copy(),
+            roll=roll,
+            pitch=pitch,
+            yaw=yaw,
+            yaw_rate=yaw_rate,
+        )
+        if self.history.add(pose):
+            self.samples += 1
+            return pose
+        self.rejected += 1
+        return None
+
+    def on_local_position(self, t: float, position: np.ndarray, velocity: np.ndarray) -> None:
+        pos = np.asarray(position, dtype=float).reshape(3)
+        vel = np.asarray(velocity, dtype=float).reshape(3)
+        if not (np.isfinite(pos).all() and np.isfinite(vel).all()):
+            return
+        if self.position_source != LOCAL:
+            if self.position_source is not None:
+                self._new_world(f"position source {self.position_source} -> LOCAL_POSITION_NED")
+            else:
+                log.info("world frame: LOCAL_POSITION_NED (autopilot EKF origin)")
+            self.position_source = LOCAL
+        self._pos = (t, pos, vel)
+        with self._lock:
+            self._last_local = (t, pos, vel)
+
+    def on_global_position(self, t: float, lat_deg: float, lon_deg: float, alt_m: float, velocity: np.ndarray) -> None:
+        if lat_deg == 0.0 and lon_deg == 0.0:  # what autopilots send without a fix
+            return
+        if not (-90.0 <= lat_deg <= 90.0 and -180.0 <= lon_deg <= 180.0 and math.isfinite(alt_m)):
+            return
+        with self._lock:
+            self._last_fix = (t, lat_deg, lon_deg, alt_m)
+        if self.position_source == LOCAL:
+            self.global_ignored += 1
+            return
+        if self.position_source is None:
+            if self._first_fix_t is None:
+                self._first_fix_t = t
+            if t - self._first_fix_t < self.global_grace:
+                return  # LOCAL_POSITION_NED may still come
+            with self._lock:
+                self._plane = LocalTangentPlane(lat_deg, lon_deg, alt_m)
+                self.position_source = GLOBAL
+            log.info("world frame: NED tangent plane at first fix %.7f, %.7f, %.2f m", lat_deg, lon_deg, alt_m)
+        plane = self._plane
+        if plane is None:
+            return
+        vel = np.asarray(velocity, dtype=float).reshape(3)
+        self._pos = (t, plane.to_ned(lat_deg, lon_deg, alt_m), vel)
+
+    def on_autopilot_reboot(self) -> None:
+        """The autopilot restarted: its EKF origin may move, and pre-reboot positions are no base for reckoning."""
+        self._pos = None
+        self._first_fix_t = None
+        if self.position_source == LOCAL:
+            self.position_source = None
+            self._new_world("autopilot rebooted (EKF origin may have moved)")
+        with self._lock:
+            self._last_local = None
+
+    def _new_world(self, why: str) -> None:
+        self.world_epoch += 1
+        self.history.clear()
+        log.warning("world frame changed (epoch %d): %s", self.world_epoch, why)
+
+    # ------------------------------------------------------------------ output helpers
+    def world_to_geodetic(self, ned: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """World NED points -> (lat deg, lon deg, alt m MSL), or None while the world's anchor is unknown.
+
+        On the tangent plane the anchor is the first fix. On LOCAL_POSITION_NED it is the newest fix minus
+        the boat's local position at the same instant (the EKF origin as seen through the two messages).
+        """
+        with self._lock:
+            fix, local, plane, source = self._last_fix, self._last_local, self._plane, self.position_source
+        ned = np.asarray(ned, dtype=float)
+        if source == GLOBAL and plane is not None:
+            return plane.to_geodetic(ned)
+        if source == LOCAL and fix is not None and local is not None and abs(fix[0] - local[0]) < 1.0:
+            t_fix, lat, lon, alt = fix
+            t_loc, pos, vel = local
+            boat_at_fix = pos + vel * (t_fix - t_loc)
+            return LocalTangentPlane(lat, lon, alt).to_geodetic(ned - boat_at_fix)
+        return None

@@ -1,0 +1,188 @@
+"""PoseHistory: interpolation on the host clock, the circle, the extrapolation limit, and no-ego-pose mode."""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+import pytest
+
+from daemon.pose_history import PoseHistory, wrap_angle
+from drivers.frames import EgoPose
+
+
+def pose(t: float, pos=(0.0, 0.0, 0.0), vel=(0.0, 0.0, 0.0), roll=0.0, pitch=0.0, yaw=0.0, yaw_rate=0.0) -> EgoPose:
+    return EgoPose(t, np.array(pos, float), np.array(vel, float), roll, pitch, yaw, yaw_rate)
+
+
+def test_yaw_wrap_interpolates_through_north_exactly() -> None:
+    h = PoseHistory()
+    h.add(pose(10.0, yaw=math.radians(359.0)))
+    h.add(pose(11.0, yaw=math.radians(1.0)))
+    mid = h.at(10.5)
+    assert mid is not None
+    assert mid.yaw == pytest.approx(0.0, abs=1e-12)
+    quarter = h.at(10.25)
+    assert quarter is not None
+    assert math.degrees(quarter.yaw) == pytest.approx(-0.5, abs=1e-9)
+    # and the other way round, through +-180 (south)
+    h2 = PoseHistory()
+    h2.add(pose(0.0, yaw=math.radians(179.0)))
+    h2.add(pose(1.0, yaw=math.radians(-179.0)))
+    s = h2.at(0.75)
+    assert s is not None
+    assert math.degrees(s.yaw) == pytest.approx(-179.5, abs=1e-9)
+
+
+def test_linear_position_velocity_and_roll_wrap() -> None:
+    h = PoseHistory()
+    h.add(pose(1.0, pos=(0, 0, 0), vel=(1, 0, 0), roll=math.radians(-179), pitch=0.1))
+    h.add(pose(2.0, pos=(10, -4, 1), vel=(3, 0, 0), roll=math.radians(179), pitch=0.3))
+    p = h.at(1.25)
+    assert p is not None
+    np.testing.assert_allclose(p.position, [2.5, -1.0, 0.25], atol=1e-12)
+    np.testing.assert_allclose(p.velocity, [1.5, 0, 0], atol=1e-12)
+    assert math.degrees(p.roll) == pytest.approx(-179.5, abs=1e-9)  # shorter arc: -179 -> -181
+    assert p.pitch == pytest.approx(0.15, abs=1e-12)
+    assert p.t == 1.25
+    # exactly on a sample: that sample
+    q = h.at(2.0)
+    assert q is not None
+    np.testing.assert_allclose(q.position, [10, -4, 1], atol=1e-12)
+
+
+def test_extrapolation_limit_and_velocity_extrapolation() -> None:
+    h = PoseHistory(max_extrapolation=0.3)
+    h.add(pose(5.0, pos=(0, 0, 0), vel=(2, 1, 0), yaw=0.0, yaw_rate=0.5))
+    h.add(pose(6.0, pos=(2, 1, 0), vel=(2, 1, 0), yaw=0.5, yaw_rate=0.5))
+    ahead = h.at(6.2)
+    assert ahead is not None
+    np.testing.assert_allclose(ahead.position, [2.4, 1.2, 0], atol=1e-12)
+    assert ahead.yaw == pytest.approx(0.6, abs=1e-12)
+    behind = h.at(4.9)
+    assert behind is not None
+    np.testing.assert_allclose(behind.position, [-0.2, -0.1, 0], atol=1e-12)
+    assert h.at(6.31) is None
+    assert h.at(4.69) is None
+    assert PoseHistory().at(1.0) is None  # empty
+
+
+def test_long_gap_is_not_interpolated_across() -> None:
+    h = PoseHistory(max_extrapolation=0.3, max_gap=1.0)
+    h.add(pose(0.0, pos=(0, 0, 0), vel=(1, 0, 0)))
+    h.add(pose(5.0, pos=(100, 0, 0), vel=(1, 0, 0)))
+    near_first = h.at(0.2)
+    assert near_first is not None
+    np.testing.assert_allclose(near_first.position, [0.2, 0, 0], atol=1e-12)  # reckoned, not 4.0
+    near_second = h.at(4.9)
+    assert near_second is not None
+    np.testing.assert_allclose(near_second.position, [99.9, 0, 0], atol=1e-12)
+    assert h.at(2.5) is None
+
+
+def test_at_many_matches_at_and_marks_unknown_rows_nan() -> None:
+    h = PoseHistory(max_extrapolation=0.3)
+    rng = np.random.default_rng(3)
+    ts = np.arange(0.0, 2.0, 0.02)
+    for t in ts:
+        h.add(
+            pose(
+                t,
+                pos=(3 * t, -t, 0.01 * t),
+                vel=(3, -1, 0.01),
+                roll=0.05 * math.sin(t),
+                yaw=wrap_angle(3.0 + 0.8 * t),
+                yaw_rate=0.8,
+            )
+        )
+    q = np.concatenate([rng.uniform(-0.2, 2.2, 200), [-0.5, 3.0, np.nan]])
+    pos, roll, pitch, yaw = h.at_many(q)
+    assert pos.shape == (203, 3) and roll.shape == pitch.shape == yaw.shape == (203,)
+    for i, t in enumerate(q):
+        single = h.at(float(t))
+        if single is None:
+            assert np.isnan(pos[i]).all() and np.isnan(yaw[i])
+        else:
+            np.testing.assert_allclose(pos[i], single.position, atol=1e-12)
+            assert yaw[i] == pytest.approx(single.yaw, abs=1e-12)
+            assert roll[i] == pytest.approx(single.roll, abs=1e-12)
+    assert np.isnan(yaw[-3:]).all()
+    inside = (q >= 0) & (q <= ts[-1])
+    np.testing.assert_allclose(pos[inside, 0], 3 * q[inside], atol=1e-9)  # linear motion is reproduced exactly
+    np.testing.assert_allclose(yaw[inside], wrap_angle(3.0 + 0.8 * q[inside]), atol=1e-9)
+
+
+def test_bounded_capacity_keeps_the_newest() -> None:
+    h = PoseHistory(capacity=50)
+    for i in range(275):
+        h.add(pose(float(i), pos=(i, 0, 0), vel=(1, 0, 0)))
+    assert len(h) == 50
+    assert h.oldest_time == 225.0 and h.newest_time == 274.0
+    p = h.at(250.5)
+    assert p is not None and p.position[0] == pytest.approx(250.5)
+    assert h.at(100.0) is None
+
+
+def test_out_of_order_sample_is_inserted_in_place_and_bad_samples_rejected() -> None:
+    h = PoseHistory()
+    h.add(pose(0.0, pos=(0, 0, 0)))
+    h.add(pose(2.0, pos=(2, 0, 0)))
+    h.add(pose(1.0, pos=(5, 0, 0)))  # late arrival
+    assert h.reordered == 1 and len(h) == 3
+    p = h.at(0.5)
+    assert p is not None and p.position[0] == pytest.approx(2.5)
+    h.add(pose(1.0, pos=(1, 0, 0)))  # same instant again: replaced, not duplicated
+    assert len(h) == 3
+    p = h.at(0.5)
+    assert p is not None and p.position[0] == pytest.approx(0.5)
+    assert not h.add(pose(3.0, pos=(np.nan, 0, 0)))
+    assert not h.add(pose(float("inf")))
+    assert h.rejected == 2 and len(h) == 3
+    latest = h.latest()
+    assert latest is not None and latest.t == 2.0
+
+
+def test_no_ego_pose_mode_is_the_identity() -> None:
+    h = PoseHistory.identity()
+    assert h.no_ego_pose
+    assert not h.add(pose(1.0, pos=(5, 5, 5), yaw=1.0))
+    p = h.at(123.4)
+    assert p is not None
+    assert p.t == 123.4 and p.yaw == 0.0 and p.roll == 0.0 and p.pitch == 0.0
+    np.testing.assert_array_equal(p.position, np.zeros(3))
+    pos, roll, pitch, yaw = h.at_many(np.array([1.0, 2.0, 3.0]))
+    np.testing.assert_array_equal(pos, np.zeros((3, 3)))
+    np.testing.assert_array_equal(np.stack([roll, pitch, yaw]), np.zeros((3, 3)))
+
+
+def test_concurrent_writer_and_readers_see_consistent_data() -> None:
+    """A writer appending a straight line while readers query: every answer lies on that line."""
+    h = PoseHistory(capacity=100)
+    errors: list[str] = []
+    stop = threading.Event()
+
+    def writer() -> None:
+        for i in range(3000):
+            t = i * 0.01
+            h.add(pose(t, pos=(2 * t, 0, 0), vel=(2, 0, 0)))
+        stop.set()
+
+    def reader() -> None:
+        while not stop.is_set():
+            newest = h.newest_time
+            if newest is None:
+                continue
+            q = np.linspace(newest - 0.5, newest, 64)
+            pos, _r, _p, _y = h.at_many(q)
+            ok = ~np.isnan(pos[:, 0])
+            if not np.allclose(pos[ok, 0], 2 * q[ok], atol=1e-9):
+                errors.append("off the line")
+
+    threads = [threading.Thread(target=writer)] + [threading.Thread(target=reader) for _ in range(2)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join(10)
+    assert not errors
+    assert len(h) == 100
