@@ -1,0 +1,278 @@
+"""Live source over real ptys against the device emulator, and replay of real data-port dumps."""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drivers.awr1843.cli import CliSession
+from drivers.awr1843.errors import RadarConfigError
+from drivers.awr1843.parser import MAGIC
+from drivers.awr1843.profile import RadarProfile, load_profile
+from drivers.awr1843.sources import FileRadarSource, SerialRadarSource
+from drivers.frames import RadarFrame
+from drivers.mount import Mount
+from simulator.awr1843_device import Awr1843Emulator, DevicePoints, StreamFaults
+
+CFG = "awr1843/xwr18xx_best_range_50m_vis3.6.cfg"
+WALK = "awr1843/xwr18xx_sdk3.6_walk_50m.dat"
+
+
+@pytest.fixture
+def fast_profile(shared_fixtures: Path, tmp_path: Path) -> RadarProfile:
+    """The 50 m cfg with 20 ms frames, so that a test sees many frames in little time."""
+    text = (shared_fixtures / CFG).read_text().replace("frameCfg 0 1 16 0 100 1 0", "frameCfg 0 1 16 0 20 1 0")
+    path = tmp_path / "fast.cfg"
+    path.write_text(text)
+    return load_profile(path)
+
+
+class Reader:
+    """Runs ``source.frames(stop)`` in a thread, as the daemon does, collecting what comes out."""
+
+    def __init__(self, source: SerialRadarSource | FileRadarSource) -> None:
+        self.source = source
+        self.stop = threading.Event()
+        self.frames: list[RadarFrame] = []
+        self.error: BaseException | None = None
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        try:
+            for frame in self.source.frames(self.stop):
+                self.frames.append(frame)
+        except BaseException as exc:
+            self.error = exc
+
+    def wait_for(self, condition: Callable[[], bool], timeout: float = 10.0) -> None:
+        deadline = time.monotonic() + timeout
+        while not condition():
+            if self.error is not None or not self.thread.is_alive():
+                raise AssertionError(f"reader ended early: {self.error!r}")
+            if time.monotonic() > deadline:
+                raise AssertionError("timed out waiting for the reader")
+            time.sleep(0.01)
+
+    def close(self) -> None:
+        self.stop.set()
+        self.thread.join(timeout=10.0)
+        assert not self.thread.is_alive()
+
+
+def test_live_stream_with_injected_damage(fast_profile: RadarProfile) -> None:
+    garbage = bytes(range(100, 137))  # 37 bytes without a magic word
+    faults = StreamFaults(garbage_before={4: garbage}, truncate={7: 100}, delete={10: (60, 12)})
+    mount = Mount.from_degrees(x=2.0, yaw=-90.0)  # looking to port, 2 m forward of the origin
+    with Awr1843Emulator(faults=faults) as emu:
+        source = SerialRadarSource(emu.cli_path, emu.data_path, fast_profile, mount)
+        reader = Reader(source)
+        try:
+            reader.wait_for(lambda: any(f.frame_number >= 14 for f in reader.frames))
+        finally:
+            reader.close()
+        sent = {s.frame_number: s for s in emu.frames_sent}
+        received_lines = list(emu.received_lines)
+    numbers = [f.frame_number for f in reader.frames]
+    assert numbers[:12] == [1, 2, 3, 4, 5, 6, 8, 9, 11, 12, 13, 14]
+    assert not sent[7].intact and not sent[10].intact and sent[4].intact
+    st = source.stats.parser
+    frames_up_to_14 = [f for f in reader.frames if f.frame_number <= 14]
+    assert st.frames_dropped == 2
+    assert st.frames_lost == 2
+    assert st.bytes_skipped == len(garbage) + 100 + sent[10].size
+    by_number = {f.frame_number: f for f in frames_up_to_14}
+    assert by_number[4].bytes_skipped == len(garbage)
+    assert by_number[8].bytes_skipped == 100
+    assert by_number[11].bytes_skipped == sent[10].size
+    # every intact frame decodes to the emulator's default targets, in the body frame of the mount:
+    # TI (x, y, z) -> sensor FRD (y, x, -z) -> yaw -90 deg: (x, -y, -z) + (2, 0, 0)
+    expected = np.array([[-2.0 + 2.0, -20.0, 0.0], [5.0 + 2.0, -35.0, 0.0], [0.5 + 2.0, -8.0, 0.0]])
+    for f in frames_up_to_14:
+        np.testing.assert_allclose(f.xyz, expected, atol=1e-5)
+        np.testing.assert_allclose(f.doppler, [-0.5, 0.25, 0.0])
+        np.testing.assert_allclose(f.snr, [22.0, 18.5, 30.1])
+        assert f.tlv_types == (1, 7, 2, 6, 9)
+        assert f.range_profile is not None and f.range_profile.shape == (256,)
+    stamps = [f.stamp for f in frames_up_to_14]
+    assert stamps == sorted(stamps)
+    # the session stopped the sensor on exit
+    assert received_lines[-1] == "sensorStop"
+
+
+def test_start_up_with_a_refused_cfg_raises(fast_profile: RadarProfile) -> None:
+    with Awr1843Emulator(failing_lines={"lowPower": -1}) as emu:
+        source = SerialRadarSource(emu.cli_path, emu.data_path, fast_profile, stop_sensor_on_exit=False)
+        with pytest.raises(RadarConfigError) as err:
+            source.connect()  # the daemon's start-up check
+        with pytest.raises(RadarConfigError):
+            next(iter(source.frames(threading.Event())))  # a reader that connects itself raises the same
+    assert err.value.line == "lowPower 0 0"
+    assert err.value.line_number == 25
+
+
+def test_silence_is_flagged_named_and_cleared(fast_profile: RadarProfile, caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.INFO, logger="drivers.awr1843.sources")
+    with Awr1843Emulator() as emu:
+        cli_path, data_path = emu.cli_path, emu.data_path
+        # configure=False: a radar someone else configures (here: nobody yet) -> no frames
+        source = SerialRadarSource("", emu.data_path, "", configure=False, silence_timeout_s=0.3)
+        reader = Reader(source)
+        try:
+            reader.wait_for(lambda: source.silent)
+            assert reader.frames == []
+            with CliSession(emu.cli_path) as cli:
+                cli.configure(fast_profile)
+            reader.wait_for(lambda: len(reader.frames) >= 2)
+            reader.wait_for(lambda: not source.silent)
+        finally:
+            reader.close()
+    assert source.stats.silences == 1
+    errors = [r.getMessage() for r in caplog.records if r.levelno == logging.ERROR]
+    assert len(errors) == 1
+    assert f"CLI not used, data {data_path}" in errors[0]
+    assert cli_path != data_path
+
+
+def test_sensor_stopped_behind_our_back_names_both_ports(
+    fast_profile: RadarProfile, caplog: pytest.LogCaptureFixture
+) -> None:
+    caplog.set_level(logging.INFO, logger="drivers.awr1843.sources")
+    with Awr1843Emulator() as emu:
+        cli_path, data_path = emu.cli_path, emu.data_path
+        source = SerialRadarSource(cli_path, data_path, fast_profile, silence_timeout_s=0.3)
+        reader = Reader(source)
+        try:
+            reader.wait_for(lambda: len(reader.frames) >= 2)
+            with CliSession(cli_path) as cli:  # the source holds the CLI port only while configuring
+                cli.command("sensorStop")
+            reader.wait_for(lambda: source.silent)
+            with CliSession(cli_path) as cli:
+                cli.command("sensorStart")
+            reader.wait_for(lambda: not source.silent)
+        finally:
+            reader.close()
+    numbers = [f.frame_number for f in reader.frames]
+    assert numbers == list(range(1, len(numbers) + 1))  # frame numbers survive stop/start
+    assert (source.stats.silences, source.stats.parser.frames_lost) == (1, 0)
+    errors = [r.getMessage() for r in caplog.records if r.levelno == logging.ERROR]
+    assert len(errors) == 1
+    assert f"(CLI {cli_path}, data {data_path})" in errors[0]
+
+
+def test_unplugged_cable_is_survived(fast_profile: RadarProfile, tmp_path: Path) -> None:
+    by_id = tmp_path / "by-id"
+    with Awr1843Emulator(link_dir=by_id, first_frame_number=1) as emu:
+        source = SerialRadarSource(
+            emu.cli_path, emu.data_path, fast_profile, reconnect_backoff_s=(0.05, 0.1), silence_timeout_s=5.0
+        )
+        reader = Reader(source)
+        try:
+            reader.wait_for(lambda: len(reader.frames) >= 3)
+            emu.unplug()
+            reader.wait_for(lambda: source.stats.disconnects == 1)
+            time.sleep(0.3)  # a few failed reconnects while the links are gone
+            emu.replug(power_cycle=True)
+            reader.wait_for(lambda: source.stats.reconnects == 1)
+            before = len(reader.frames)
+            reader.wait_for(lambda: len(reader.frames) >= before + 3)
+        finally:
+            reader.close()
+    assert source.stats.configured == 2  # the power-cycled radar got its cfg again
+    assert reader.error is None
+    # frame numbers restart after the power cycle: counted as a reset, not as lost frames
+    assert source.stats.parser.frame_number_resets == 1
+    assert source.stats.parser.frames_lost == 0
+    numbers = [f.frame_number for f in reader.frames]
+    restart = next(i for i in range(1, len(numbers)) if numbers[i] < numbers[i - 1])
+    assert numbers[restart] == 1
+
+
+def test_radar_plugged_in_after_start_up(fast_profile: RadarProfile, tmp_path: Path) -> None:
+    by_id = tmp_path / "by-id"
+    cli_link, data_link = str(by_id / "awr1843-cli"), str(by_id / "awr1843-data")
+    source = SerialRadarSource(cli_link, data_link, fast_profile, reconnect_backoff_s=(0.05,))
+    reader = Reader(source)
+    try:
+        time.sleep(0.2)  # the ports do not exist yet: logged and retried, no exception
+        assert reader.thread.is_alive() and reader.frames == []
+        with Awr1843Emulator(link_dir=by_id, first_frame_number=40) as emu:
+            assert emu.cli_path == cli_link
+            reader.wait_for(lambda: len(reader.frames) >= 2)
+            reader.close()
+    finally:
+        reader.close()
+    assert [f.frame_number for f in reader.frames[:2]] == [40, 41]
+    assert (source.stats.reconnects, source.stats.configured, source.stats.disconnects) == (1, 1, 0)
+
+
+def test_stop_is_honoured_while_reading(fast_profile: RadarProfile) -> None:
+    with Awr1843Emulator() as emu:
+        source = SerialRadarSource(emu.cli_path, emu.data_path, fast_profile)
+        source.connect()
+        assert emu.sensor_running
+        reader = Reader(source)
+        reader.wait_for(lambda: len(reader.frames) >= 1)
+        reader.close()
+        assert not emu.sensor_running
+
+
+def test_custom_frame_source_and_empty_frames(fast_profile: RadarProfile) -> None:
+    def targets(frame_number: int, t: float) -> DevicePoints:
+        if frame_number % 2:
+            return DevicePoints(np.zeros((0, 3)), np.zeros(0))
+        return DevicePoints(np.array([[0.0, float(frame_number), 0.0]]), np.array([0.125]), 17.5, 55.0)
+
+    with Awr1843Emulator(frame_source=targets) as emu:
+        source = SerialRadarSource(emu.cli_path, emu.data_path, fast_profile)
+        reader = Reader(source)
+        try:
+            reader.wait_for(lambda: len(reader.frames) >= 4)
+        finally:
+            reader.close()
+    for f in reader.frames[:4]:
+        if f.frame_number % 2:
+            assert f.n_points == 0 and f.tlv_types == (1, 2, 6, 9)
+        else:
+            np.testing.assert_allclose(f.xyz, [[float(f.frame_number), 0.0, 0.0]])
+            assert (f.doppler[0], f.snr[0], f.noise[0]) == (0.125, 17.5, 55.0)
+
+
+# ---------------------------------------------------------------------------------------- replay
+def test_file_replay_as_fast_as_possible(shared_fixtures: Path) -> None:
+    source = FileRadarSource(shared_fixtures / WALK, shared_fixtures / CFG, speed=None, start_time=1000.0)
+    frames = list(source.frames(threading.Event()))
+    assert len(frames) == 440
+    assert frames[0].frame_number == 1986
+    np.testing.assert_allclose([f.stamp for f in frames], 1000.0 + 0.1 * np.arange(440))
+    assert source.stats.parser.bytes_skipped == 0
+
+
+def test_file_replay_keeps_lost_frames_slot_in_time(tmp_path: Path, shared_fixtures: Path) -> None:
+    raw = (shared_fixtures / WALK).read_bytes()
+    starts = [i for i in range(0, 20000) if raw.startswith(MAGIC, i)]
+    # cut frames 1988 and 1989 (the 3rd and 4th) out of the recording
+    path = tmp_path / "gap.dat"
+    path.write_bytes(raw[: starts[2]] + raw[starts[4] :])
+    source = FileRadarSource(path, speed=None, start_time=0.0)  # no cfg: 100 ms default
+    frames = list(source.frames(threading.Event()))
+    assert [f.frame_number for f in frames[:3]] == [1986, 1987, 1990]
+    assert [f.stamp for f in frames[:3]] == pytest.approx([0.0, 0.1, 0.4])
+    assert source.stats.parser.frames_lost == 2
+
+
+def test_paced_replay_stops_on_request(shared_fixtures: Path) -> None:
+    source = FileRadarSource(shared_fixtures / WALK, shared_fixtures / CFG, speed=1.0, start_time=0.0)
+    reader = Reader(source)
+    try:
+        reader.wait_for(lambda: len(reader.frames) >= 2)
+    finally:
+        reader.close()
+    assert [f.frame_number for f in reader.frames[:2]] == [1986, 1987]
+    assert len(reader.frames) < 440
