@@ -1,0 +1,83 @@
+"""LiDAR preprocessing: range, height and own-boat filters, spray rejection, body FRD -> world NED."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tracker.lidar.config import PreprocessConfig
+from tracker.lidar.preprocess import preprocess
+
+CFG = PreprocessConfig(
+    min_range=1.0,
+    max_range=100.0,
+    min_height=-0.3,
+    max_height=15.0,
+    origin_height_above_water=0.5,
+    own_box=(-2.5, 1.0, -1.0, 1.0, -2.0, 1.0),
+    spray_max_height=0.6,
+    spray_radius=0.5,
+    spray_min_neighbours=3,
+)
+POS = np.array([100.0, 50.0, 0.0])  # body origin in world NED; the water is 0.5 m below it (z = +0.5)
+
+
+def test_single_pose_transform_and_height_limits() -> None:
+    # Level boat heading east (yaw 90 deg): body x (bow) -> world east, body y (starboard) -> world south.
+    body = np.array(
+        [
+            [20.0, 5.0, -1.0],  # 1.5 m above water: kept
+            [20.0, 5.0, -16.0],  # 16.5 m above water: too high
+            [20.0, 5.0, 1.0],  # 0.5 m below water: a mirror image
+            [0.5, 0.2, 0.0],  # closer than min_range
+            [150.0, 0.0, -1.0],  # beyond max_range
+            [-2.0, 0.5, -1.0],  # on the own boat
+            [np.nan, 1.0, 1.0],
+        ]
+    )
+    res = preprocess(body, POS, 0.0, 0.0, math.pi / 2, CFG)
+    assert res.keep.tolist() == [True, False, False, False, False, False, False]
+    assert res.points_world == pytest.approx(np.array([[95.0, 70.0, -1.0]]))
+    assert (res.n_height, res.n_range, res.n_own_boat, res.n_nonfinite, res.n_spray) == (2, 2, 1, 1, 0)
+
+
+def test_per_point_pose() -> None:
+    body = np.array([[10.0, 0.0, -2.0], [10.0, 0.0, -2.0]])
+    yaw = np.array([0.0, math.pi / 2])
+    pos = np.array([[0.0, 0.0, 0.0], [1.0, 2.0, 0.0]])
+    res = preprocess(body, pos, np.zeros(2), np.zeros(2), yaw, CFG)
+    assert res.points_world == pytest.approx(np.array([[10.0, 0.0, -2.0], [1.0, 12.0, -2.0]]), abs=1e-12)
+
+
+def test_roll_moves_points_in_height() -> None:
+    # Rolled 10 deg to starboard: body (0, 10, -3) -> world (0, 10 cos + 3 sin, 10 sin - 3 cos).
+    roll = math.radians(10.0)
+    res = preprocess(np.array([[0.0, 10.0, -3.0]]), np.zeros(3), roll, 0.0, 0.0, CFG)
+    expected = [0.0, 10.0 * math.cos(roll) + 3.0 * math.sin(roll), 10.0 * math.sin(roll) - 3.0 * math.cos(roll)]
+    assert res.points_world == pytest.approx(np.array([expected]))
+
+
+def test_spray_is_removed_but_low_hulls_are_kept() -> None:
+    rng = np.random.default_rng(4)
+    # A dinghy's gunwale 0.3 m above the water: 40 returns along 3 m (body z = 0.5 - 0.3 = 0.2).
+    gunwale = np.stack([np.linspace(15.0, 18.0, 40), np.full(40, 3.0), np.full(40, 0.2)], axis=1)
+    # Water clutter: 30 isolated returns 0.1 m above the water, metres apart.
+    clutter = np.stack([rng.uniform(5, 60, 30), rng.uniform(-30, 30, 30), np.full(30, 0.4)], axis=1)
+    # A hull at 30 m: three rings 1 m apart, the lowest 0.2 m above the water, returns 0.1 m apart along each.
+    ring = np.linspace(-6.0, -4.0, 20)
+    hull = np.concatenate([np.stack([np.full(20, 30.0), ring, np.full(20, z)], axis=1) for z in (0.3, -0.7, -1.7)])
+    res = preprocess(np.concatenate([gunwale, clutter, hull]), POS, 0.0, 0.0, 0.0, CFG)
+    assert res.keep[:40].all()
+    assert not res.keep[40:70].any()
+    assert res.keep[70:].all()
+    assert res.n_spray == 30
+    assert res.points_world.shape == (100, 3)
+
+
+def test_empty_and_all_bad_input() -> None:
+    res = preprocess(np.zeros((0, 3)), POS, 0.0, 0.0, 0.0, CFG)
+    assert res.points_world.shape == (0, 3) and res.keep.shape == (0,)
+    res = preprocess(np.full((4, 3), np.nan), POS, 0.0, 0.0, 0.0, CFG)
+    assert res.points_world.shape == (0, 3) and res.n_nonfinite == 4

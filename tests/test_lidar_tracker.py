@@ -1,0 +1,210 @@
+"""The LiDAR tracker end to end on ray-cast synthetic scenes (tracker.lidar.synthetic), against ground truth."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tracker.lidar import LidarTracker, LidarTrackerConfig
+from tracker.lidar.config import EkfConfig, ShapeConfig
+from tracker.lidar.synthetic import SyntheticObject, scan_objects
+from tracker.types import ShapeKind, Track
+
+DT = 0.1  # s, the VLP-16 at 10 Hz
+ORIGIN = np.zeros(2)
+
+
+def wrap(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def near(tracks: list[Track], obj: SyntheticObject, radius: float) -> list[Track]:
+    return [t for t in tracks if t.confirmed and np.hypot(*(t.position - np.asarray(obj.center))) < radius]
+
+
+def test_two_vessels_crossing_keep_their_ids() -> None:
+    """A box boat eastbound at 25 m north passes in front of an elliptic boat westbound at 37 m north.
+
+    From the sensor at the origin, A hides B for ~0.5 s and cuts B's hull in two for longer before and after.
+    Each vessel must keep one id from confirmation to the end, and no third track may be confirmed.
+    """
+    rng = np.random.default_rng(3)
+    tracker = LidarTracker()
+    ids: dict[str, set[int]] = {"A": set(), "B": set()}
+    missing = {"A": 0, "B": 0}
+    all_confirmed: set[int] = set()
+    for k in range(250):
+        t = k * DT
+        a = SyntheticObject((25.0, -30.0 + 2.5 * t), math.pi / 2, 8.0, 3.0, 2.0, ShapeKind.BOX)
+        b = SyntheticObject((37.0, 30.0 - 2.5 * t), 3 * math.pi / 2, 10.0, 3.5, 3.0, ShapeKind.ELLIPSE)
+        tracks = tracker.step(scan_objects([a, b], ORIGIN, range_noise=0.02, rng=rng), t, ORIGIN, 0.0)
+        all_confirmed |= {tr.id for tr in tracks if tr.confirmed}
+        if t < 1.0:
+            continue
+        for name, obj in (("A", a), ("B", b)):
+            found = near(tracks, obj, 3.0)
+            assert len(found) <= 1
+            if found:
+                ids[name].add(found[0].id)
+            else:
+                missing[name] += 1
+    assert len(ids["A"]) == 1 and len(ids["B"]) == 1
+    assert ids["A"] != ids["B"]
+    assert all_confirmed == ids["A"] | ids["B"]
+    assert missing == {"A": 0, "B": 0}  # B coasts through the occlusion within 3 m of the truth
+
+    final = {tr.id: tr for tr in tracks}
+    ta, tb = final[ids["A"].pop()], final[ids["B"].pop()]
+    assert np.hypot(*(ta.position - np.asarray(a.center))) < 1.0
+    assert np.hypot(*(tb.position - np.asarray(b.center))) < 1.0
+    assert ta.velocity == pytest.approx([0.0, 2.5], abs=0.3)
+    assert tb.velocity == pytest.approx([0.0, -2.5], abs=0.3)
+    assert abs(wrap(ta.heading - math.pi / 2)) < math.radians(8.0)
+    assert abs(wrap(tb.heading - 3 * math.pi / 2)) < math.radians(8.0)  # bow forward, not just the axis
+
+
+def test_heading_never_flips_on_a_turning_ellipse_hull() -> None:
+    """An 8 m x 3 m elliptic hull circles at 3 m/s on a 25 m radius around (40, 0): every aspect is seen."""
+    rng = np.random.default_rng(2)
+    tracker = LidarTracker()
+    radius, speed = 25.0, 3.0
+    omega = speed / radius
+    previous = None
+    ids = set()
+    for k in range(450):
+        t = k * DT
+        ang = omega * t
+        center = (40.0 + radius * math.cos(ang), radius * math.sin(ang))
+        heading = math.atan2(math.cos(ang), -math.sin(ang))  # along d(center)/dt
+        obj = SyntheticObject(center, heading, 8.0, 3.0, 2.0, ShapeKind.ELLIPSE)
+        tracks = [tr for tr in tracker.step(scan_objects([obj], ORIGIN, range_noise=0.02, rng=rng), t, ORIGIN, 0.0)]
+        confirmed = [tr for tr in tracks if tr.confirmed]
+        if not confirmed:
+            continue
+        assert len(confirmed) == 1
+        track = confirmed[0]
+        ids.add(track.id)
+        if previous is not None:
+            assert abs(math.degrees(wrap(track.heading - previous))) < 5.0  # per 0.1 s: the boat turns 0.7 deg
+        previous = track.heading
+        if t > 5.0:
+            assert abs(math.degrees(wrap(track.heading - heading))) < 10.0  # bow forward, all the way round
+            assert np.hypot(*(track.position - np.asarray(center))) < 3.0
+            assert track.yaw_rate == pytest.approx(omega, abs=0.05)
+    assert len(ids) == 1
+
+
+def test_coasting_deletion_and_no_reused_ids() -> None:
+    cfg = LidarTrackerConfig()
+    cfg.lifecycle.max_unseen_time = 1.0
+    tracker = LidarTracker(cfg)
+    boat = SyntheticObject((20.0, 5.0), 0.3, 6.0, 2.5, 2.0)
+    pts = scan_objects([boat], ORIGIN)
+    for k in range(10):
+        tracks = tracker.step(pts, k * DT, ORIGIN, 0.0)
+    assert len(tracks) == 1 and tracks[0].confirmed
+    first_id = tracks[0].id
+    # Gone from view: the track coasts (still published, prediction only) ...
+    for k in range(10, 20):
+        tracks = tracker.step(np.zeros((0, 3)), k * DT, ORIGIN, 0.0)
+        assert len(tracks) == 1 and tracks[0].confirmed
+    assert tracks[0].time_since_update == pytest.approx(1.0)
+    # ... and is deleted once unseen for longer than max_unseen_time.
+    assert tracker.step(np.zeros((0, 3)), 2.0, ORIGIN, 0.0) == []
+    # The same boat again is a new track with a new id.
+    for k in range(21, 25):
+        tracks = tracker.step(pts, k * DT, ORIGIN, 0.0)
+    assert [tr.id for tr in tracks] == [first_id + 1]
+
+
+def test_static_object_seen_from_a_moving_turning_boat() -> None:
+    """World-frame points from an own boat moving north at 3 m/s and turning: the buoy stays put."""
+    tracker = LidarTracker()
+    buoy = SyntheticObject((40.0, 10.0), 0.0, 2.0, 2.0, 1.5)
+    for k in range(60):
+        t = k * DT
+        own = np.array([3.0 * t, 0.0])
+        tracks = tracker.step(scan_objects([buoy], own), t, own, 0.2 * t)
+    assert len(tracks) == 1 and tracks[0].confirmed
+    assert tracks[0].velocity == pytest.approx([0.0, 0.0], abs=0.15)
+    assert tracks[0].position == pytest.approx([40.0, 10.0], abs=0.6)
+
+
+def test_clutter_never_confirms() -> None:
+    rng = np.random.default_rng(9)
+    tracker = LidarTracker()
+    boat = SyntheticObject((30.0, 0.0), 0.0, 6.0, 2.5, 2.0)
+    for k in range(30):
+        # Every scan a small blob somewhere new: a wave crest or a bird, never twice in the same place.
+        blob = np.concatenate([rng.uniform(-40, 40, 2), [-0.5]]) + rng.normal(0.0, 0.1, (6, 3))
+        tracks = tracker.step(np.concatenate([scan_objects([boat], ORIGIN), blob]), k * DT, ORIGIN, 0.0)
+    assert [tr.confirmed for tr in tracks].count(True) == 1
+    assert max(tr.hits for tr in tracks if not tr.confirmed) <= 1
+
+
+def test_detect_and_the_clusters_behind_it() -> None:
+    tracker = LidarTracker()
+    boat = SyntheticObject((-20.0, -10.0), 1.0, 8.0, 3.0, 2.0, ShapeKind.BOX)  # astern: no shadow on the wall
+    wall = SyntheticObject((60.0, 0.0), math.pi / 2, 120.0, 2.0, 3.0, ShapeKind.BOX)  # a quay: structure
+    pts = scan_objects([boat, wall], ORIGIN)
+    detections = tracker.detect(pts, 5.0, ORIGIN)
+    assert len(detections) == 1
+    det = detections[0]
+    assert (det.t, det.source, det.shape) == (5.0, "lidar", ShapeKind.BOX)
+    assert det.points is not None and det.points.ndim == 2 and det.points.shape[1] == 2
+    assert 0 < len(det.points) < det.n_points  # the footprint: rings stacked on one spot count once
+    assert det.range_m == pytest.approx(np.hypot(*det.center))
+    assert len(tracker.last_clusters) == 2  # the wall is a cluster for the obstacle map, not a detection
+    assert sum(len(c) for c in tracker.last_clusters) == len(pts)
+
+    tracks = tracker.step(pts, 5.0, ORIGIN, 0.0)
+    assert len(tracks) == 1 and not tracks[0].confirmed
+    boat_cluster = int(np.argmin([np.hypot(*(c[:, :2].mean(axis=0) - [-20.0, -10.0])) for c in tracker.last_clusters]))
+    assert tracker.last_cluster_track[boat_cluster] == tracks[0].id
+    assert tracker.last_cluster_track[1 - boat_cluster] is None
+
+
+def test_bad_input_is_survived() -> None:
+    tracker = LidarTracker()
+    boat = SyntheticObject((15.0, 5.0), 0.5, 5.0, 2.0, 1.5)
+    pts = scan_objects([boat], ORIGIN)
+    assert tracker.step(np.zeros((0, 3)), 0.0, ORIGIN, 0.0) == []
+    noisy = np.concatenate([pts, np.full((5, 3), np.nan), [[np.inf, 0.0, 0.0]]])
+    assert len(tracker.step(noisy, 0.1, ORIGIN, 0.0)) == 1
+    # Three points in a line and two duplicates: degenerate shapes, not crashes.
+    odd = np.array([[5.0, 5.0, -1.0], [5.0, 5.0, -1.0], [5.0, 5.0, -1.5], [-8.0, 3.0, -1.0], [-8.0, 3.2, -1.0]])
+    odd = np.concatenate([odd, [[-8.0, 3.4, -1.0]]])
+    tracks = tracker.step(np.concatenate([pts, odd]), 0.2, ORIGIN, 0.0)
+    assert len(tracks) == 3
+    # A scan older than the last one is ignored, not allowed to run the filters backwards.
+    before = [(tr.id, tr.position.copy()) for tr in tracks]
+    after = tracker.step(pts, 0.15, ORIGIN, 0.0)
+    assert [(tr.id, tr.position.tolist()) for tr in after] == [(i, p.tolist()) for i, p in before]
+    assert tracker.stats["out_of_order"] == 1
+
+
+@pytest.mark.parametrize(
+    ("mode", "expected_shape"),
+    [
+        ("adaptive", ShapeKind.ELLIPSE),
+        ("ellipse", ShapeKind.ELLIPSE),
+        ("lshape-corner", ShapeKind.BOX),
+        ("lshape-rotation", ShapeKind.BOX),
+        ("lshape-bruteforce", ShapeKind.BOX),
+    ],
+)
+@pytest.mark.parametrize("adaptive_r", [True, False])
+def test_ablation_switches(mode: str, expected_shape: ShapeKind, adaptive_r: bool) -> None:
+    cfg = LidarTrackerConfig(shape=ShapeConfig(mode=mode), ekf=EkfConfig(adaptive_r=adaptive_r))  # type: ignore[arg-type]
+    tracker = LidarTracker(cfg)
+    rng = np.random.default_rng(1)
+    for k in range(40):
+        t = k * DT
+        boat = SyntheticObject((30.0 + 2.0 * t, 12.0), 0.0, 9.0, 3.0, 2.0, ShapeKind.ELLIPSE)
+        tracks = tracker.step(scan_objects([boat], ORIGIN, range_noise=0.02, rng=rng), t, ORIGIN, 0.0)
+    assert len(tracks) == 1 and tracks[0].confirmed
+    assert tracks[0].shape is expected_shape
+    assert np.hypot(*(tracks[0].position - np.asarray(boat.center))) < 2.0
+    assert tracks[0].velocity == pytest.approx([2.0, 0.0], abs=0.4)

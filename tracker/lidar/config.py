@@ -1,0 +1,197 @@
+"""Every knob of the LiDAR tracker, with the paper's value as default where the paper gives one.
+
+Paper: "Adaptive shape fitting for LiDAR object detection and tracking in maritime applications"
+(shared/papers/000). Where the paper names a quantity but gives no number, the default is ours and the comment says
+so ("ours"); where the paper's text is ambiguous, the comment says how we read it.
+
+Frames: positions are world NED (north, east, down), metres; the trackers work in the (north, east) plane.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+from tracker.lifecycle import LifecycleConfig
+
+ShapeMode = Literal["adaptive", "lshape-bruteforce", "lshape-rotation", "lshape-corner", "ellipse"]
+LShapeMethod = Literal["bruteforce", "rotation", "corner"]
+VisibilityInflation = Literal["diagonal", "outer"]
+AspectReference = Literal["line_of_sight", "sensor_heading"]
+
+
+class ConfigError(ValueError):
+    """A configuration value that cannot work; the message names the key."""
+
+
+def _choice(owner: object, name: str, allowed: tuple[str, ...]) -> None:
+    value = getattr(owner, name)
+    if value not in allowed:
+        raise ConfigError(f"{type(owner).__name__}.{name}: {value!r} is not one of {', '.join(allowed)}")
+
+
+def _positive(owner: object, *names: str, allow_zero: bool = False) -> None:
+    for name in names:
+        value = getattr(owner, name)
+        ok = value >= 0 if allow_zero else value > 0
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and ok):
+            bound = ">= 0" if allow_zero else "> 0"
+            raise ConfigError(f"{type(owner).__name__}.{name}: must be a finite number {bound}, got {value!r}")
+
+
+@dataclass
+class PreprocessConfig:
+    """Sec. 2.1 "pre-processing": which returns may belong to objects on the water (limits are ours)."""
+
+    min_range: float = 1.0  # m, horizontal, from the sensor; VLP-16 returns closer than ~1 m are unreliable (ours)
+    max_range: float = 100.0  # m, VLP-16 rated range
+    # Height above the water surface, m (up positive). Below -0.3 m: reflections off the water (mirror images).
+    min_height: float = -0.3
+    max_height: float = 15.0  # bridges and cranes above this are not collision relevant for a small USV (ours)
+    # Body-frame (FRD) origin's height above the waterline, m: the water plane is at z_world = pos_down + this.
+    origin_height_above_water: float = 0.0
+    # Own boat, body FRD, m: (x_min, x_max, y_min, y_max, z_min, z_max); returns inside are the own hull/mast.
+    own_box: tuple[float, float, float, float, float, float] = (-2.5, 1.0, -1.0, 1.0, -2.0, 1.0)
+    # Water surface and spray: a return this low above the water with fewer than ``spray_min_neighbours``
+    # other returns within ``spray_radius`` (3-D) is a wave crest or spray, not a hull (ours; sec. 3.2 names spray).
+    spray_max_height: float = 0.6
+    spray_radius: float = 0.5
+    spray_min_neighbours: int = 3
+
+    def __post_init__(self) -> None:
+        _positive(self, "max_range", "spray_radius")
+        _positive(self, "min_range", "spray_min_neighbours", allow_zero=True)
+        if self.min_range >= self.max_range:
+            raise ConfigError(f"PreprocessConfig.min_range: {self.min_range} is not below max_range {self.max_range}")
+        if self.min_height >= self.max_height:
+            raise ConfigError(f"PreprocessConfig.min_height: {self.min_height} is not below max_height")
+        if len(self.own_box) != 6:
+            raise ConfigError(
+                f"PreprocessConfig.own_box: needs 6 numbers (x0, x1, y0, y1, z0, z1), got {self.own_box!r}"
+            )
+
+
+@dataclass
+class ClusterConfig:
+    """Sec. 2.1 "modified Euclidean clustering": a distance tolerance that grows with range (numbers are ours).
+
+    tolerance(r) = base_tolerance + tolerance_per_metre * r. The VLP-16's beams are 2 deg apart vertically and
+    0.2 deg horizontally at 10 Hz: neighbouring returns on one hull drift apart roughly as r * tan(2 deg) = 0.035 r.
+    """
+
+    base_tolerance: float = 0.5  # m at zero range
+    tolerance_per_metre: float = 0.035  # m per m of range: tan(2 deg), the VLP-16's ring spacing
+    max_tolerance: float = 3.0  # m, so two boats moored 3 m apart at 100 m stay two objects
+    grid_cell: float = 0.15  # m, 2-D cells that stand in for their points in the neighbour search (speed)
+    min_points: int = 3  # smaller clusters are noise (the fits need 3 points)
+    max_clusters: int = 64  # per scan, the nearest kept: a cap on the cycle's cost in a cluttered harbour
+    max_extent: float = 60.0  # m; larger clusters (quay walls, shore) are structure, not vessels (ours)
+    # An object whose bearing span touches (within this margin) that of a cluster in front of it is partly in its
+    # shadow: its extent is cut short (ours; see EkfConfig.occluded_visibility).
+    occlusion_margin: float = math.radians(1.0)
+
+    def __post_init__(self) -> None:
+        _positive(self, "base_tolerance", "max_tolerance", "grid_cell", "max_clusters", "max_extent")
+        _positive(self, "tolerance_per_metre", "occlusion_margin", allow_zero=True)
+        if self.min_points < 1:
+            raise ConfigError(f"ClusterConfig.min_points: must be >= 1, got {self.min_points}")
+        if self.grid_cell >= self.base_tolerance:
+            raise ConfigError("ClusterConfig.grid_cell: must be smaller than base_tolerance, or neighbours merge")
+
+
+@dataclass
+class ShapeConfig:
+    """Sec. 2.2-2.3: shape fitting and the MSE-based shape decision (Algorithm 4)."""
+
+    mode: ShapeMode = "adaptive"  # ablation switch; "adaptive" = Algorithm 4
+    # L-shape method used inside "adaptive"; the paper picks corner-point determination (sec. 3.1, Table 1).
+    lshape_method: LShapeMethod = "corner"
+    rotation_step: float = math.radians(1.0)  # Algorithm 2's search resolution delta (not given; 1 deg, ours)
+    rotation_min_distance: float = 0.01  # m, closeness criterion floor d0 of Algorithm 2's source [7]
+    # Corner method: a corner closer than this to the P1-P2 diagonal means one visible side ("I-shape").
+    corner_min_offset: float = 0.15  # m (ours)
+
+    def __post_init__(self) -> None:
+        _choice(self, "mode", ("adaptive", "lshape-bruteforce", "lshape-rotation", "lshape-corner", "ellipse"))
+        _choice(self, "lshape_method", ("bruteforce", "rotation", "corner"))
+        _positive(self, "rotation_step", "rotation_min_distance")
+        _positive(self, "corner_min_offset", allow_zero=True)
+        if self.rotation_step >= math.pi / 2:
+            raise ConfigError("ShapeConfig.rotation_step: must be below 90 deg (radians inside)")
+
+
+@dataclass
+class EkfConfig:
+    """Sec. 2.4: the adaptive EKF (state eq. 6, measurement eq. 7, R eq. 10-12)."""
+
+    # Eq. 12: R at full visibility, standard deviations of [px, py, heading, length, width]; the paper lists five
+    # numbers for a six-element measurement (eq. 7), so height reuses the width's 0.5 m (ours).
+    r_full_std: tuple[float, float, float, float, float, float] = (0.1, 0.1, 0.05, 0.5, 0.5, 0.5)
+    adaptive_r: bool = True  # ablation switch: eq. 11 on/off
+    r_inflation: float = 4.0  # eq. 11's r > 0 (not given; ours): R grows by up to r where visibility is 0
+    # Eq. 11 as printed adds r (1 - p)(1 - p)^T, a rank-one term that only distrusts one direction of the
+    # measurement space; "diagonal" adds r diag((1 - p)^2), distrusting each component by its own visibility.
+    inflation_form: VisibilityInflation = "diagonal"
+    # Eq. 10, visibility p_vis (ours: the paper names the inputs, not the function):
+    visibility_half_range: float = 40.0  # m, range at which the range factor is 0.5
+    visibility_mse_scale: float = 0.05  # m^2, MSE at which the fit factor is exp(-1)
+    visibility_aspect_floor: float = 0.2  # aspect factor at 0/90 deg relative heading (only one side visible)
+    # Partly hidden behind a nearer object: the visible piece's centre and size say little about the hull's, so
+    # their visibility is multiplied by this and the track coasts through the occlusion (ours, not in eq. 10).
+    occluded_visibility: float = 0.0
+    # Process noise Q (eq. 8; not given, ours): white noise on acceleration, yaw acceleration, size drift.
+    accel_std: float = 0.5  # m/s^2
+    yaw_accel_std: float = 0.1  # rad/s^2
+    size_drift_std: float = 0.05  # m/sqrt(s)
+    # Initial uncertainty of the states a single detection does not measure.
+    init_speed_std: float = 4.0  # m/s
+    init_yaw_rate_std: float = 0.2  # rad/s
+    # Once the track's speed is clearly known, the heading's 180 deg ambiguity is resolved once toward the course.
+    align_heading_min_speed: float = 1.0  # m/s
+    # Published velocity is NaN (unknown) while its standard deviation is above this (a newborn track).
+    velocity_valid_std: float = 1.5  # m/s
+    # Eq. 10 measures visibility against "theta - theta_sensor"; what matters physically is the aspect to the line
+    # of sight (which sides of the hull face the sensor), so that is the default; "sensor_heading" is the literal one.
+    aspect_reference: AspectReference = "line_of_sight"
+
+    def __post_init__(self) -> None:
+        if len(self.r_full_std) != 6:
+            raise ConfigError(f"EkfConfig.r_full_std: needs 6 standard deviations, got {len(self.r_full_std)}")
+        if not all(math.isfinite(v) and v > 0 for v in self.r_full_std):
+            raise ConfigError(f"EkfConfig.r_full_std: all must be finite and > 0, got {self.r_full_std!r}")
+        _choice(self, "inflation_form", ("diagonal", "outer"))
+        _choice(self, "aspect_reference", ("line_of_sight", "sensor_heading"))
+        _positive(self, "visibility_half_range", "visibility_mse_scale", "max_dt", "velocity_valid_std")
+        _positive(self, "r_inflation", "accel_std", "yaw_accel_std", "size_drift_std", allow_zero=True)
+        _positive(self, "init_speed_std", "init_yaw_rate_std", "align_heading_min_speed", allow_zero=True)
+        for name in ("visibility_aspect_floor", "occluded_visibility"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ConfigError(f"EkfConfig.{name}: must be within [0, 1], got {getattr(self, name)!r}")
+
+    max_dt: float = 5.0  # s; a longer gap between cycles is predicted in steps no longer than this
+
+
+@dataclass
+class AssociationConfig:
+    """Sec. 2.4: Bhattacharyya distance between track and detection Gaussians, gated, optimal assignment."""
+
+    gate: float = 3.0  # Bhattacharyya distance above which a pair is impossible (not given; ours)
+    max_distance: float = 10.0  # m between predicted and detected centres, a cheap hard gate (ours)
+    # A hull cut in two by a nearer boat's shadow gives two clusters; detections whose centres both fall inside
+    # one confirmed track's predicted footprint (grown by this margin, m) and no other track's are merged (ours).
+    merge_margin: float = 1.0
+
+    def __post_init__(self) -> None:
+        _positive(self, "gate", "max_distance")
+        _positive(self, "merge_margin", allow_zero=True)
+
+
+@dataclass
+class LidarTrackerConfig:
+    preprocess: PreprocessConfig = field(default_factory=PreprocessConfig)
+    cluster: ClusterConfig = field(default_factory=ClusterConfig)
+    shape: ShapeConfig = field(default_factory=ShapeConfig)
+    ekf: EkfConfig = field(default_factory=EkfConfig)
+    association: AssociationConfig = field(default_factory=AssociationConfig)
+    lifecycle: LifecycleConfig = field(default_factory=LifecycleConfig)

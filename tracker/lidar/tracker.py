@@ -1,0 +1,262 @@
+"""The LiDAR multi-object tracker's cycle (paper Fig. 1): cluster, fit shapes, associate, AEKF, lifecycle.
+
+Pure computation: the caller hands in world-frame points (already through :func:`tracker.lidar.preprocess`),
+the scan's time and the own boat's pose; nothing here reads a clock or does I/O.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+
+from tracker.assignment import Assignment
+from tracker.lidar.association import associate, footprint_covariance
+from tracker.lidar.clustering import ClusterResult, cluster_points, occluded_by_nearer
+from tracker.lidar.config import LidarTrackerConfig
+from tracker.lidar.ekf import (
+    HGT,
+    LEN,
+    OMEGA,
+    PE,
+    PN,
+    PSI,
+    VE,
+    VN,
+    WID,
+    EkfBank,
+    Measurement,
+    measurement_noise,
+    visibility,
+)
+from tracker.lidar.shape_fit import DegenerateClusterError, cluster_height, fit_shape
+from tracker.lifecycle import IdSource, Lifecycle, TrackLife
+from tracker.types import Detection, ShapeKind, Track
+
+log = logging.getLogger(__name__)
+
+
+class LidarTracker:
+    """Tracks vessels in LiDAR scans. One instance per sensor; call :meth:`step` once per revolution."""
+
+    def __init__(self, config: LidarTrackerConfig | None = None, ids: IdSource | None = None) -> None:
+        self.config = config or LidarTrackerConfig()
+        self.lifecycle = Lifecycle(self.config.lifecycle, ids)
+        self.bank = EkfBank(self.config.ekf)
+        self._lives: list[TrackLife] = []  # parallel to self.bank.filters
+        self._kinds: list[ShapeKind] = []
+        self._t: float | None = None
+        self.last_clusters: list[np.ndarray] = []  # (n, 3) world NED points per cluster, nearest first
+        self.last_cluster_track: list[int | None] = []  # track id each cluster fed, None if none (or structure)
+        self.last_detections: list[Detection] = []
+        self.stats = {"scans": 0, "out_of_order": 0, "degenerate_clusters": 0}
+        self._cluster_result: ClusterResult | None = None
+        self._detection_clusters: list[list[int]] = []  # cluster indices behind each detection
+
+    # -- detection ---------------------------------------------------------------------------------------------
+
+    def detect(self, points_world: np.ndarray, t: float, own_position: np.ndarray) -> list[Detection]:
+        """Cluster and fit one scan: one :class:`Detection` per vessel-sized cluster, nearest first.
+
+        ``points_world`` (N, 3) world NED; ``own_position`` the own boat's (north, east) (a 3rd value is ignored).
+        Also sets :attr:`last_clusters` (every cluster, structure included) for the obstacle map. Does not touch
+        the tracks.
+        """
+        own = np.asarray(own_position, dtype=float)[:2]
+        result = cluster_points(points_world, own, self.config.cluster)
+        self._cluster_result = result
+        self.last_clusters = result.clusters
+        self.last_cluster_track = [None] * len(result.clusters)
+        self._detection_clusters = []
+        detections = []
+        for k, (cluster, footprint, big) in enumerate(
+            zip(result.clusters, result.footprints, result.oversized, strict=True)
+        ):
+            if big:
+                continue
+            det = self._fit_cluster(cluster, footprint, t, own, k)
+            if det is not None:
+                detections.append(det)
+                self._detection_clusters.append([k])
+        self.last_detections = detections
+        return detections
+
+    def _fit_cluster(
+        self, cluster: np.ndarray, footprint: np.ndarray, t: float, own: np.ndarray, k: int
+    ) -> Detection | None:
+        try:
+            fit = fit_shape(footprint, self.config.shape, sensor_position=own)
+        except DegenerateClusterError as exc:
+            self.stats["degenerate_clusters"] += 1
+            log.debug("cluster %d skipped: %s", k, exc)
+            return None
+        return Detection(
+            t=t,
+            center=fit.center,
+            heading=fit.heading,
+            length=fit.length,
+            width=fit.width,
+            height=cluster_height(cluster[:, 2]),
+            shape=fit.kind,
+            mse=fit.mse,
+            n_points=len(cluster),
+            range_m=float(np.hypot(*(fit.center - own))),
+            points=footprint,
+            source="lidar",
+        )
+
+    def _merge_split_detections(self, detections: list[Detection], t: float, own: np.ndarray) -> list[Detection]:
+        """Refit as one the detections that lie inside one confirmed track's predicted footprint and no other's.
+
+        A boat passing in front of another casts a shadow across its hull, and the far hull falls apart into two
+        clusters; left alone, one piece would keep the track and the other start a new one.
+        """
+        confirmed = [i for i, life in enumerate(self._lives) if life.confirmed]
+        if len(detections) < 2 or not confirmed:
+            return detections
+        x = self.bank.states()[confirmed]
+        centers = np.array([d.center for d in detections])
+        rel = centers[None, :, :] - x[:, None, [PN, PE]]  # (T, D, 2)
+        c, s = np.cos(x[:, PSI])[:, None], np.sin(x[:, PSI])[:, None]
+        along = np.abs(rel[..., 0] * c + rel[..., 1] * s)
+        across = np.abs(rel[..., 1] * c - rel[..., 0] * s)
+        margin = self.config.association.merge_margin
+        inside = (along <= 0.5 * x[:, [LEN]] + margin) & (across <= 0.5 * x[:, [WID]] + margin)
+        exclusive = inside & (inside.sum(axis=0) == 1)[None, :]
+        merged_into: dict[int, list[int]] = {}
+        for row in np.flatnonzero(exclusive.sum(axis=1) >= 2):
+            merged_into[int(row)] = np.flatnonzero(exclusive[row]).tolist()
+        if not merged_into:
+            return detections
+        result = self._cluster_result
+        assert result is not None  # set by detect()
+        used = {d for group in merged_into.values() for d in group}
+        out = [d for i, d in enumerate(detections) if i not in used]
+        clusters_out = [k for i, k in enumerate(self._detection_clusters) if i not in used]
+        for group in merged_into.values():
+            members = [k for d in group for k in self._detection_clusters[d]]
+            points = np.concatenate([self.last_clusters[k] for k in members])
+            footprint = np.concatenate([result.footprints[k] for k in members])
+            det = self._fit_cluster(points, footprint, t, own, members[0])
+            if det is None:  # cannot happen for merged non-empty clusters, but never lose the pieces
+                out.extend(detections[d] for d in group)
+                clusters_out.extend(self._detection_clusters[d] for d in group)
+                continue
+            out.append(det)
+            clusters_out.append(members)
+        self._detection_clusters = clusters_out
+        return out
+
+    def measurement(
+        self, det: Detection, own_position: np.ndarray, own_yaw: float, occluded: bool = False
+    ) -> Measurement:
+        """A detection with its eq. 11 covariance, from its eq. 10 visibility."""
+        cfg = self.config.ekf
+        if cfg.aspect_reference == "sensor_heading":
+            reference = own_yaw
+        else:
+            d = det.center - np.asarray(own_position, dtype=float)[:2]
+            reference = math.atan2(d[1], d[0])
+        p_vis = visibility(det.range_m, det.mse, det.heading - reference, cfg, occluded)
+        r = measurement_noise(p_vis, cfg)
+        return Measurement(det.center, det.heading, det.length, det.width, det.height, det.shape, r)
+
+    # -- the cycle ---------------------------------------------------------------------------------------------
+
+    def step(self, points_world: np.ndarray, t: float, own_position: np.ndarray, own_yaw: float = 0.0) -> list[Track]:
+        """Process one scan taken at ``t`` (s); returns every live track (``Track.confirmed`` tells which count).
+
+        ``points_world`` (N, 3) world NED, from :func:`tracker.lidar.preprocess.preprocess`; ``own_position``
+        (2,) or (3,) NED of the own boat; ``own_yaw`` rad (used only with ``EkfConfig.aspect_reference =
+        "sensor_heading"``). The whole revolution is taken to be seen at ``t``: a boat at 5 m/s smears by 0.5 m
+        over the 100 ms sweep, inside the fit's tolerance. A scan older than the previous one is ignored
+        (counted in ``stats["out_of_order"]``).
+        """
+        if self._t is not None and t < self._t:
+            self.stats["out_of_order"] += 1
+            log.warning("lidar scan at t=%.3f is older than the last one (t=%.3f): skipped", t, self._t)
+            return self.tracks()
+        dt = 0.0 if self._t is None else t - self._t
+        self._t = t
+        self.stats["scans"] += 1
+        own = np.asarray(own_position, dtype=float)[:2]
+
+        self.bank.predict(dt)
+        detections = self._merge_split_detections(self.detect(points_world, t, own), t, own)
+        self.last_detections = detections
+        margin, result = self.config.cluster.occlusion_margin, self._cluster_result
+        assert result is not None  # set by detect()
+        occluded = [occluded_by_nearer(m, result, margin) for m in self._detection_clusters]
+        measurements = [self.measurement(d, own, own_yaw, occ) for d, occ in zip(detections, occluded, strict=True)]
+        assignment = self._associate(measurements)
+
+        for ti, di in assignment.matches:
+            self.bank.update(int(ti), measurements[di])
+            self._lives[ti].hit(t)
+            self._kinds[ti] = measurements[di].kind
+            for k in self._detection_clusters[di]:
+                self.last_cluster_track[k] = self._lives[ti].id
+        for ti in assignment.unmatched_rows:
+            self._lives[ti].miss(t)
+        dead = [i for i, life in enumerate(self._lives) if not life.alive]
+        if dead:
+            self.bank.remove(dead)
+            self._lives = [life for life in self._lives if life.alive]
+            dead_set = set(dead)
+            self._kinds = [k for i, k in enumerate(self._kinds) if i not in dead_set]
+        for di in assignment.unmatched_cols:
+            self.bank.add(measurements[di])
+            life = self.lifecycle.start(t)
+            self._lives.append(life)
+            self._kinds.append(measurements[di].kind)
+            for k in self._detection_clusters[di]:
+                self.last_cluster_track[k] = life.id
+        return self.tracks()
+
+    def _associate(self, measurements: list[Measurement]) -> Assignment:
+        x, p = self.bank.states(), self.bank.covariances()
+        track_cov = footprint_covariance(x[:, PSI], x[:, LEN], x[:, WID]) + p[:, :2, :2]
+        if measurements:
+            det_mean = np.array([m.center for m in measurements])
+            det_cov = footprint_covariance(
+                np.array([m.heading for m in measurements]),
+                np.array([m.length for m in measurements]),
+                np.array([m.width for m in measurements]),
+            ) + np.array([m.r[:2, :2] for m in measurements])
+        else:
+            det_mean, det_cov = np.zeros((0, 2)), np.zeros((0, 2, 2))
+        assignment, _ = associate(x[:, [PN, PE]], track_cov, det_mean, det_cov, self.config.association)
+        return assignment
+
+    # -- output ------------------------------------------------------------------------------------------------
+
+    def tracks(self) -> list[Track]:
+        out = []
+        vel_limit = self.config.ekf.velocity_valid_std**2
+        for ekf, life, kind in zip(self.bank.filters, self._lives, self._kinds, strict=True):
+            x, p = ekf.x, ekf.P
+            velocity = x[[VN, VE]].copy()
+            if max(p[VN, VN], p[VE, VE]) > vel_limit:
+                velocity[:] = np.nan
+            out.append(
+                Track(
+                    id=life.id,
+                    t=life.t_now,
+                    position=x[[PN, PE]].copy(),
+                    velocity=velocity,
+                    heading=float(x[PSI] % (2.0 * math.pi)),
+                    yaw_rate=float(x[OMEGA]),
+                    length=float(x[LEN]),
+                    width=float(x[WID]),
+                    height=float(x[HGT]),
+                    shape=kind,
+                    confirmed=life.confirmed,
+                    source="lidar",
+                    position_cov=p[:2, :2].copy(),
+                    hits=life.hits,
+                    age=life.age,
+                    time_since_update=life.time_since_update,
+                )
+            )
+        return out

@@ -1,0 +1,132 @@
+"""Track lifecycle shared by the LiDAR and radar trackers: birth, M-of-N confirmation, coasting, deletion.
+
+A tracker owns the filters; this module owns only the bookkeeping every tracker repeats:
+
+* a new track is TENTATIVE; it becomes CONFIRMED once it has been hit in ``confirm_hits`` (M) of its first
+  ``confirm_window`` (N) cycles, and is deleted as soon as it can no longer reach M within N, so clutter dies fast;
+* a confirmed track missed in a cycle is COASTING (it is still published: a boat hidden behind another for a
+  second is still there); a hit makes it CONFIRMED again;
+* any track unseen for longer than its limit is DELETED; deleted tracks never come back;
+* ids come from an :class:`IdSource` that only counts up, so an id is never reused (a consumer that remembers
+  "track 7" must not later see a different boat under that number). Trackers may share one source.
+
+Time is whatever clock the data carries (seconds); nothing here reads a clock.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections import deque
+from dataclasses import dataclass
+from enum import Enum
+
+
+class TrackStatus(str, Enum):
+    TENTATIVE = "tentative"
+    CONFIRMED = "confirmed"
+    COASTING = "coasting"  # confirmed, but not seen in the latest cycle
+    DELETED = "deleted"
+
+
+@dataclass
+class LifecycleConfig:
+    confirm_hits: int = 3  # M: hits needed ...
+    confirm_window: int = 5  # N: ... within this many cycles from birth
+    max_unseen_time: float = 3.0  # s a confirmed track coasts unseen before deletion
+    max_unseen_time_tentative: float = 0.5  # s a tentative track survives unseen
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.confirm_hits <= self.confirm_window:
+            raise ValueError(
+                f"lifecycle: need 1 <= confirm_hits <= confirm_window, got {self.confirm_hits} of {self.confirm_window}"
+            )
+        if self.max_unseen_time < 0 or self.max_unseen_time_tentative < 0:
+            raise ValueError("lifecycle: max_unseen_time and max_unseen_time_tentative must be >= 0")
+
+
+class IdSource:
+    """Hands out track ids that only count up: never reused within the life of the source."""
+
+    def __init__(self, first: int = 1) -> None:
+        self._counter = itertools.count(first)
+
+    def next(self) -> int:
+        return next(self._counter)
+
+
+class TrackLife:
+    """The lifecycle state of one track. Call exactly one of :meth:`hit` / :meth:`miss` per cycle."""
+
+    def __init__(self, track_id: int, t: float, config: LifecycleConfig) -> None:
+        self.id = track_id
+        self.config = config
+        self.t_first = t
+        self.t_last_hit = t
+        self.t_now = t
+        self.hits = 1  # born from a detection
+        self.cycles = 1
+        self._window: deque[bool] = deque([True], maxlen=config.confirm_window)
+        self.status = TrackStatus.CONFIRMED if config.confirm_hits <= 1 else TrackStatus.TENTATIVE
+
+    @property
+    def alive(self) -> bool:
+        return self.status is not TrackStatus.DELETED
+
+    @property
+    def confirmed(self) -> bool:
+        """Confirmed at some point and not deleted (coasting tracks count: they are still published)."""
+        return self.status in (TrackStatus.CONFIRMED, TrackStatus.COASTING)
+
+    @property
+    def age(self) -> float:
+        return self.t_now - self.t_first
+
+    @property
+    def time_since_update(self) -> float:
+        return self.t_now - self.t_last_hit
+
+    def hit(self, t: float) -> TrackStatus:
+        if not self.alive:
+            return self.status
+        self._advance(t, True)
+        self.t_last_hit = t
+        self.hits += 1
+        reached_m = self.status is TrackStatus.TENTATIVE and sum(self._window) >= self.config.confirm_hits
+        if reached_m or self.status is TrackStatus.COASTING:
+            self.status = TrackStatus.CONFIRMED
+        return self.status
+
+    def miss(self, t: float) -> TrackStatus:
+        if not self.alive:
+            return self.status
+        self._advance(t, False)
+        if self.status is TrackStatus.TENTATIVE:
+            remaining = self.config.confirm_window - self.cycles
+            cannot_confirm = sum(self._window) + remaining < self.config.confirm_hits
+            if cannot_confirm or self.time_since_update > self.config.max_unseen_time_tentative:
+                self.status = TrackStatus.DELETED
+        else:
+            self.status = TrackStatus.COASTING
+            if self.time_since_update > self.config.max_unseen_time:
+                self.status = TrackStatus.DELETED
+        return self.status
+
+    def _advance(self, t: float, hit: bool) -> None:
+        self.t_now = max(self.t_now, t)
+        self.cycles += 1
+        if self.status is TrackStatus.TENTATIVE:
+            self._window.append(hit)
+
+    def __repr__(self) -> str:
+        return f"TrackLife(id={self.id}, {self.status.value}, hits={self.hits}, unseen={self.time_since_update:.2f}s)"
+
+
+class Lifecycle:
+    """Creates :class:`TrackLife` records with fresh ids under one policy."""
+
+    def __init__(self, config: LifecycleConfig | None = None, ids: IdSource | None = None) -> None:
+        self.config = config or LifecycleConfig()
+        self.ids = ids or IdSource()
+
+    def start(self, t: float) -> TrackLife:
+        return TrackLife(self.ids.next(), t, self.config)
