@@ -1,0 +1,99 @@
+"""Multipath ghosts: copies of a real target at k x its range on the same bearing are removed."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from tracker.radar.config import RadarTrackerConfig
+from tracker.radar.detector import RadarDetector
+from tracker.radar.multipath import MultipathSettings, multipath_ghosts
+from tracker.radar.synthetic import OwnBoat, box_points, observe
+
+SETTINGS = MultipathSettings(
+    search_angle=math.radians(10.0),
+    orders=(2, 3),
+    range_tolerance_m=0.75,
+    range_tolerance_rel=0.03,
+    doppler_tolerance=0.5,
+)
+
+
+def test_ghost_rules_point_by_point() -> None:
+    #                 range  az(deg) Doppler SNR   expected
+    rows = [
+        (15.0, 10.0, 1.0, 20.0, False),  # 0 real target
+        (15.3, 11.0, 1.1, 18.0, False),  # 1 real target, second return
+        (30.4, 12.0, 2.1, 9.0, True),  # 2 double bounce of 0/1: 2x range, 2x Doppler, weaker, 2 deg off
+        (45.2, 8.0, 3.0, 6.0, True),  # 3 triple bounce
+        (30.2, 40.0, 2.0, 9.0, False),  # 4 same range but 30 deg away: another object
+        (30.2, 11.0, -0.5, 9.0, False),  # 5 right place, Doppler of something else
+        (30.2, 11.0, 2.0, 25.0, False),  # 6 right place and Doppler but stronger than the "original"
+        (30.3, 21.5, 2.0, 9.0, False),  # 7 11.5 deg off the nearest real return: outside the search angle
+        (30.1, 10.0, 2.0, np.nan, True),  # 8 no SNR reported (TLV 7 absent): decided on geometry and Doppler
+        (22.0, 10.0, 2.0, 5.0, False),  # 9 1.5x range: not a k-bounce path
+    ]
+    r, az, dop, snr, want = (np.array(c) for c in zip(*rows, strict=True))
+    got = multipath_ghosts(r, np.radians(az), dop, snr, SETTINGS)
+    np.testing.assert_array_equal(got, want.astype(bool))
+
+
+def test_doppler_test_can_be_switched_off_and_nan_doppler_never_contradicts() -> None:
+    r = np.array([10.0, 20.0])
+    az = np.radians([0.0, 0.0])
+    snr = np.array([20.0, 10.0])
+    assert not multipath_ghosts(r, az, np.array([1.0, -1.0]), snr, SETTINGS)[1]
+    assert multipath_ghosts(r, az, np.array([1.0, -1.0]), snr, replace(SETTINGS, doppler_tolerance=-1.0))[1]
+    assert multipath_ghosts(r, az, np.array([1.0, np.nan]), snr, SETTINGS)[1]
+
+
+def test_many_returns_are_processed_in_blocks() -> None:
+    rng = np.random.default_rng(0)
+    n = 700  # more than one block of candidates
+    r = rng.uniform(5, 20, n)
+    az = rng.uniform(-1, 1, n)
+    dop = rng.uniform(-2, 2, n)
+    snr = np.full(n, 20.0)
+    ghost_r = np.concatenate([r, 2 * r[:50]])
+    ghost_az = np.concatenate([az, az[:50]])
+    ghost_dop = np.concatenate([dop, 2 * dop[:50]])
+    ghost_snr = np.concatenate([snr, np.full(50, 5.0)])
+    got = multipath_ghosts(ghost_r, ghost_az, ghost_dop, ghost_snr, SETTINGS)
+    assert got[n:].all()
+    # Brute-force the originals: a real return is a ghost only if some other return explains it.
+    rr, aa, dd, ss = ghost_r, ghost_az, ghost_dop, ghost_snr
+    ref = np.zeros(n, bool)
+    for j in range(n):
+        near = np.abs(np.angle(np.exp(1j * (aa[j] - aa)))) <= SETTINGS.search_angle
+        weaker = ~(ss[j] > ss)
+        for k in SETTINGS.orders:
+            ok = np.abs(rr[j] - k * rr) <= SETTINGS.range_tolerance_m + SETTINGS.range_tolerance_rel * k * rr
+            ok &= np.abs(dd[j] - k * dd) <= SETTINGS.doppler_tolerance
+            ok[j] = False
+            ref[j] |= bool(np.any(near & weaker & ok))
+    np.testing.assert_array_equal(got[:n], ref)
+
+
+def test_detector_drops_the_ghost_cluster_of_a_boat() -> None:
+    rng = np.random.default_rng(2)
+    own = OwnBoat(position=np.zeros(2))
+    boat = box_points(np.array([14.0, 3.0]), (3.0, 2.0), 8, rng)
+    boat_v = np.array([1.0, 0.0])
+    xyz, dop = observe(own, boat, boat_v)
+    ghost_xyz = xyz * 2.0  # the double bounce: same bearing, twice the range, twice the Doppler
+    ghost_dop = dop * 2.0
+    pts = np.concatenate([xyz, ghost_xyz])
+    doppler = np.concatenate([dop, ghost_dop])
+    snr = np.concatenate([np.full(8, 20.0), np.full(8, 8.0)])
+    cfg = RadarTrackerConfig(cluster_min_points=3, velocity_cluster_min_points=3, shore_filter_enabled=False)
+    out = RadarDetector(cfg).detect(pts, doppler, snr, 0.0, np.zeros(2), 0.0, np.zeros(2))
+    np.testing.assert_array_equal(out.ghost, [False] * 8 + [True] * 8)
+    assert len(out.detections) == 1
+    vel = out.kept_clusters[0].velocity  # a 3 m boat at 14 m spans ~12 deg: only the radial speed is determined
+    assert vel.status.value == "radial_only"
+    assert vel.radial_speed == pytest.approx(boat_v @ vel.radial_direction, abs=0.02)
+    off = replace(cfg, multipath_enabled=False)
+    assert len(RadarDetector(off).detect(pts, doppler, snr, 0.0, np.zeros(2), 0.0, np.zeros(2)).detections) == 2

@@ -1,0 +1,245 @@
+"""Every tunable of the radar tracker in one place, with the paper's values as defaults.
+
+Paper 001 = Xu et al. 2024, "ROTracker: a novel MMW radar-based object tracking method for unmanned surface
+vehicle in offshore environments" (Front. Mar. Sci. 11:1411920). Values the paper gives cite their section;
+values it leaves open say "not in the paper" and why the default was chosen.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+from tracker.lifecycle import LifecycleConfig
+from tracker.radar.velocity_profile import ProfileFitSettings
+
+
+@dataclass(frozen=True)
+class RadarTrackerConfig:
+    # --- Region of interest (sec. 2.2-1: "conditional filter" before clustering) ----------------------------------
+    roi_min_range_m: float = 1.0  # not in the paper: returns closer than this are the own hull / radome
+    roi_max_range_m: float = 100.0  # sec. 3.1: AWR1843 configured for 100 m maximum range
+    roi_max_abs_azimuth_rad: float = math.radians(75.0)  # not in the paper: AWR1843 azimuth FoV is about +-60 deg
+    roi_min_z_m: float = -10.0  # body FRD z (down positive); radar elevation is poor, so the band is wide
+    roi_max_z_m: float = 10.0
+    min_snr_db: float = -math.inf  # not in the paper; NaN SNR (TLV 7 absent) always passes
+    # Radar origin in body FRD (x fwd, y stbd), metres: line of sight and lever-arm velocity start here.
+    sensor_position_body: tuple[float, float] = (0.0, 0.0)
+    sensor_yaw_body_rad: float = 0.0  # radar boresight in body FRD (0 = bow, + starboard): centre of the ROI sector
+
+    # --- Clustering (sec. 2.2-1, values sec. 3.2) ----------------------------------------------------------------
+    cluster_radius_m: float = 1.2  # sec. 3.2: DBSCAN search radius for spatial clustering
+    cluster_min_points: int = 20  # sec. 3.2: minimum points, spatial clustering
+    velocity_cluster_threshold_mps: float = 0.8  # sec. 3.2: velocity threshold for velocity clustering
+    velocity_cluster_min_points: int = 20  # sec. 3.2: minimum points, velocity clustering
+    min_box_size_m: float = 0.5  # not in the paper: floor for l, w of a sparse cluster's box
+
+    # --- Ego motion (Doppler made relative to the world) ---------------------------------------------------------
+    ego_inlier_threshold_mps: float = 0.3  # static returns within this of the fitted -v_sensor . u profile
+    ego_outlier_rate: float = 0.5  # RANSAC iteration count assumes this share of moving / clutter returns
+    ego_min_points: int = 6  # fewer returns: no Doppler ego estimate this frame
+    static_doppler_threshold_mps: float = 0.5  # |ego-compensated Doppler| below this: a static return
+
+    # --- Velocity profile (eq. 3-6) ----------------------------------------------------------------------------------
+    doppler_inlier_threshold_mps: float = 0.25  # not in the paper; ~2 Doppler bins of a typical AWR1843 profile
+    ransac_outlier_rate: float = 0.3  # RANSAC iterations n0 = log(1 - p) / log(1 - (1 - e)^2)
+    ransac_confidence: float = 0.99
+    ransac_max_iterations: int = 100
+    velocity_min_points: int = 3  # fewer Doppler points: velocity "not determined"
+    min_inlier_fraction: float = 0.5  # RANSAC consensus below this: velocity "not determined"
+    doppler_noise_std_mps: float = 0.1  # floor on the residual std used for the velocity covariance
+    max_tangential_std_mps: float = 0.5  # worse than this along the weak direction: radial component only
+    undetermined_velocity_var: float = 1.0e4  # (m/s)^2 given to a direction the cluster does not determine
+    heading_min_snr: float = 3.0  # speed / its std below this: course not determined
+
+    # --- Static map and shore filter (sec. 2.2-2, values sec. 3.2) ------------------------------------------------
+    shore_filter_enabled: bool = True  # ablation switch
+    static_map_resolution_m: float = 0.25  # sec. 3.2
+    static_submap_cells: int = 400  # sec. 3.2: 400 x 400 cells per sub-map
+    # Not in the paper: 3 x 3 sub-maps around the boat, so at least one sub-map (100 m) lies between the boat and the
+    # window's edge; returns farther than that from the boat are not mapped.
+    static_submaps_across: int = 3
+    static_decay_time_s: float = 30.0  # not in the paper: e-folding time of map evidence (tide, moving moorings)
+    static_occupied_hits: float = 3.0  # not in the paper: decayed hits that make a cell occupied
+    shore_link_radius_m: float = 0.75  # not in the paper: gaps up to 2x this join one structure (sparse wall)
+    shore_min_extent_m: float = 10.0  # not in the paper: a static structure this long is shore, not a moored boat
+    shore_margin_m: float = 1.0  # not in the paper: a cluster this close to the shore is "on" it
+    shore_on_fraction: float = 0.5  # share of a cluster's points on the shore that removes it
+    shore_horizon_bin_rad: float = math.radians(1.0)  # bearing bins of the "what lies behind the shore" test
+    shore_update_interval_s: float = 0.0  # 0: extract the shore every frame
+
+    # --- Multipath (sec. 3.2) ------------------------------------------------------------------------------------
+    multipath_enabled: bool = True
+    multipath_search_angle_rad: float = math.radians(10.0)  # sec. 3.2: search angle (used as +- half-width)
+    multipath_range_orders: tuple[int, ...] = (2, 3)  # not in the paper: a k-bounce ghost sits at k x range
+    multipath_range_tolerance_m: float = 0.75  # not in the paper; ~5 range bins of the sec. 3.1 configuration
+    multipath_range_tolerance_rel: float = 0.03
+    multipath_doppler_tolerance_mps: float = 0.5  # a k-bounce ghost also has k x the raw Doppler; <0 disables
+
+    # --- Kalman filter (sec. 2.3-1, eq. 1-2) ---------------------------------------------------------------------
+    jerk_std: float = 0.1  # m/s^3, white-noise jerk: boats change acceleration slowly; not in the paper
+    size_std_rate: float = 0.2  # m/sqrt(s), random walk of l and w
+    position_std_m: float = 0.5  # radar cluster centre noise at short range
+    position_std_per_m: float = 0.02  # plus this per metre of range (azimuth resolution)
+    size_std_m: float = 1.0  # measured l, w of sparse clusters are poor
+    init_velocity_std_mps: float = 3.0
+    init_accel_std_mps2: float = 0.3
+
+    # --- Fusion measurement (eq. 7, gamma sec. 3.2) --------------------------------------------------------------
+    doppler_measurement_enabled: bool = True  # ablation switch ("Remove Velocity Measurement", Table 4)
+    fusion_gamma: float = 0.8  # sec. 3.2: weight of the Doppler velocity measurement
+    fusion_reference_distance_m: float = 10.0  # not in the paper: eq. 7's 1/d weight is capped at 1 inside this
+    doppler_gate_chi2: float = 13.8  # not in the paper: 99.9 % of chi2(2); a Doppler velocity beyond it is not fused
+
+    # --- Association (sec. 2.3-1) ---------------------------------------------------------------------------------
+    association_min_iou: float = 0.01  # below: the IoU cost gives way to the distance fallback
+    association_distance_gate_m: float = 3.0  # centre distance for sparse clusters whose boxes do not overlap
+
+    # --- Lifecycle (shared tracker.lifecycle) ---------------------------------------------------------------------
+    confirm_hits: int = 3
+    confirm_window: int = 5
+    max_unseen_time_s: float = 2.0
+    max_unseen_time_tentative_s: float = 0.5
+
+    # --- Motion discriminator (eq. 8, Table 1) --------------------------------------------------------------------
+    motion_discriminator_enabled: bool = True  # ablation switch ("Remove Motion Discriminator", Table 4)
+    # c in eq. 8, not given in the paper. Chosen on synthetic 3 m boats with 6-20 returns per frame: hull IoU at rest
+    # is 0.6-0.9 over a 0.25 s group, 0.3-0.5 after 1 m of motion. Erring high reports a sparse static boat as dynamic
+    # (its filter speed, near zero) rather than a slow boat as static (speed zero).
+    motion_iou_threshold: float = 0.6
+    # The "point group" of eq. 8 is the track's returns of this long (0: one frame). Not in the paper.
+    motion_group_window_s: float = 0.25
+    # Not in the paper: a cluster whose Doppler speed is clearly above static_doppler_threshold_mps counts as "moved"
+    # in eq. 8 whatever its hull overlap, so a slow boat is not published at zero speed.
+    motion_doppler_veto: bool = True
+    # The paper compares consecutive frames (set 0 for that). At 10 Hz a 2 m/s boat moves 0.2 m per frame, less than
+    # the frame-to-frame jitter of a sparse radar hull, so by default a hull is compared with the one >= 1 s older.
+    motion_hull_baseline_s: float = 1.0
+    motion_absolutely_static_max: int = -6  # Table 1: D <= -6
+    motion_static_max: int = -3  # Table 1: -6 < D <= -3
+    motion_dynamic_min: int = 3  # Table 1: 3 <= D < 6
+    motion_absolutely_dynamic_min: int = 6  # Table 1: D >= 6
+    motion_counter_limit: int = 6  # |D| is clamped here so a long-moored boat that casts off is seen leaving
+    hull_point_pad_m: float = 0.15  # each point is a square of this half-size: hulls of 1-2 points stay areas
+
+    seed: int = 0  # RANSAC sampling; fixed so a replay gives the same tracks
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, float) and math.isnan(v):
+                raise ValueError(f"RadarTrackerConfig.{f.name} is NaN")
+        positive = (
+            "roi_max_range_m",
+            "cluster_radius_m",
+            "velocity_cluster_threshold_mps",
+            "ego_inlier_threshold_mps",
+            "doppler_inlier_threshold_mps",
+            "doppler_noise_std_mps",
+            "max_tangential_std_mps",
+            "undetermined_velocity_var",
+            "static_map_resolution_m",
+            "static_decay_time_s",
+            "static_occupied_hits",
+            "shore_min_extent_m",
+            "shore_horizon_bin_rad",
+            "multipath_search_angle_rad",
+            "position_std_m",
+            "size_std_m",
+            "init_velocity_std_mps",
+            "init_accel_std_mps2",
+            "fusion_reference_distance_m",
+            "doppler_gate_chi2",
+            "association_distance_gate_m",
+            "min_box_size_m",
+        )
+        for name in positive:
+            if not getattr(self, name) > 0:
+                raise ValueError(f"RadarTrackerConfig.{name} must be > 0, got {getattr(self, name)!r}")
+        nonneg = (
+            "roi_min_range_m",
+            "shore_link_radius_m",
+            "shore_margin_m",
+            "shore_update_interval_s",
+            "multipath_range_tolerance_m",
+            "multipath_range_tolerance_rel",
+            "jerk_std",
+            "size_std_rate",
+            "position_std_per_m",
+            "motion_hull_baseline_s",
+            "motion_group_window_s",
+            "hull_point_pad_m",
+            "static_doppler_threshold_mps",
+        )
+        for name in nonneg:
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"RadarTrackerConfig.{name} must be >= 0, got {getattr(self, name)!r}")
+        for name in ("cluster_min_points", "velocity_cluster_min_points", "static_submap_cells", "ego_min_points"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"RadarTrackerConfig.{name} must be >= 1")
+        if self.static_submaps_across < 1 or self.static_submaps_across % 2 == 0:
+            raise ValueError("RadarTrackerConfig.static_submaps_across must be odd (the boat's sub-map in the middle)")
+        if self.roi_min_range_m >= self.roi_max_range_m:
+            raise ValueError("RadarTrackerConfig: roi_min_range_m must be below roi_max_range_m")
+        if self.roi_min_z_m >= self.roi_max_z_m:
+            raise ValueError("RadarTrackerConfig: roi_min_z_m must be below roi_max_z_m")
+        for name in ("ransac_outlier_rate", "ego_outlier_rate"):
+            if not 0.0 <= getattr(self, name) < 1.0:
+                raise ValueError(f"RadarTrackerConfig.{name} must be in [0, 1)")
+        for name in ("ransac_confidence", "min_inlier_fraction", "shore_on_fraction", "motion_iou_threshold"):
+            if not 0.0 < getattr(self, name) <= 1.0:
+                raise ValueError(f"RadarTrackerConfig.{name} must be in (0, 1]")
+        if not 0.0 <= self.fusion_gamma <= 1.0:
+            raise ValueError("RadarTrackerConfig.fusion_gamma must be in [0, 1]")
+        if not (
+            self.motion_absolutely_static_max
+            < self.motion_static_max
+            < self.motion_dynamic_min
+            < self.motion_absolutely_dynamic_min
+        ):
+            raise ValueError("RadarTrackerConfig: motion thresholds must increase (Table 1)")
+        if self.motion_counter_limit < max(-self.motion_absolutely_static_max, self.motion_absolutely_dynamic_min):
+            raise ValueError("RadarTrackerConfig.motion_counter_limit must reach both 'absolute' levels")
+        if any(int(k) < 2 for k in self.multipath_range_orders):
+            raise ValueError("RadarTrackerConfig.multipath_range_orders must all be >= 2")
+        if len(self.sensor_position_body) != 2:
+            raise ValueError("RadarTrackerConfig.sensor_position_body must be (x, y)")
+        self.lifecycle()  # its own checks, raised now rather than at the first track
+
+    def lifecycle(self) -> LifecycleConfig:
+        return LifecycleConfig(
+            confirm_hits=self.confirm_hits,
+            confirm_window=self.confirm_window,
+            max_unseen_time=self.max_unseen_time_s,
+            max_unseen_time_tentative=self.max_unseen_time_tentative_s,
+        )
+
+    def profile_settings(self) -> ProfileFitSettings:
+        """Settings of the per-cluster velocity-profile fit (eq. 3-6)."""
+        return ProfileFitSettings(
+            inlier_threshold=self.doppler_inlier_threshold_mps,
+            outlier_rate=self.ransac_outlier_rate,
+            confidence=self.ransac_confidence,
+            max_iterations=self.ransac_max_iterations,
+            min_points=self.velocity_min_points,
+            min_inlier_fraction=self.min_inlier_fraction,
+            noise_std=self.doppler_noise_std_mps,
+            max_tangential_std=self.max_tangential_std_mps,
+            undetermined_var=self.undetermined_velocity_var,
+            heading_min_snr=self.heading_min_snr,
+        )
+
+    def ego_profile_settings(self) -> ProfileFitSettings:
+        """The same fit over a whole frame, where the static returns are the model and targets the outliers."""
+        return ProfileFitSettings(
+            inlier_threshold=self.ego_inlier_threshold_mps,
+            outlier_rate=self.ego_outlier_rate,
+            confidence=self.ransac_confidence,
+            max_iterations=max(self.ransac_max_iterations, 50),
+            min_points=self.ego_min_points,
+            min_inlier_fraction=0.3,
+            noise_std=self.doppler_noise_std_mps,
+            max_tangential_std=self.max_tangential_std_mps,
+            undetermined_var=self.undetermined_velocity_var,
+            heading_min_snr=self.heading_min_snr,
+        )

@@ -1,0 +1,61 @@
+"""DBSCAN without a per-point loop: core points from neighbour counts, clusters as connected components.
+
+Definitions (Ester et al. 1996): a point is *core* when at least ``min_points`` points (itself included) lie within
+``eps``; core points within ``eps`` of each other share a cluster; a non-core point within ``eps`` of a core point is a
+*border* point of that cluster; the rest is noise (-1). Classic DBSCAN gives a border point reachable from two
+clusters to whichever it expands first; here it goes to its nearest core point (ties: lower index), so the result
+does not depend on the processing order. Clusters are numbered by their lowest core-point index.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+
+def dbscan(points: np.ndarray, eps: float, min_points: int) -> np.ndarray:
+    """(n,) int labels for (n, d) points: 0, 1, ... per cluster, -1 for noise. Distances <= eps are neighbours."""
+    x = np.asarray(points, float)
+    if x.ndim == 1:
+        x = x[:, None]
+    n = x.shape[0]
+    labels = np.full(n, -1, dtype=np.int64)
+    if n == 0:
+        return labels
+    if not np.all(np.isfinite(x)):
+        raise ValueError("dbscan: points must be finite (filter NaN/inf before clustering)")
+    if eps <= 0 or min_points < 1:
+        raise ValueError(f"dbscan: need eps > 0 and min_points >= 1, got {eps}, {min_points}")
+    pairs = cKDTree(x).query_pairs(eps, output_type="ndarray")
+    a, b = (pairs[:, 0], pairs[:, 1]) if pairs.size else (np.empty(0, int), np.empty(0, int))
+    counts = 1 + np.bincount(a, minlength=n) + np.bincount(b, minlength=n)
+    core = counts >= min_points
+    if not core.any():
+        return labels
+    both = core[a] & core[b]
+    graph = coo_matrix((np.ones(int(both.sum())), (a[both], b[both])), shape=(n, n))
+    _, comp = connected_components(graph, directed=False)
+    core_idx = np.flatnonzero(core)
+    # Renumber the core components in order of their lowest point index.
+    first_seen = np.unique(comp[core_idx], return_index=True)
+    order = np.argsort(first_seen[1])
+    renum = np.empty(order.size, dtype=np.int64)
+    renum[order] = np.arange(order.size)
+    lookup = np.full(comp.max() + 1, -1, dtype=np.int64)
+    lookup[first_seen[0]] = renum
+    labels[core_idx] = lookup[comp[core_idx]]
+    # Border points: both pair directions, keep (border, core) pairs, nearest core wins.
+    src = np.concatenate([a, b])
+    dst = np.concatenate([b, a])
+    sel = ~core[src] & core[dst]
+    if sel.any():
+        src, dst = src[sel], dst[sel]
+        dist = np.linalg.norm(x[src] - x[dst], axis=1)
+        order = np.lexsort((dst, dist, src))
+        src, dst = src[order], dst[order]
+        first = np.ones(src.size, bool)
+        first[1:] = src[1:] != src[:-1]
+        labels[src[first]] = labels[dst[first]]
+    return labels

@@ -1,0 +1,327 @@
+"""Radar detector (paper 001, sec. 2.2): one frame of returns -> clusters with a Doppler velocity each.
+
+Order of work, and why:
+1. ROI ("conditional filter"): own hull, beyond the configured range, outside the antenna's sector, bad SNR.
+2. Body FRD -> world N/E with the boat's pose, lines of sight from the radar's own position.
+3. Doppler made relative to the world: the radar moves with the boat, so every static return shows
+   v_r = -v_radar . u. v_radar is the autopilot's velocity plus yaw rate x lever arm, or, without an autopilot
+   velocity, the dominant velocity profile of the whole frame (static returns outnumber targets).
+4. Multipath ghosts removed (they would otherwise become tracks of their own).
+5. DBSCAN over position (sec. 3.2: 1.2 m, 20 points), then each cluster split by compensated Doppler (0.8 m/s,
+   20 points): two boats side by side at different speeds become two clusters. Each gets its velocity profile
+   (eq. 3-6).
+6. Shore extracted from the static map as it stood before this frame; clusters on or behind it removed.
+7. This frame's static returns added to the map. A boat crossing the line of sight has near-zero Doppler and would
+   leave a trail that grows into a false "shore", so the tracker does this step itself after association and leaves
+   out the returns of clusters that belong to moving tracks (``detect(..., update_map=False)`` + ``update_map``).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tracker.ego import body_to_world
+from tracker.radar.config import RadarTrackerConfig
+from tracker.radar.dbscan import dbscan
+from tracker.radar.multipath import MultipathSettings, multipath_ghosts
+from tracker.radar.static_map import StaticMap
+from tracker.radar.velocity_profile import VelocityEstimate, VelocityStatus, fit_velocity_profile
+from tracker.types import Detection, ShapeKind
+
+log = logging.getLogger(__name__)
+
+SHORE_KEEP, SHORE_ON, SHORE_BEHIND = 0, 1, 2
+
+
+@dataclass
+class RadarCluster:
+    """One detected object in one frame; arrays are per return, world frame unless named otherwise."""
+
+    points: np.ndarray  # (n, 2) north, east, m
+    points_body: np.ndarray  # (n, 3) body FRD, m
+    doppler: np.ndarray  # (n,) raw, m/s, positive = receding from the radar
+    doppler_world: np.ndarray  # (n,) relative to the world (ego motion removed); NaN without an ego velocity
+    snr: np.ndarray  # (n,) dB
+    los: np.ndarray  # (n, 2) unit line of sight radar -> return, world
+    range_m: np.ndarray  # (n,) horizontal range from the radar
+    velocity: VelocityEstimate
+    index: np.ndarray  # (n,) int, rows of DetectorOutput.points
+    shore: int = SHORE_KEEP  # SHORE_KEEP, SHORE_ON or SHORE_BEHIND
+
+    @property
+    def n_points(self) -> int:
+        return int(self.points.shape[0])
+
+    def box(self) -> np.ndarray:
+        """(4,) world-axis-aligned box: north_min, east_min, north_max, east_max."""
+        return np.concatenate([self.points.min(axis=0), self.points.max(axis=0)])
+
+    def to_detection(self, t: float, sensor_ne: np.ndarray, min_size: float) -> Detection:
+        lo, hi = self.points.min(axis=0), self.points.max(axis=0)
+        centre = (lo + hi) / 2
+        v = self.velocity
+        known = v.status is not VelocityStatus.UNDETERMINED
+        return Detection(
+            t=t,
+            center=centre,
+            heading=0.0,  # the box is world-axis-aligned: length along north, width along east
+            length=max(float(hi[0] - lo[0]), min_size),
+            width=max(float(hi[1] - lo[1]), min_size),
+            height=0.0,  # the AWR1843's elevation is too coarse to give one
+            shape=ShapeKind.BOX if self.n_points >= 3 else ShapeKind.POINT,
+            n_points=self.n_points,
+            range_m=float(np.hypot(*(centre - sensor_ne))),
+            points=self.points,
+            # RADIAL_ONLY: the radial component, with undetermined_velocity_var across the line of sight
+            velocity=v.velocity.copy() if known else np.full(2, np.nan),
+            velocity_cov=v.covariance.copy() if known else None,
+            source="radar",
+        )
+
+
+@dataclass
+class DetectorOutput:
+    t: float
+    sensor_ne: np.ndarray  # (2,) radar position, world
+    points: np.ndarray  # (m, 2) world N/E of the returns inside the ROI
+    doppler_world: np.ndarray  # (m,) ego-compensated Doppler (NaN without an ego velocity)
+    ghost: np.ndarray  # (m,) bool, multipath ghosts
+    static: np.ndarray  # (m,) bool, returns at rest over ground (candidates for the static map)
+    sensor_velocity: np.ndarray  # (2,) radar velocity over ground used for compensation; NaN if none
+    ego_source: str  # "autopilot", "doppler" or "none"
+    ego_estimate: VelocityEstimate | None  # the Doppler ego fit, when one was made
+    clusters: list[RadarCluster] = field(default_factory=list)  # all, shore verdict included
+    detections: list[Detection] = field(default_factory=list)  # kept clusters only, same order as kept_clusters
+    kept_clusters: list[RadarCluster] = field(default_factory=list)
+    counts: dict[str, int] = field(default_factory=dict)
+
+
+def _rot(yaw: float) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s], [s, c]])  # body (fwd, stbd) -> world (north, east)
+
+
+class RadarDetector:
+    def __init__(self, config: RadarTrackerConfig, rng: np.random.Generator | None = None) -> None:
+        self.cfg = config
+        self.rng = rng if rng is not None else np.random.default_rng(config.seed)
+        self.static_map = StaticMap(config)
+        self.multipath = MultipathSettings(
+            search_angle=config.multipath_search_angle_rad,
+            orders=tuple(int(k) for k in config.multipath_range_orders),
+            range_tolerance_m=config.multipath_range_tolerance_m,
+            range_tolerance_rel=config.multipath_range_tolerance_rel,
+            doppler_tolerance=config.multipath_doppler_tolerance_mps,
+        )
+        self.profile = config.profile_settings()
+        self.ego_profile = config.ego_profile_settings()
+        self.totals: dict[str, int] = {}
+
+    def _count(self, counts: dict[str, int], key: str, n: int) -> None:
+        counts[key] = counts.get(key, 0) + int(n)
+        self.totals[key] = self.totals.get(key, 0) + int(n)
+
+    def roi_mask(self, xyz_body: np.ndarray, snr: np.ndarray) -> np.ndarray:
+        c = self.cfg
+        rel = xyz_body[:, :2] - np.asarray(c.sensor_position_body)
+        rng = np.hypot(rel[:, 0], rel[:, 1])
+        az = np.angle(np.exp(1j * (np.arctan2(rel[:, 1], rel[:, 0]) - c.sensor_yaw_body_rad)))
+        z = xyz_body[:, 2]
+        with np.errstate(invalid="ignore"):
+            return (
+                (rng >= c.roi_min_range_m)
+                & (rng <= c.roi_max_range_m)
+                & (np.abs(az) <= c.roi_max_abs_azimuth_rad)
+                & (z >= c.roi_min_z_m)
+                & (z <= c.roi_max_z_m)
+                & ~(snr < c.min_snr_db)  # NaN SNR passes
+            )
+
+    def detect(
+        self,
+        points_body: np.ndarray,
+        doppler: np.ndarray,
+        snr: np.ndarray | None,
+        t: float,
+        position: np.ndarray,
+        yaw: float,
+        velocity: np.ndarray | None = None,
+        yaw_rate: float = 0.0,
+        update_map: bool = True,
+    ) -> DetectorOutput:
+        """One frame. ``position`` (2,) world N/E and ``yaw`` (rad) of the boat; ``velocity`` (2,) world N/E over
+        ground from the autopilot, or None to estimate it from the static returns' Doppler. With ``update_map``
+        False the caller adds the frame to the static map itself (``update_map``)."""
+        c = self.cfg
+        counts: dict[str, int] = {}
+        xyz = np.asarray(points_body, float)
+        if xyz.ndim != 2 or xyz.shape[1] not in (2, 3):
+            raise ValueError(f"radar points must be (n, 2) or (n, 3) body FRD, got shape {xyz.shape}")
+        if xyz.shape[1] == 2:
+            xyz = np.column_stack([xyz, np.zeros(len(xyz))])
+        n_in = xyz.shape[0]
+        dop = np.asarray(doppler, float).reshape(-1)
+        snr_a = np.full(n_in, np.nan) if snr is None else np.asarray(snr, float).reshape(-1)
+        if dop.size != n_in or snr_a.size != n_in:
+            raise ValueError(f"radar frame: {n_in} points but {dop.size} Doppler and {snr_a.size} SNR values")
+        finite = np.all(np.isfinite(xyz), axis=1)
+        if not finite.all():
+            self._count(counts, "nonfinite_points", n_in - int(finite.sum()))
+            log.debug("radar: %d of %d returns with non-finite coordinates dropped", n_in - finite.sum(), n_in)
+        # 1. ROI
+        keep = finite.copy()
+        keep[finite] = self.roi_mask(xyz[finite], snr_a[finite])
+        self._count(counts, "outside_roi", int(finite.sum() - keep.sum()))
+        xyz, dop, snr_a = xyz[keep], dop[keep], snr_a[keep]
+        self._count(counts, "roi_points", len(xyz))
+        self._count(counts, "nonfinite_doppler", int((~np.isfinite(dop)).sum()))  # kept: position is still good
+
+        # 2. body FRD -> world N/E, lines of sight from the radar
+        pos = np.asarray(position, float).reshape(2)
+        rot = _rot(float(yaw))
+        sensor_body = np.asarray(c.sensor_position_body, float)
+        sensor_ne = pos + rot @ sensor_body
+        if len(xyz):
+            world = body_to_world(xyz, np.array([pos[0], pos[1], 0.0]), 0.0, 0.0, float(yaw))[:, :2]
+        else:  # tracker.ego.body_to_world indexes the first pose, so an empty frame is handled here
+            world = np.empty((0, 2))
+        rel = world - sensor_ne
+        rng = np.hypot(rel[:, 0], rel[:, 1])
+        los = rel / np.maximum(rng, 1e-9)[:, None]
+
+        # 3. ego motion
+        ego_est: VelocityEstimate | None = None
+        v_sensor = np.full(2, np.nan)
+        source = "none"
+        if velocity is not None and np.all(np.isfinite(velocity)):
+            lever = float(yaw_rate) * np.array([-sensor_body[1], sensor_body[0]])  # omega x r, FRD, yaw rate about z
+            v_sensor = np.asarray(velocity, float).reshape(2) + rot @ lever
+            source = "autopilot"
+        elif len(xyz) >= c.ego_min_points:
+            ego_est = fit_velocity_profile(los, dop, self.ego_profile, self.rng)
+            if ego_est.status is VelocityStatus.FULL:
+                v_sensor = -ego_est.velocity  # static returns: v_r = -v_radar . u
+                source = "doppler"
+            else:
+                log.debug("radar: no Doppler ego velocity this frame (%s)", ego_est.reason)
+        dop_world = dop + los @ v_sensor if source != "none" else np.full(len(dop), np.nan)
+
+        # 4. multipath
+        ghost = np.zeros(len(xyz), bool)
+        if c.multipath_enabled and len(xyz) > 1:
+            az_body = np.arctan2(xyz[:, 1] - sensor_body[1], xyz[:, 0] - sensor_body[0])
+            ghost = multipath_ghosts(rng, az_body, dop, snr_a, self.multipath)
+            self._count(counts, "multipath_ghosts", int(ghost.sum()))
+
+        # Only returns at rest over ground go to the static map, so a boat passing the quay leaves no trail in it.
+        if source != "none":
+            static = (np.abs(dop_world) <= c.static_doppler_threshold_mps) & ~ghost
+        else:
+            static = ~ghost
+
+        # 5. clustering over the non-ghost returns
+        real = np.flatnonzero(~ghost)
+        labels = np.full(len(xyz), -1, np.int64)
+        if real.size:
+            spatial = dbscan(world[real], c.cluster_radius_m, c.cluster_min_points)
+            labels[real] = self._split_by_doppler(spatial, dop_world[real] if source != "none" else dop[real])
+        n_clusters = int(labels.max()) + 1 if labels.size else 0
+        self._count(counts, "clustered_points", int((labels >= 0).sum()))
+
+        clusters: list[RadarCluster] = []
+        for k in range(n_clusters):  # one iteration per cluster (a handful), each vectorised
+            idx = np.flatnonzero(labels == k)
+            fit_dop = dop_world[idx] if source != "none" else np.full(idx.size, np.nan)
+            vel = fit_velocity_profile(los[idx], fit_dop, self.profile, self.rng)
+            clusters.append(
+                RadarCluster(
+                    points=world[idx],
+                    points_body=xyz[idx],
+                    doppler=dop[idx],
+                    doppler_world=dop_world[idx],
+                    snr=snr_a[idx],
+                    los=los[idx],
+                    range_m=rng[idx],
+                    velocity=vel,
+                    index=idx,
+                )
+            )
+
+        # 6. shore filter, with the shore as known before this frame
+        if c.shore_filter_enabled:
+            self.static_map.advance_time(t)
+            self.static_map.follow(pos)
+            self.static_map.update_shore(t, pos, c.roi_max_range_m)
+        if c.shore_filter_enabled and clusters:
+            verdict = self.static_map.shore_verdict(sensor_ne, [cl.points for cl in clusters])
+            for cl, v in zip(clusters, verdict, strict=True):
+                cl.shore = int(v)
+            self._count(counts, "shore_clusters", int((verdict != SHORE_KEEP).sum()))
+        kept = [cl for cl in clusters if cl.shore == SHORE_KEEP]
+        out = DetectorOutput(
+            t=t,
+            sensor_ne=sensor_ne,
+            points=world,
+            doppler_world=dop_world,
+            ghost=ghost,
+            static=static,
+            sensor_velocity=v_sensor,
+            ego_source=source,
+            ego_estimate=ego_est,
+            clusters=clusters,
+            kept_clusters=kept,
+            detections=[cl.to_detection(t, sensor_ne, c.min_box_size_m) for cl in kept],
+            counts=counts,
+        )
+        if update_map:
+            self.update_map(out)
+        return out
+
+    def update_map(self, out: DetectorOutput, exclude: np.ndarray | None = None) -> None:
+        """7. Add the frame's static returns to the static map, except rows flagged in ``exclude`` (m,) bool."""
+        if not self.cfg.shore_filter_enabled:
+            return
+        use = out.static if exclude is None else out.static & ~exclude
+        self.static_map.add_points(out.points[use], out.t)
+
+    def _split_by_doppler(self, spatial: np.ndarray, dop: np.ndarray) -> np.ndarray:
+        """Split each spatial cluster by 1-D DBSCAN over Doppler; one call for all clusters.
+
+        Each cluster is put on its own line far from the others (label x a large offset), so the density search can
+        only link returns of the same spatial cluster. Returns with unknown Doppler join the largest part.
+        """
+        c = self.cfg
+        out = np.full(spatial.size, -1, np.int64)
+        inside = spatial >= 0
+        if not inside.any():
+            return out
+        known = inside & np.isfinite(dop)
+        if known.any():
+            offset = 10.0 * (np.nanmax(np.abs(dop[known])) + c.velocity_cluster_threshold_mps + 1.0)
+            feat = np.column_stack([spatial[known] * offset, dop[known]])
+            out[known] = dbscan(feat, c.velocity_cluster_threshold_mps, c.velocity_cluster_min_points)
+        unknown = np.flatnonzero(inside & ~np.isfinite(dop))
+        if unknown.size:
+            for lab in np.unique(spatial[unknown]):
+                members = spatial == lab
+                parts = out[members & known]
+                parts = parts[parts >= 0]
+                if parts.size:
+                    target = np.bincount(parts).argmax()
+                elif not (members & known).any():  # no Doppler at all: keep the spatial cluster whole
+                    target = out.max() + 1
+                else:
+                    continue
+                out[unknown[spatial[unknown] == lab]] = target
+        # Renumber 0..k-1 in order of first appearance so labels stay compact.
+        valid = out >= 0
+        if valid.any():
+            _, first, inv = np.unique(out[valid], return_index=True, return_inverse=True)
+            rank = np.empty(first.size, np.int64)
+            rank[np.argsort(first)] = np.arange(first.size)
+            out[valid] = rank[inv]
+        return out

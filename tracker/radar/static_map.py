@@ -1,0 +1,265 @@
+"""Static map of radar returns and the shore filter (paper 001, sec. 2.2-2).
+
+One radar frame shows a quay wall as a handful of points, too few to tell from a boat. Accumulated in a world-frame
+grid over many frames the wall becomes a long line of occupied cells while a moored boat stays a small blob. Large
+structures are the shore: clusters on them, or behind them as seen from the radar (multipath through the wall, cars on
+the quay), are not tracked. The shore cells are kept for the obstacle map: a wall is an obstacle even if not a vessel.
+
+Layout: ``submaps_across`` x ``submaps_across`` sub-maps of ``submap_cells``^2 cells (sec. 3.2: 0.25 m, 400 x 400)
+aligned to a world lattice, the boat always in the middle one. When the boat crosses into another sub-map the window
+shifts by whole sub-maps: overlapping evidence is copied by index arithmetic, the new sub-maps start empty.
+
+Decay without touching the whole grid every frame: evidence is stored scaled by exp((t - t_ref) / tau) and read back
+scaled by exp(-(t - t_ref) / tau); the stored values are rebased once the factor gets large.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from tracker.radar.config import RadarTrackerConfig
+
+log = logging.getLogger(__name__)
+
+_REBASE_FACTOR = 1.0e6  # rebase stored evidence once the write scale exceeds this
+
+
+def _keys(cells_rc: np.ndarray) -> np.ndarray:
+    """One int64 per (row, col) world cell; rows and cols within +-2^30 cells (+-268 000 km at 0.25 m)."""
+    rc = np.asarray(cells_rc, np.int64).reshape(-1, 2)
+    return (rc[:, 0] + (1 << 30)) * (1 << 31) + (rc[:, 1] + (1 << 30))
+
+
+class StaticMap:
+    """World-frame (north, east) evidence grid that follows the boat, with the shore extracted from it."""
+
+    def __init__(self, config: RadarTrackerConfig) -> None:
+        self.cfg = config
+        self.res = float(config.static_map_resolution_m)
+        self.sub = int(config.static_submap_cells)
+        self.size = self.sub * int(config.static_submaps_across)
+        self.grid = np.zeros((self.size, self.size))
+        self.origin: tuple[int, int] | None = None  # world cell (i, j) of grid[0, 0]
+        self.t_ref = 0.0
+        self.t_last = -math.inf
+        self.shifts = 0
+        # Flat indices of the cells holding evidence: the shore scan visits only these, not 1200 x 1200 cells.
+        self._touched = np.empty(0, np.int64)
+        self._clear_shore()
+
+    # --- bookkeeping -------------------------------------------------------------------------------------------------
+
+    def reset(self) -> None:
+        self.grid[:] = 0.0
+        self._touched = np.empty(0, np.int64)
+        self.origin = None
+        self.t_last = -math.inf
+        self._clear_shore()
+
+    def _clear_shore(self) -> None:
+        self._shore_rc = np.empty((0, 2), np.int64)  # world cells (row, col) of shore-sized structures
+        self._shore_keys = np.empty(0, np.int64)  # the same as sorted keys, for membership tests
+        self._edge_rc = np.empty((0, 2), np.int64)  # their contour
+        self._tree: cKDTree | None = None  # shore cell centres, for "within the margin" tests
+        self._t_shore = -math.inf
+
+    def cells(self, points_ne: np.ndarray) -> np.ndarray:
+        """(n, 2) world cell indices (row = north, col = east)."""
+        return np.floor(np.asarray(points_ne, float) / self.res).astype(np.int64)
+
+    def _scale(self, t: float) -> float:
+        return math.exp(min((t - self.t_ref) / self.cfg.static_decay_time_s, 700.0))
+
+    def advance_time(self, t: float) -> None:
+        """Move the map's clock to t (every write and shore update does this); going back in time clears the map."""
+        if t < self.t_last:
+            log.warning("static map: time went back from %.3f to %.3f s; map cleared", self.t_last, t)
+            self.reset()
+        if self.t_last == -math.inf:
+            self.t_ref = t
+        self.t_last = t
+        if self._scale(t) > _REBASE_FACTOR:
+            self.grid *= 1.0 / self._scale(t)
+            self.t_ref = t
+
+    def follow(self, position_ne: np.ndarray) -> None:
+        """Keep the boat in the middle sub-map; shift the window by whole sub-maps when it leaves it."""
+        boat = self.cells(np.asarray(position_ne, float).reshape(1, 2))[0]
+        half = self.cfg.static_submaps_across // 2
+        want = tuple(int((b // self.sub - half) * self.sub) for b in boat)
+        if self.origin is None:
+            self.origin = want  # type: ignore[assignment]
+            return
+        if want == self.origin:
+            return
+        di, dj = want[0] - self.origin[0], want[1] - self.origin[1]
+        new = np.zeros_like(self.grid)
+        src_i = slice(max(di, 0), self.size + min(di, 0))
+        dst_i = slice(max(-di, 0), self.size + min(-di, 0))
+        src_j = slice(max(dj, 0), self.size + min(dj, 0))
+        dst_j = slice(max(-dj, 0), self.size + min(-dj, 0))
+        if src_i.start < src_i.stop and src_j.start < src_j.stop:
+            new[dst_i, dst_j] = self.grid[src_i, src_j]
+        self.grid = new
+        self._touched = np.flatnonzero(new)  # a rare event: one full scan
+        self.origin = want  # type: ignore[assignment]
+        self.shifts += 1
+
+    # --- evidence ----------------------------------------------------------------------------------------------------
+
+    def add_points(self, points_ne: np.ndarray, t: float) -> int:
+        """One hit per occupied cell per frame (a dense reflector does not outvote persistence). Returns cells hit."""
+        self.advance_time(t)
+        if self.origin is None or len(points_ne) == 0:
+            return 0
+        rc = self.cells(points_ne) - np.asarray(self.origin)
+        inside = np.all((rc >= 0) & (rc < self.size), axis=1)
+        flat = np.unique(rc[inside, 0] * self.size + rc[inside, 1])
+        self.grid.flat[flat] += self._scale(t)
+        self._touched = np.union1d(self._touched, flat)
+        return int(flat.size)
+
+    def evidence(self, t: float) -> np.ndarray:
+        """Decayed hits per cell at time t, (size, size); a copy."""
+        return self.grid * (1.0 / self._scale(t))
+
+    def evidence_at(self, points_ne: np.ndarray, t: float) -> np.ndarray:
+        out = np.zeros(len(points_ne))
+        if self.origin is None or len(points_ne) == 0:
+            return out
+        rc = self.cells(points_ne) - np.asarray(self.origin)
+        inside = np.all((rc >= 0) & (rc < self.size), axis=1)
+        out[inside] = self.grid[rc[inside, 0], rc[inside, 1]] / self._scale(t)
+        return out
+
+    # --- shore -------------------------------------------------------------------------------------------------------
+
+    def update_shore(self, t: float, position_ne: np.ndarray, max_range_m: float) -> None:
+        """Extract shore structures within ``max_range_m`` of the boat.
+
+        Cost follows the number of occupied cells, not the map's area (a harbour window is 800 x 800 cells): the
+        occupied cells are OR-ed into blocks of the link radius, blocks are grown by one and labelled (ndimage), so
+        structures with gaps up to about twice the link radius are one; a structure's extent is measured on its fine
+        cells. Shore cells are then kept as a sorted key list, a k-d tree (distance to the shore) and their contour.
+        """
+        self.advance_time(t)
+        if self.origin is None or t - self._t_shore < self.cfg.shore_update_interval_s:
+            return
+        self._clear_shore()
+        self._t_shore = t
+        scale = self._scale(t)
+        value = self.grid.flat[self._touched]
+        keep = value >= 1e-3 * scale  # evidence decayed to nothing: forget the cell until it is hit again
+        self._touched, value = self._touched[keep], value[keep]
+        occ = self._touched[value >= self.cfg.static_occupied_hits * scale]
+        rc = np.stack(np.divmod(occ, self.size), axis=1)
+        boat = self.cells(np.asarray(position_ne, float).reshape(1, 2))[0] - np.asarray(self.origin)
+        rc = rc[np.all(np.abs(rc - boat) <= math.ceil(max_range_m / self.res) + 1, axis=1)]
+        if rc.size == 0:
+            return
+        block = max(1, round(self.cfg.shore_link_radius_m / self.res))
+        coarse = rc // block
+        lo = coarse.min(axis=0) - 1
+        coarse -= lo
+        blocks = np.zeros(tuple(coarse.max(axis=0) + 2), bool)
+        blocks[coarse[:, 0], coarse[:, 1]] = True
+        grown = ndimage.binary_dilation(blocks, np.ones((3, 3), bool))
+        labels, n_lab = ndimage.label(grown, structure=np.ones((3, 3), bool))
+        lab = labels[coarse[:, 0], coarse[:, 1]]
+        big = np.zeros(n_lab + 1, bool)
+        lo_r, hi_r = np.full(n_lab + 1, np.iinfo(np.int64).max), np.full(n_lab + 1, np.iinfo(np.int64).min)
+        lo_c, hi_c = lo_r.copy(), hi_r.copy()
+        np.minimum.at(lo_r, lab, rc[:, 0])
+        np.maximum.at(hi_r, lab, rc[:, 0])
+        np.minimum.at(lo_c, lab, rc[:, 1])
+        np.maximum.at(hi_c, lab, rc[:, 1])
+        seen = hi_r >= lo_r
+        extent = np.hypot(hi_r[seen] - lo_r[seen] + 1, hi_c[seen] - lo_c[seen] + 1) * self.res
+        big[np.flatnonzero(seen)] = extent >= self.cfg.shore_min_extent_m
+        shore = rc[big[lab]] + np.asarray(self.origin)  # world cell indices
+        if shore.size == 0:
+            return
+        self._shore_rc = shore
+        self._shore_keys = np.sort(_keys(shore))
+        self._tree = cKDTree((shore + 0.5) * self.res)
+        # Contour: shore cells with at least one of their four neighbours not shore.
+        steps = np.array([[1, 0], [-1, 0], [0, 1], [0, -1]])
+        inner = np.all([self._contains(shore + d) for d in steps], axis=0)
+        self._edge_rc = shore[~inner]
+
+    def _contains(self, cells_rc: np.ndarray) -> np.ndarray:
+        keys = _keys(cells_rc)
+        pos = np.searchsorted(self._shore_keys, keys)
+        pos = np.minimum(pos, max(len(self._shore_keys) - 1, 0))
+        return (self._shore_keys[pos] == keys) if len(self._shore_keys) else np.zeros(len(keys), bool)
+
+    def on_shore(self, points_ne: np.ndarray) -> np.ndarray:
+        """(n,) bool: within shore_margin_m of a shore cell (its centre, plus half a cell diagonal)."""
+        pts = np.asarray(points_ne, float).reshape(-1, 2)
+        if self._tree is None or len(pts) == 0:
+            return np.zeros(len(pts), bool)
+        reach = self.cfg.shore_margin_m + self.res * math.sqrt(0.5)
+        dist, _ = self._tree.query(pts, k=1, distance_upper_bound=reach)
+        return np.isfinite(dist)
+
+    def is_shore(self, points_ne: np.ndarray) -> np.ndarray:
+        """(n,) bool: the point's cell is a shore cell."""
+        pts = np.asarray(points_ne, float).reshape(-1, 2)
+        return self._contains(self.cells(pts))
+
+    def shore_points(self) -> np.ndarray:
+        """(k, 2) world north/east centres of the shore's contour cells, for the obstacle map."""
+        return (self._edge_rc + 0.5) * self.res
+
+    def shore_cells(self) -> np.ndarray:
+        """(k, 2) world north/east centres of every shore cell."""
+        return (self._shore_rc + 0.5) * self.res
+
+    def _bearing_bin(self, rel: np.ndarray) -> np.ndarray:
+        n_bins = round(2 * math.pi / self.cfg.shore_horizon_bin_rad)
+        az = np.arctan2(rel[:, 1], rel[:, 0])
+        return np.floor((az + math.pi) / (2 * math.pi) * n_bins).astype(np.int64) % n_bins
+
+    def shore_horizon(self, sensor_ne: np.ndarray) -> np.ndarray:
+        """Range of the nearest shore cell per bearing bin as seen from the radar (inf where no shore).
+
+        A bin also takes its neighbours' minimum, so a wall with a missing cell or two still hides what is behind
+        it. Shore cells within shore_margin_m of the radar are ignored: the own boat may lie alongside the quay.
+        """
+        n_bins = round(2 * math.pi / self.cfg.shore_horizon_bin_rad)
+        horizon = np.full(n_bins, np.inf)
+        rel = self.shore_cells() - np.asarray(sensor_ne, float).reshape(2)
+        rng = np.hypot(rel[:, 0], rel[:, 1])
+        far = rng > self.cfg.shore_margin_m
+        np.minimum.at(horizon, self._bearing_bin(rel[far]), rng[far])
+        return ndimage.minimum_filter1d(horizon, size=3, mode="wrap")
+
+    def shore_verdict(self, sensor_ne: np.ndarray, clusters: list[np.ndarray]) -> np.ndarray:
+        """(k,) int per cluster of (n_i, 2) world points: 0 keep, 1 on the shore, 2 behind it (seen from the radar).
+
+        On: at least shore_on_fraction of its points within shore_margin_m of shore cells. Behind: its centre is
+        farther than the shore horizon on its bearing, plus shore_margin_m.
+        """
+        k = len(clusters)
+        verdict = np.zeros(k, np.int8)
+        if k == 0 or self._tree is None:
+            return verdict
+        sizes = np.array([len(c) for c in clusters])
+        pts = np.concatenate(clusters) if sizes.sum() else np.empty((0, 2))
+        on = self.on_shore(pts).astype(float)
+        owner = np.repeat(np.arange(k), sizes)
+        frac = np.bincount(owner, weights=on, minlength=k) / np.maximum(sizes, 1)
+        verdict[frac >= self.cfg.shore_on_fraction] = 1
+        # Behind: farther than the shore seen from the radar on the same bearing (polar "shore horizon").
+        horizon = self.shore_horizon(sensor_ne)
+        centres = np.stack([np.bincount(owner, weights=pts[:, a], minlength=k) for a in (0, 1)], axis=1)
+        rel = centres / np.maximum(sizes, 1)[:, None] - np.asarray(sensor_ne, float).reshape(2)
+        b = self._bearing_bin(rel)
+        behind = (np.hypot(rel[:, 0], rel[:, 1]) > horizon[b] + self.cfg.shore_margin_m) & (sizes > 0)
+        verdict[behind & (verdict == 0)] = 2
+        return verdict
