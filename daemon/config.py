@@ -221,7 +221,7 @@ def load_config(path: str | Path | None, overrides: dict[str, Any] | None = None
 def _check_tracker_tables(config: Config, source: str) -> None:
     from daemon.tracker_configs import tracker_config_problems
 
-    problems = tracker_config_problems(config.tracker)
+    problems = tracker_config_problems(config)
     if problems:
         raise ConfigError(problems, source)
 

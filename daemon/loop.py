@@ -22,7 +22,7 @@ from daemon.buffers import BoundedQueue, LatestSlot
 from daemon.health import CycleStats, RateCounter
 from daemon.sdnotify import SystemdNotifier
 from drivers.frames import LidarScan, RadarFrame
-from tracker.pipeline import PerceptionOutput, PerceptionPipeline, PoseLookup
+from tracker.pipeline import EgoSource, PerceptionOutput, PerceptionPipeline
 
 log = logging.getLogger(__name__)
 
@@ -70,7 +70,7 @@ class DaemonLoop:
         pipeline: PerceptionPipeline,
         inputs: SensorInputs,
         publisher: ObstaclePublisher | None,
-        poses: PoseLookup | None,
+        poses: EgoSource | None,
         settings: LoopSettings,
         notifier: SystemdNotifier | None = None,
         tracks_out: IO[str] | None = None,

@@ -1,41 +1,27 @@
-"""Bridge between the [tracker.*] tables and the trackers' own config dataclasses (which carry the papers' values)."""
+"""Check the [tracker.*] tables against the trackers' own config classes (which carry the papers' values)."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from daemon.config_schema import ConfigError, build
+from daemon.config_schema import ConfigError
 
 
-def _config_classes() -> dict[str, type]:
-    classes: dict[str, type] = {}
-    try:
-        from tracker.lidar.config import LidarTrackerConfig
+def tracker_config_problems(config: Any) -> list[str]:
+    from daemon.config_schema import build
+    from tracker.adapters import lidar_tracker_table, radar_tracker_table
+    from tracker.lidar.config import LidarTrackerConfig
+    from tracker.radar.config import RadarTrackerConfig
 
-        classes["lidar"] = LidarTrackerConfig
-    except ImportError:
-        pass
-    try:
-        from tracker.radar.config import RadarTrackerConfig
-
-        classes["radar"] = RadarTrackerConfig
-    except ImportError:
-        pass
-    return classes
-
-
-def build_tracker_config(name: str, table: dict[str, Any]) -> Any:
-    cls = _config_classes().get(name)
-    if cls is None:
-        return None
-    return build(cls, table)
-
-
-def tracker_config_problems(tracker: Any) -> list[str]:
     problems: list[str] = []
-    for name, cls in _config_classes().items():
+    for name, cls, table in (
+        ("lidar", LidarTrackerConfig, lidar_tracker_table(config)),
+        ("radar", RadarTrackerConfig, radar_tracker_table(config)),
+    ):
         try:
-            build(cls, getattr(tracker, name))
+            build(cls, table)
         except ConfigError as exc:
             problems += [f"tracker.{name}.{p}" for p in exc.problems]
+        except (TypeError, ValueError) as exc:
+            problems.append(f"tracker.{name}: {exc}")
     return problems

@@ -17,7 +17,5 @@ SHARED_FIXTURES = SHARED / "fixtures"
 @pytest.fixture
 def shared_fixtures() -> Path:
     if not SHARED_FIXTURES.is_dir():
-        pytest.skip(
-            f"public captures not found at {SHARED_FIXTURES} (set USV_TRACKER_SHARED to the shared/ folder)"
-        )
+        pytest.skip(f"public captures not found at {SHARED_FIXTURES} (set USV_TRACKER_SHARED to the shared/ folder)")
     return SHARED_FIXTURES

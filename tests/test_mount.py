@@ -25,9 +25,7 @@ def test_pitch_up_mount_raises_forward_points() -> None:
     # Pitch +10 deg (nose up): a point straight ahead of the sensor is above the bow line (negative z in FRD).
     m = Mount(pitch=math.radians(10.0))
     out = m.sensor_frd_to_body(np.array([[10.0, 0.0, 0.0]]))
-    np.testing.assert_allclose(
-        out, [[10 * math.cos(math.radians(10)), 0.0, -10 * math.sin(math.radians(10))]]
-    )
+    np.testing.assert_allclose(out, [[10 * math.cos(math.radians(10)), 0.0, -10 * math.sin(math.radians(10))]])
 
 
 def test_native_axis_maps_are_rotations() -> None:

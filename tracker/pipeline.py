@@ -2,6 +2,10 @@
 
 Pure computation (no sockets, threads or clocks): the daemon's loop, the replay and the benchmarks all call
 ``PerceptionPipeline.step`` with the same inputs, so what is measured is what runs on the boat.
+
+The obstacle array does not need the ego pose: it is built in the body frame from this cycle's solid returns
+(LiDAR after the own-boat / water / spray filter, radar returns in clusters), the radar's shore contour and the
+confirmed tracks' hulls. So a boat whose autopilot link is down still gets its obstacles; only tracking waits.
 """
 
 from __future__ import annotations
@@ -14,44 +18,43 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from drivers.frames import LidarScan, RadarFrame
-from tracker.ego import body_to_world, rotation_matrices, world_to_body_2d
+from drivers.frames import EgoPose, LidarScan, RadarFrame
+from tracker.ego import rotation_matrices, world_to_body_2d
+from tracker.fusion import fuse_tracks
 from tracker.obstacle_map import SensorCoverage, build_obstacle_distances, outline_points
 from tracker.types import Track
 
 log = logging.getLogger(__name__)
 
 
-class PoseLookup(Protocol):
-    """Ego pose in the world frame (NED) at host times; None where the pose is not known."""
+class EgoSource(Protocol):
+    """The boat's pose in the world frame at host times.
 
-    def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
-        """(positions (N,3), roll (N,), pitch (N,), yaw (N,))."""
-        ...
+    ``at_many`` returns (positions (N,3) NED, roll, pitch, yaw) with NaN rows where the pose is not known.
+    ``epoch`` changes whenever the world frame itself changes (autopilot appears, reboots, switches its origin):
+    world-frame state must then be dropped. ``available`` is False in "no ego pose" mode (no autopilot yet), where
+    the body frame at start serves as the world.
+    """
 
+    epoch: int
+    available: bool
 
-@dataclass(frozen=True)
-class OwnBoatBox:
-    """Returns inside this box (body FRD, metres) are the boat itself."""
+    def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]: ...
 
-    bow: float = 0.8
-    stern: float = -0.8
-    port: float = -0.5
-    starboard: float = 0.5
-    water_z: float = 0.0  # body z (down positive) of the water line
+    def at(self, t: float) -> EgoPose | None: ...
 
 
 @dataclass(frozen=True)
 class PipelineSettings:
     min_distance_m: float = 0.5
     max_distance_m: float = 100.0
-    lidar_min_range_m: float = 0.5
     lidar_max_range_m: float = 100.0
     min_height_above_water_m: float = 0.15
+    water_z_m: float = 0.0  # body z (down positive) of the water line
     radar_fov_rad: float = np.radians(120.0)
     radar_yaw_rad: float = 0.0
     radar_max_range_m: float = 50.0
-    boat: OwnBoatBox = field(default_factory=OwnBoatBox)
+    fusion_gate_m: float = 3.0
 
 
 @dataclass
@@ -61,16 +64,11 @@ class PerceptionOutput:
     distances_cm: np.ndarray  # (72,) uint16, ready for OBSTACLE_DISTANCE
     lidar_fresh: bool
     radar_fresh: bool
+    ego_available: bool = False
     n_lidar_points: int = 0
     n_radar_points: int = 0
     timings_ms: dict[str, float] = field(default_factory=dict)
     solid_points_body: np.ndarray | None = None  # (M, 2) fwd/stbd, for pictures
-
-
-class SensorTracker(Protocol):
-    """What a tracker plugged into the pipeline provides (the LiDAR and radar trackers of issues 4 and 5)."""
-
-    def step_pipeline(self, inputs: Any) -> list[Track]: ...
 
 
 def _timed(timings: dict[str, float], key: str, fn: Callable[[], Any]) -> Any:
@@ -80,73 +78,77 @@ def _timed(timings: dict[str, float], key: str, fn: Callable[[], Any]) -> Any:
     return out
 
 
-def level_points(xyz_body: np.ndarray, roll: float, pitch: float) -> np.ndarray:
-    """Body FRD -> a yaw-free level frame (forward, starboard, gravity-down): heights on a rolling boat."""
+def level_z(xyz_body: np.ndarray, roll: float, pitch: float) -> np.ndarray:
+    """Body FRD z -> gravity-down z of a yaw-free level frame, to judge heights on a rolling boat."""
     if roll == 0.0 and pitch == 0.0:
-        return xyz_body
+        return xyz_body[:, 2]
     r = rotation_matrices(np.array([roll]), np.array([pitch]), np.array([0.0]))[0]
-    return xyz_body @ r.T
+    return xyz_body @ r[2]
 
 
-def lidar_solid_mask(xyz_body: np.ndarray, level_z: np.ndarray, s: PipelineSettings) -> np.ndarray:
-    """Points that are real obstacles: within range, above the water, not the own boat, finite."""
-    x, y = xyz_body[:, 0], xyz_body[:, 1]
-    rng = np.hypot(x, y)
-    b = s.boat
-    own = (x <= b.bow) & (x >= b.stern) & (y >= b.port) & (y <= b.starboard)
-    above_water = level_z < b.water_z - s.min_height_above_water_m
-    return np.isfinite(rng) & (rng >= s.lidar_min_range_m) & (rng <= s.lidar_max_range_m) & above_water & ~own
+IDENTITY = (np.zeros(3), 0.0, 0.0, 0.0)
 
 
 @dataclass
 class PerceptionPipeline:
     settings: PipelineSettings = field(default_factory=PipelineSettings)
-    lidar_tracker: Any | None = None
-    radar_tracker: Any | None = None
+    lidar_tracker_factory: Callable[[], Any] | None = None
+    radar_tracker_factory: Callable[[], Any] | None = None
+    lidar_preprocess_config: Any = None
     freshness_s: float = 0.5
 
-    _last_lidar_t: float = -np.inf
-    _last_radar_t: float = -np.inf
+    def __post_init__(self) -> None:
+        self._last_lidar_t = -np.inf
+        self._last_radar_t = -np.inf
+        self._epoch: int | None = None
+        self.lidar_tracker = self.lidar_tracker_factory() if self.lidar_tracker_factory else None
+        self.radar_tracker = self.radar_tracker_factory() if self.radar_tracker_factory else None
+        self._lidar_tracks: list[Track] = []
+        self._radar_tracks: list[Track] = []
+        self.skipped_no_pose = 0
+
+    def _reset_world(self) -> None:
+        """The world frame changed: tracks and maps in the old frame are meaningless in the new one."""
+        if self.lidar_tracker_factory:
+            self.lidar_tracker = self.lidar_tracker_factory()
+        if self.radar_tracker_factory:
+            self.radar_tracker = self.radar_tracker_factory()
+        self._lidar_tracks, self._radar_tracks = [], []
 
     def step(
-        self,
-        t: float,
-        scan: LidarScan | None,
-        radar_frames: Sequence[RadarFrame],
-        poses: PoseLookup | None,
+        self, t: float, scan: LidarScan | None, radar_frames: Sequence[RadarFrame], ego: EgoSource | None
     ) -> PerceptionOutput:
         timings: dict[str, float] = {}
         s = self.settings
         solid: list[np.ndarray] = []
-        tracks: list[Track] = []
         n_lidar = n_radar = 0
+        ego_ok = ego is not None and ego.available
+        if ego is not None and ego.epoch != self._epoch:
+            if self._epoch is not None:
+                log.info("world frame changed (epoch %s -> %s): tracks restarted", self._epoch, ego.epoch)
+                self._reset_world()
+            self._epoch = ego.epoch
 
-        own = _pose_at(poses, t)
-        if scan is not None and scan.n_points:
+        if scan is not None:
             self._last_lidar_t = max(self._last_lidar_t, scan.stamp)
-            pts = _timed(timings, "lidar_pre", lambda: self._lidar_solid_points(scan, poses))
-            n_lidar = int(pts.shape[0])
-            solid.append(pts[:, :2])
-            if self.lidar_tracker is not None:
-                world = _timed(timings, "lidar_world", lambda: _to_world(pts, scan.t[self._last_mask], poses))
-                tracks += _timed(timings, "lidar_track", lambda: self.lidar_tracker.step(world, scan.stamp, own))
-        elif scan is not None:
-            self._last_lidar_t = max(self._last_lidar_t, scan.stamp)
+            if scan.n_points:
+                pts_body, n_lidar = _timed(timings, "lidar", lambda: self._lidar(scan, ego, ego_ok))
+                solid.append(pts_body)
         for frame in radar_frames:
             self._last_radar_t = max(self._last_radar_t, frame.stamp)
-            fin = np.all(np.isfinite(frame.xyz), axis=1)
-            pts = frame.xyz[fin]
-            n_radar += int(pts.shape[0])
-            solid.append(pts[:, :2])
-            if self.radar_tracker is not None:
-                frame_pose = _pose_at(poses, frame.stamp)
-                tracks_r = _timed(timings, "radar_track", lambda f=frame, p=frame_pose: self.radar_tracker.step(f, p))
-                if frame is radar_frames[-1]:
-                    tracks += tracks_r
-        if own is not None and tracks:
-            for tr in tracks:
-                if tr.confirmed:
-                    solid.append(world_to_body_2d(outline_points(tr.footprint()), own[0][:2], own[3]))
+            pts = _timed(timings, "radar", lambda f=frame: self._radar(f, ego, ego_ok))
+            n_radar += frame.n_points
+            solid.append(pts)
+
+        tracks = fuse_tracks(self._lidar_tracks, self._radar_tracks, s.fusion_gate_m)
+        own = _pose_now(ego, ego_ok, t)
+        if own is not None:
+            outlines = [outline_points(tr.footprint()) for tr in tracks if tr.confirmed]
+            if self.radar_tracker is not None and hasattr(self.radar_tracker, "shore_points"):
+                outlines.append(self.radar_tracker.shore_points())
+            outlines = [o for o in outlines if len(o)]
+            if outlines:
+                solid.append(world_to_body_2d(np.concatenate(outlines), own[0][:2], own[3]))
 
         lidar_fresh = t - self._last_lidar_t <= self.freshness_s
         radar_fresh = t - self._last_radar_t <= self.freshness_s
@@ -166,43 +168,64 @@ class PerceptionPipeline:
             distances_cm=distances,
             lidar_fresh=lidar_fresh,
             radar_fresh=radar_fresh,
+            ego_available=ego_ok,
             n_lidar_points=n_lidar,
             n_radar_points=n_radar,
             timings_ms=timings,
             solid_points_body=np.concatenate(solid) if solid else np.empty((0, 2)),
         )
 
-    _last_mask: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    # ---- LiDAR ----------------------------------------------------------------------------------------------
+    def _lidar(self, scan: LidarScan, ego: EgoSource | None, ego_ok: bool) -> tuple[np.ndarray, int]:
+        from tracker.lidar.preprocess import preprocess
 
-    def _lidar_solid_points(self, scan: LidarScan, poses: PoseLookup | None) -> np.ndarray:
-        roll = pitch = 0.0
-        p = _pose_at(poses, scan.stamp)
-        if p is not None:
-            roll, pitch = float(p[1]), float(p[2])
-        level = level_points(scan.xyz, roll, pitch)
-        mask = lidar_solid_mask(scan.xyz, level[:, 2], self.settings)
-        self._last_mask = mask
-        return scan.xyz[mask]
+        s = self.settings
+        if ego_ok:
+            assert ego is not None
+            pos, roll, pitch, yaw = ego.at_many(scan.t)
+            known = np.isfinite(yaw) & np.isfinite(pos).all(axis=1)
+        else:
+            pos, roll, pitch, yaw = IDENTITY
+            known = np.ones(scan.n_points, dtype=bool)
+        if not known.all():
+            # Pose lost (autopilot silent): obstacles still come from the body frame, tracking waits.
+            pos_b, roll_b, pitch_b, yaw_b = np.zeros(3), 0.0, 0.0, 0.0
+            pre = preprocess(scan.xyz, pos_b, roll_b, pitch_b, yaw_b, self.lidar_preprocess_config)
+            track_points = None
+            self.skipped_no_pose += 1
+        else:
+            pre = preprocess(scan.xyz, pos, roll, pitch, yaw, self.lidar_preprocess_config)
+            track_points = pre.points_world
+        body = scan.xyz[pre.keep]
+        r0, p0 = (float(np.nanmean(roll)), float(np.nanmean(pitch))) if ego_ok and known.any() else (0.0, 0.0)
+        above = level_z(body, r0, p0) < s.water_z_m - s.min_height_above_water_m
+        if self.lidar_tracker is not None and track_points is not None:
+            own = _pose_now(ego, ego_ok, scan.stamp)
+            own_pos, own_yaw = (own[0][:2], own[3]) if own is not None else (np.zeros(2), 0.0)
+            self._lidar_tracks = self.lidar_tracker.step(track_points, scan.stamp, own_pos, own_yaw)
+        return body[above][:, :2], int(above.sum())
+
+    # ---- radar ----------------------------------------------------------------------------------------------
+    def _radar(self, frame: RadarFrame, ego: EgoSource | None, ego_ok: bool) -> np.ndarray:
+        finite = np.all(np.isfinite(frame.xyz), axis=1)
+        if self.radar_tracker is None:
+            return frame.xyz[finite][:, :2]
+        pose = ego.at(frame.stamp) if ego_ok and ego is not None else None
+        if ego_ok and pose is None:
+            self.skipped_no_pose += 1
+            return frame.xyz[finite][:, :2]
+        self._radar_tracks = self.radar_tracker.step_frame(frame, pose)
+        last = getattr(self.radar_tracker, "last", None)
+        if last is None or not last.clusters:
+            return np.empty((0, 2))
+        # Returns that form clusters (vessels and shore alike); isolated returns are sea clutter or ghosts.
+        return np.concatenate([c.points_body[:, :2] for c in last.clusters])
 
 
-def _pose_at(poses: PoseLookup | None, t: float) -> tuple[np.ndarray, float, float, float] | None:
-    if poses is None:
+def _pose_now(ego: EgoSource | None, ego_ok: bool, t: float) -> tuple[np.ndarray, float, float, float] | None:
+    if not ego_ok or ego is None:
+        return IDENTITY
+    p = ego.at(t)
+    if p is None:
         return None
-    got = poses.at_many(np.array([t]))
-    if got is None:
-        return None
-    pos, roll, pitch, yaw = got
-    if not np.all(np.isfinite(pos[0])):
-        return None
-    return pos[0], float(roll[0]), float(pitch[0]), float(yaw[0])
-
-
-def _to_world(xyz_body: np.ndarray, times: np.ndarray, poses: PoseLookup | None) -> np.ndarray:
-    """Each point with the pose at its own firing time; without a pose the body frame at start is the world."""
-    if poses is None:
-        return xyz_body
-    got = poses.at_many(times)
-    if got is None:
-        return xyz_body
-    pos, roll, pitch, yaw = got
-    return body_to_world(xyz_body, pos, roll, pitch, yaw)
+    return np.asarray(p.position, float), p.roll, p.pitch, p.yaw

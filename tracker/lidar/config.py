@@ -58,6 +58,8 @@ class PreprocessConfig:
     spray_max_height: float = 0.6
     spray_radius: float = 0.5
     spray_min_neighbours: int = 3
+    # Within this horizontal range every return must have neighbours, whatever its height: bow spray flies (ours).
+    spray_near_range: float = 8.0
 
     def __post_init__(self) -> None:
         _positive(self, "max_range", "spray_radius")

@@ -76,12 +76,18 @@ def preprocess(
     in_height = (height >= cfg.min_height) & (height <= cfg.max_height)
     n_height = int(np.count_nonzero(~in_height))
 
-    low = in_height & (height < cfg.spray_max_height)
+    # Spray suspects: low returns anywhere, and any return near the boat, where a real hull gives dense returns
+    # (0.2 deg steps are centimetres apart at a few metres) but bow spray gives lone points in mid-air.
+    near = r2[idx] < cfg.spray_near_range**2
+    low = in_height & ((height < cfg.spray_max_height) | near)
     spray = np.zeros(idx.size, dtype=bool)
     if np.any(low):
-        # Neighbours among the kept returns low enough to be within reach (a low return next to a hull is hull),
+        # Neighbours among the kept returns within reach of a suspect (a low return next to a hull is hull),
         # counted without itself.
-        tree = cKDTree(world[in_height & (height < cfg.spray_max_height + cfg.spray_radius)])
+        reach = (height < cfg.spray_max_height + cfg.spray_radius) | (
+            r2[idx] < (cfg.spray_near_range + cfg.spray_radius) ** 2
+        )
+        tree = cKDTree(world[in_height & reach])
         counts = tree.query_ball_point(world[low], r=cfg.spray_radius, return_length=True) - 1
         spray[np.flatnonzero(low)] = counts < cfg.spray_min_neighbours
     n_spray = int(np.count_nonzero(spray))

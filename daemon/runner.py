@@ -1,0 +1,295 @@
+"""Wire a Config into a running daemon: sources, reader threads, autopilot link, pipeline, loop, signals.
+
+Start-up order matters for the crew: everything that can be wrong in the configuration (ports taken, radar refusing
+its cfg) is found BEFORE systemd is told READY=1, with an error that names the port or the cfg line.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import logging
+import math
+import signal
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+from daemon.buffers import BoundedQueue, LatestSlot
+from daemon.config import Config
+from daemon.ego import HistoryEgo
+from daemon.loop import DaemonLoop, LoopSettings, SensorInputs
+from daemon.readers import ReaderThread
+from daemon.sdnotify import SystemdNotifier
+from daemon.source_url import SourceUrl, parse_source_url
+from drivers.frames import LidarScan, RadarFrame
+from tracker.pipeline import PerceptionPipeline, PipelineSettings
+
+log = logging.getLogger(__name__)
+
+
+class StartupError(RuntimeError):
+    """The daemon cannot start as configured; the message says what to fix."""
+
+
+@dataclass
+class Sources:
+    lidar: Any | None = None
+    radar: Any | None = None
+    lidar_url: SourceUrl | None = None
+    radar_url: SourceUrl | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+def _speed(fast: bool) -> float | None:
+    return None if fast else 1.0
+
+
+def build_lidar_source(config: Config, fast: bool) -> tuple[Any, SourceUrl]:
+    c = config.lidar
+    url = parse_source_url(c.source, {"udp", "pcap"})
+    common = dict(
+        mount=c.mount.to_mount(),
+        cut_angle=math.radians(c.cut_angle_deg),
+        model=None if c.model == "auto" else c.model,
+        min_range_m=c.min_range_m,
+        max_range_m=c.max_range_m,
+    )
+    if url.scheme == "udp":
+        from drivers.vlp16.udp_source import VelodyneUdpSource
+
+        src = VelodyneUdpSource(
+            host=url.host,
+            port=url.port or 2368,
+            position_port=c.position_port,
+            accept_ip=c.accept_ip or None,
+            silence_timeout_s=c.silence_timeout_s,
+            **common,
+        )
+        src.open()  # a taken port fails here, before READY, naming the port
+        return src, url
+    from drivers.vlp16.pcap_source import VelodynePcapSource
+
+    return VelodynePcapSource(url.path, position_port=c.position_port, speed=_speed(fast), **common), url
+
+
+def build_radar_source(config: Config, fast: bool) -> tuple[Any, SourceUrl]:
+    c = config.radar
+    data = parse_source_url(c.data, {"serial", "file"})
+    profile = c.profile or None
+    if data.scheme == "file":
+        from drivers.awr1843.sources import FileRadarSource
+
+        return FileRadarSource(data.path, profile, c.mount.to_mount(), speed=_speed(fast)), data
+    from drivers.awr1843.sources import SerialRadarSource
+
+    cli = parse_source_url(c.cli, {"serial"}) if c.cli else None
+    src = SerialRadarSource(
+        cli.path if cli else "",
+        data.path,
+        profile or "",
+        c.mount.to_mount(),
+        cli_baudrate=int(cli.params.get("baud", 115200)) if cli else 115200,
+        data_baudrate=int(data.params.get("baud", 921600)),
+        configure=cli is not None,
+        silence_timeout_s=c.silence_timeout_s,
+    )
+    src.connect()  # the chirp cfg is sent now: an Error answer stops start-up with the cfg line named
+    return src, data
+
+
+def open_sources(config: Config, fast: bool) -> Sources:
+    out = Sources()
+    if config.lidar.enabled:
+        try:
+            out.lidar, out.lidar_url = build_lidar_source(config, fast)
+        except (OSError, ValueError) as exc:
+            raise StartupError(f"LiDAR ({config.lidar.source}): {exc}") from exc
+    if config.radar.enabled:
+        try:
+            out.radar, out.radar_url = build_radar_source(config, fast)
+        except Exception as exc:
+            if config.radar.required:
+                raise StartupError(f"radar: {exc}") from exc
+            note = f"radar failed to start, running LiDAR-only (radar.required = false): {exc}"
+            log.error(note)
+            out.notes.append(note)
+            out.radar = None
+    if out.lidar is None and out.radar is None:
+        raise StartupError("no sensor could be started (both disabled or failed)")
+    return out
+
+
+def pipeline_for(config: Config) -> PerceptionPipeline:
+    from tracker.adapters import tracker_factories
+
+    settings = PipelineSettings(
+        min_distance_m=config.output.min_distance_m,
+        max_distance_m=config.output.max_distance_m,
+        lidar_max_range_m=config.lidar.max_range_m,
+        min_height_above_water_m=config.output.min_height_above_water_m,
+        water_z_m=config.boat.water_z_m,
+        radar_fov_rad=math.radians(config.radar.fov_deg),
+        radar_yaw_rad=math.radians(config.radar.mount.yaw),
+        radar_max_range_m=config.radar.max_range_m,
+    )
+    lidar, radar, preprocess = tracker_factories(config)
+    return PerceptionPipeline(
+        settings,
+        lidar_tracker_factory=lidar,
+        radar_tracker_factory=radar,
+        lidar_preprocess_config=preprocess,
+        freshness_s=config.output.no_data_timeout_s,
+    )
+
+
+def _signing_key(passphrase: str) -> bytes | None:
+    # MAVProxy's convention: the 32-byte key is the SHA-256 of the passphrase.
+    return hashlib.sha256(passphrase.encode()).digest() if passphrase else None
+
+
+@dataclass
+class RunningDaemon:
+    """Everything a live daemon holds; ``stop()`` tears it down in reverse order within about a second."""
+
+    config: Config
+    loop: DaemonLoop
+    sources: Sources
+    link: Any
+    readers: list[ReaderThread[Any]]
+    stop_event: threading.Event
+    tracks_file: IO[str] | None = None
+
+    def stop(self) -> None:
+        self.stop_event.set()
+        for r in self.readers:
+            r.join(timeout=1.5)
+        if self.link is not None:
+            self.link.stop()
+        for src in (self.sources.lidar, self.sources.radar):
+            close = getattr(src, "close", None)
+            if close is not None:
+                with contextlib.suppress(Exception):
+                    close()
+        if self.tracks_file is not None:
+            self.tracks_file.close()
+            self.tracks_file = None
+
+
+def start_daemon(
+    config: Config,
+    fast: bool = False,
+    notifier: SystemdNotifier | None = None,
+    clock: Callable[[], float] = time.monotonic,
+) -> RunningDaemon:
+    """Open everything and start reader threads; the caller drives ``result.loop``."""
+    from daemon.autopilot import AutopilotLink
+
+    sources = open_sources(config, fast)
+    stop = threading.Event()
+    inputs = SensorInputs(LatestSlot[LidarScan](), BoundedQueue[RadarFrame](64))
+    m = config.mavlink
+    link = AutopilotLink(
+        m.url,
+        system_id=m.system_id,
+        component_id=m.component_id,
+        target_system=m.target_system,
+        baud=m.baud,
+        signing_key=_signing_key(m.signing_passphrase),
+        clock=clock,
+    )
+    link.start()
+    tracks_file = None
+    if config.output.tracks_out:
+        Path(config.output.tracks_out).parent.mkdir(parents=True, exist_ok=True)
+        tracks_file = open(config.output.tracks_out, "w", encoding="utf-8", buffering=1)  # noqa: SIM115
+    o = config.output
+    loop = DaemonLoop(
+        pipeline_for(config),
+        inputs,
+        link,
+        HistoryEgo(link.poses, lambda: link.world_epoch),
+        LoopSettings(
+            rate_hz=o.rate_hz,
+            min_distance_m=o.min_distance_m,
+            max_distance_m=o.max_distance_m,
+            no_data_timeout_s=o.no_data_timeout_s,
+            health_interval_s=o.health_interval_s,
+            lidar_expected=sources.lidar is not None,
+            radar_expected=sources.radar is not None,
+        ),
+        notifier=notifier,
+        tracks_out=tracks_file,
+        clock=clock,
+    )
+    readers: list[ReaderThread[Any]] = []
+    if sources.lidar is not None:
+        readers.append(ReaderThread("lidar", sources.lidar.scans, inputs.lidar.put, stop, clock))
+    if sources.radar is not None:
+        readers.append(ReaderThread("radar", _frames_of(sources.radar), inputs.radar.put, stop, clock))
+    for r in readers:
+        r.start()
+    loop.status_text = lambda: _source_status(sources, link)
+    return RunningDaemon(config, loop, sources, link, readers, stop, tracks_file)
+
+
+def _frames_of(radar: Any) -> Callable[[threading.Event], Iterator[RadarFrame]]:
+    return radar.frames
+
+
+def _source_status(sources: Sources, link: Any) -> str:
+    parts = []
+    if sources.lidar is not None and getattr(sources.lidar, "stats", None) is not None:
+        st = sources.lidar.stats
+        parts.append(f"lidar_wrong_size {getattr(st, 'wrong_size', 0)} lidar_missing {getattr(st, 'missing', 0)}")
+    if sources.radar is not None and getattr(sources.radar, "stats", None) is not None:
+        ps = getattr(sources.radar.stats, "parser", None)
+        if ps is not None:
+            parts.append(
+                f"radar_skipped_bytes {getattr(ps, 'bytes_skipped', 0)} radar_gaps {getattr(ps, 'frame_gaps', 0)}"
+            )
+    parts.append("autopilot " + ("up" if getattr(link, "connected", False) else "absent (no ego pose)"))
+    return " ".join(parts)
+
+
+def run_daemon(config: Config, fast: bool = False, duration_s: float | None = None) -> int:
+    """`usv-tracker run`: exit 0 on SIGTERM/SIGINT, 2 when start-up is impossible (systemd then restarts us)."""
+    notifier = SystemdNotifier()
+    from daemon.replay import is_replay, run_replay
+
+    if fast or is_replay(config):
+        try:
+            return run_replay(config, duration_s, fast=fast)
+        except (OSError, ValueError) as exc:
+            log.error("cannot replay: %s", exc)
+            return 2
+    try:
+        daemon = start_daemon(config, fast=False, notifier=notifier)
+    except StartupError as exc:
+        log.error("cannot start: %s", exc)
+        notifier.status(f"cannot start: {exc}"[:200])
+        return 2
+    stop = daemon.stop_event
+
+    def on_signal(signum: int, _frame: object) -> None:
+        log.info("%s received: stopping", signal.Signals(signum).name)
+        stop.set()
+
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
+    sensors = ", ".join(
+        n for n, s in (("LiDAR", daemon.sources.lidar), ("radar", daemon.sources.radar)) if s is not None
+    )
+    notifier.ready(f"tracking with {sensors}")
+    log.info("usv-tracker running: %s -> %s at %.0f Hz", sensors, config.mavlink.url, config.output.rate_hz)
+    try:
+        daemon.loop.run_live(stop, duration_s)
+    finally:
+        notifier.stopping()
+        daemon.stop()
+        for s, h in previous.items():
+            signal.signal(s, h)
+    log.info("stopped")
+    return 0

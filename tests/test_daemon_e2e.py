@@ -1,0 +1,206 @@
+"""The daemon end to end: the simulator plays VLP-16 (UDP), AWR1843 (ptys) and ArduPilot (MAVLink) on loopback, the
+real daemon runs against them, and the assertions are on what the simulated autopilot RECEIVED.
+
+Scene: the own boat lies still at the origin facing north; one 6 x 2.5 m box lies broadside 20 m away on the
+bearing 30 deg (starboard bow). Its near face is 20 - 1.25 = 18.75 m from the LiDAR.
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from daemon.config import Config
+from daemon.demo import config_for_simulation, free_udp_port, simulation_settings
+from daemon.runner import RunningDaemon, StartupError, start_daemon
+from simulator.autopilot import SimAutopilot
+from simulator.run import SimulationRun
+from simulator.scene import OwnBoat, Scene, Trajectory, Vessel
+
+BEARING = math.radians(30.0)
+NEAR_FACE_M = 18.75
+
+
+def one_box_scene() -> Scene:
+    centre = (20.0 * math.cos(BEARING), 20.0 * math.sin(BEARING))
+    box = Vessel("box", 6.0, 2.5, 1.5, Trajectory.stationary(centre, BEARING + math.pi / 2))
+    return Scene("one_box", OwnBoat(Trajectory.stationary((0.0, 0.0), 0.0)), [box], [], duration=60.0)
+
+
+@contextmanager
+def running(sim: SimulationRun, config: Config) -> Iterator[RunningDaemon]:
+    daemon = start_daemon(config)
+    thread = threading.Thread(target=daemon.loop.run_live, args=(daemon.stop_event,), daemon=True)
+    thread.start()
+    try:
+        yield daemon
+    finally:
+        daemon.stop_event.set()
+        thread.join(timeout=2.0)
+        daemon.stop()
+        assert not thread.is_alive()
+
+
+def wait_for(predicate, timeout: float = 5.0) -> bool:  # type: ignore[no-untyped-def]
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(0.02)
+    return False
+
+
+def test_obstacle_distance_reaches_autopilot_at_10_hz_with_the_vessel_in_its_bin() -> None:
+    with (
+        SimulationRun(simulation_settings("one_box"), scene=one_box_scene()) as sim,
+        running(sim, config_for_simulation(sim)),
+    ):
+        ap = sim.autopilot
+        assert ap is not None
+        assert wait_for(lambda: len(ap.obstacle_distances()) >= 10)
+        time.sleep(2.0)
+        msgs = ap.obstacle_distances()
+        recent = [m for m in msgs if m.host_time >= msgs[-1].host_time - 2.0]
+        assert 17 <= len(recent) <= 23  # 10 Hz over 2 s
+        last = msgs[-1]
+        assert (last.src_system, last.src_component) == (1, 196)
+        assert last.frame == 12 and last.increment_f == 5.0 and last.angle_offset == 0.0
+        assert (last.min_distance, last.max_distance) == (50, 10000)
+        d = np.asarray(last.distances)
+        # the near face, seen by the LiDAR (at the body origin): within 10 cm
+        assert abs(int(d[6]) - NEAR_FACE_M * 100) <= 10, d[4:9]
+        # the hull spans about +-9 deg around 30 deg: bins 4..8 are obstacles, all nearer than its far corners
+        assert np.all(d[4:9] < 2100), d[4:9]
+        # everything else is looked at and clear (the LiDAR covers all round)
+        clear = np.r_[0:3, 10:72]
+        assert np.all(d[clear] == 10001), d[clear]
+        assert ap.proximity_health() == "Good"
+
+
+def test_radar_only_leaves_uncovered_bearings_unknown() -> None:
+    settings = simulation_settings("one_box")
+    settings.lidar = False
+    with SimulationRun(settings, scene=one_box_scene()) as sim:
+        config = config_for_simulation(sim)
+        config.lidar.enabled = False
+        with running(sim, config):
+            ap = sim.autopilot
+            assert ap is not None
+            assert wait_for(lambda: len(ap.obstacle_distances()) >= 15, timeout=8.0)
+            d = np.asarray(ap.obstacle_distances()[-1].distances)
+            # the radar (fov 120 deg about the bow) covers bins 60..71 and 0..12
+            assert np.all(d[13:60] == 65535), d[13:60]
+            assert d[66] == 10001 and d[0] == 10001
+            # the box at 30 deg, seen by the radar 1.2 m forward of the body origin: a few radar points, all on
+            # the hull (noise 5 cm in range, 1 deg in azimuth)
+            obstacle_bins = np.flatnonzero(d <= 10000)
+            assert set(obstacle_bins) <= {4, 5, 6, 7, 8}, obstacle_bins
+            assert np.all(np.abs(d[obstacle_bins].astype(int) - 1800) <= 150), d[obstacle_bins]
+
+
+def test_silent_sensors_stop_the_output_and_it_comes_back() -> None:
+    settings = simulation_settings("one_box", radar=False)
+    with SimulationRun(settings, scene=one_box_scene()) as sim:
+        config = config_for_simulation(sim)
+        with running(sim, config):
+            ap = sim.autopilot
+            assert ap is not None
+            assert wait_for(lambda: len(ap.obstacle_distances()) >= 10)
+            sim.lidar_paused.set()
+            t_pause = time.monotonic()
+            time.sleep(1.5)
+            msgs = ap.obstacle_distances()
+            last_before = msgs[-1].host_time
+            # the last revolution ends <= 0.1 s after the pause; 0.5 s later the daemon must be silent
+            assert last_before - t_pause <= 0.75
+            n_silent = len(msgs)
+            time.sleep(1.0)
+            assert len(ap.obstacle_distances()) == n_silent  # nothing at all, not an all-unknown array
+            assert ap.proximity_health() == "NoData"
+            assert any("no sensor data" in s.text for s in ap.statustexts())
+            sim.lidar_paused.clear()
+            assert wait_for(lambda: len(ap.obstacle_distances()) >= n_silent + 5, timeout=3.0)
+            d = np.asarray(ap.obstacle_distances()[-1].distances)
+            assert abs(int(d[6]) - NEAR_FACE_M * 100) <= 10
+
+
+def test_autopilot_absent_at_start_connects_later() -> None:
+    settings = simulation_settings("one_box", radar=False)
+    settings.autopilot = False
+    with SimulationRun(settings, scene=one_box_scene()) as sim:
+        config = config_for_simulation(sim)
+        port = free_udp_port()
+        config.mavlink.url = f"udpout:127.0.0.1:{port}"
+        with running(sim, config) as daemon:
+            # no autopilot: the daemon tracks in the boat frame at start and still publishes
+            assert wait_for(lambda: daemon.loop.sent >= 10)
+            assert not daemon.link.connected
+            late = SimAutopilot(f"udpin:127.0.0.1:{port}", lambda t: sim.scene.own.pose(t - sim.t_start))
+            late.start()
+            try:
+                assert wait_for(lambda: len(late.obstacle_distances()) >= 5, timeout=5.0)
+                assert wait_for(lambda: daemon.link.connected, timeout=5.0)
+                assert wait_for(lambda: daemon.link.poses.latest() is not None, timeout=5.0)
+                assert any(h.src_component == 196 and h.type == 18 for h in late.heartbeats())
+            finally:
+                late.stop()
+
+
+def test_run_with_a_bad_config_names_the_key(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[output]\nmax_distance_m = "far"\n')
+    res = subprocess.run(
+        [sys.executable, "-m", "daemon.cli", "run", "--config", str(bad)], capture_output=True, text=True, timeout=60
+    )
+    assert res.returncode == 2
+    assert "output.max_distance_m: expected a number, got 'far'" in res.stderr
+
+
+def test_lidar_port_taken_fails_before_ready() -> None:
+    settings = simulation_settings("one_box", radar=False)
+    settings.autopilot = False
+    with SimulationRun(settings, scene=one_box_scene()) as sim:
+        config = config_for_simulation(sim)
+        import socket
+
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as squatter:
+            squatter.bind(("127.0.0.1", sim.settings.lidar_port))
+            with pytest.raises(StartupError, match=str(sim.settings.lidar_port)):
+                start_daemon(config)
+
+
+def test_radar_cli_error_stops_startup_naming_the_line_when_required() -> None:
+    settings = simulation_settings("one_box")
+    settings.autopilot = False
+    with SimulationRun(settings, scene=one_box_scene(), radar_failing_lines={"channelCfg": -1}) as sim:
+        config = config_for_simulation(sim)
+        config.radar.required = True
+        with pytest.raises(StartupError) as err:
+            start_daemon(config)
+        message = str(err.value)
+        assert "cfg line 13: 'channelCfg 15 5 0'" in message and "Error -1" in message
+
+
+def test_radar_cli_error_runs_lidar_only_when_not_required() -> None:
+    with SimulationRun(
+        simulation_settings("one_box"), scene=one_box_scene(), radar_failing_lines={"channelCfg": -1}
+    ) as sim:
+        config = config_for_simulation(sim)
+        config.radar.required = False
+        with running(sim, config) as daemon:
+            assert daemon.sources.radar is None
+            assert any("LiDAR-only" in note for note in daemon.sources.notes)
+            ap = sim.autopilot
+            assert ap is not None
+            assert wait_for(lambda: len(ap.obstacle_distances()) >= 5)
+            d = np.asarray(ap.obstacle_distances()[-1].distances)
+            assert abs(int(d[6]) - NEAR_FACE_M * 100) <= 10
