@@ -28,7 +28,8 @@ log = logging.getLogger(__name__)
 
 MAV_DISTANCE_SENSOR_LASER = 0
 MAV_STATE_ACTIVE = 4
-MAV_STATE_CRITICAL = 5
+MAV_STATE_CRITICAL = 5  # degraded: one of the expected sensors is down
+MAV_STATE_EMERGENCY = 6  # no sensor at all: no obstacle output
 MAV_SEVERITY_WARNING = 4
 MAV_SEVERITY_INFO = 6
 
@@ -90,6 +91,7 @@ class DaemonLoop:
         self.sent = 0
         self.withheld = 0
         self._publishing: bool | None = None
+        self._sensor_state: dict[str, bool] = {}
         self._last_health = -math.inf
         self._rates = {"lidar": RateCounter(), "radar": RateCounter(), "sent": RateCounter()}
         self.last_output: PerceptionOutput | None = None
@@ -114,6 +116,7 @@ class DaemonLoop:
 
     def _publish(self, out: PerceptionOutput) -> None:
         has_data = out.lidar_fresh or out.radar_fresh
+        self._check_sensors(out)
         if has_data != self._publishing:
             self._on_data_state_change(has_data)
         if has_data:
@@ -134,6 +137,34 @@ class DaemonLoop:
         if self.tracks_out is not None:
             self.tracks_out.write(json.dumps(tick_record(out, sent=has_data), separators=(",", ":")) + "\n")
 
+    def _check_sensors(self, out: PerceptionOutput) -> None:
+        """Per-sensor up/down transitions: a log line and a STATUSTEXT each, and the heartbeat's system_status."""
+        state = {}
+        if self.s.lidar_expected:
+            state["LiDAR"] = out.lidar_fresh
+        if self.s.radar_expected:
+            state["radar"] = out.radar_fresh
+        if state == self._sensor_state:
+            return
+        for name, ok in state.items():
+            was = self._sensor_state.get(name)
+            if was is None and ok:
+                continue
+            if was is None or was != ok:
+                if ok:
+                    log.info("%s delivering again", name)
+                    self._statustext(MAV_SEVERITY_INFO, f"usv-tracker: {name} back")
+                else:
+                    log.error(
+                        "%s silent for more than %.1f s: its bearings are reported unknown",
+                        name,
+                        self.s.no_data_timeout_s,
+                    )
+                    self._statustext(MAV_SEVERITY_WARNING, f"usv-tracker: {name} silent")
+        self._sensor_state = state
+        up = sum(state.values())
+        self._set_status(MAV_STATE_ACTIVE if up == len(state) else MAV_STATE_CRITICAL if up else MAV_STATE_EMERGENCY)
+
     def _on_data_state_change(self, has_data: bool) -> None:
         first = self._publishing is None
         self._publishing = has_data
@@ -141,14 +172,12 @@ class DaemonLoop:
             if not first:
                 log.info("sensor data is back: sending OBSTACLE_DISTANCE again")
                 self._statustext(MAV_SEVERITY_INFO, "usv-tracker: sensor data back")
-            self._set_status(MAV_STATE_ACTIVE)
         else:
             log.error(
                 "no sensor has delivered for %.1f s: OBSTACLE_DISTANCE withheld so the autopilot reports No Data",
                 self.s.no_data_timeout_s,
             )
             self._statustext(MAV_SEVERITY_WARNING, "usv-tracker: no sensor data, obstacle output stopped")
-            self._set_status(MAV_STATE_CRITICAL)
 
     def _statustext(self, severity: int, text: str) -> None:
         if self.publisher is not None:

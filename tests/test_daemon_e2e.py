@@ -127,8 +127,12 @@ def test_silent_sensors_stop_the_output_and_it_comes_back() -> None:
             assert len(ap.obstacle_distances()) == n_silent  # nothing at all, not an all-unknown array
             assert ap.proximity_health() == "NoData"
             assert any("no sensor data" in s.text for s in ap.statustexts())
+            assert any("LiDAR silent" in s.text for s in ap.statustexts())
+            ours = [h for h in ap.heartbeats() if h.src_component == 196]
+            assert ours[-1].system_status == 6  # MAV_STATE_EMERGENCY: no sensor at all
             sim.lidar_paused.clear()
             assert wait_for(lambda: len(ap.obstacle_distances()) >= n_silent + 5, timeout=3.0)
+            assert wait_for(lambda: [h for h in ap.heartbeats() if h.src_component == 196][-1].system_status == 4)
             d = np.asarray(ap.obstacle_distances()[-1].distances)
             assert abs(int(d[6]) - NEAR_FACE_M * 100) <= 10
 
