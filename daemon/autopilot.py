@@ -124,6 +124,7 @@ class AutopilotLink:
         self._unix_anchor: tuple[int, float] | None = None  # (autopilot unix us, host monotonic s)
         self._timesync_resets_seen = self.timesync.resets
         self._scan_id_3d = 0
+        self.raw_sink: Callable[[Any], None] | None = None  # every message received (the recorder's .tlog)
         self._statustext_id = 0
 
     # ------------------------------------------------------------------ life cycle
@@ -443,6 +444,8 @@ class AutopilotLink:
     # ------------------------------------------------------------------ message handling
     def _handle_safely(self, msg: Any) -> None:
         """A message our handlers choke on is counted and dropped; it must not look like a dead link."""
+        if self.raw_sink is not None and msg.get_type() != "BAD_DATA":
+            self.raw_sink(msg)
         try:
             self._handle(msg, self.clock())
         except Exception as exc:

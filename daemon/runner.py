@@ -135,6 +135,7 @@ def pipeline_for(config: Config) -> PerceptionPipeline:
         radar_fov_rad=math.radians(config.radar.fov_deg),
         radar_yaw_rad=math.radians(config.radar.mount.yaw),
         radar_max_range_m=config.radar.max_range_m,
+        lidar_mount=config.lidar.mount.to_mount(),
     )
     lidar, radar, preprocess = tracker_factories(config)
     return PerceptionPipeline(
@@ -162,6 +163,7 @@ class RunningDaemon:
     readers: list[ReaderThread[Any]]
     stop_event: threading.Event
     tracks_file: IO[str] | None = None
+    recorder: Any = None
 
     def stop(self) -> None:
         self.stop_event.set()
@@ -169,6 +171,9 @@ class RunningDaemon:
             r.join(timeout=1.5)
         if self.link is not None:
             self.link.stop()
+        if self.recorder is not None:
+            self.recorder.close()
+            self.recorder = None
         for src in (self.sources.lidar, self.sources.radar):
             close = getattr(src, "close", None)
             if close is not None:
@@ -201,6 +206,13 @@ def start_daemon(
         signing_key=_signing_key(m.signing_passphrase),
         clock=clock,
     )
+    recorder = None
+    if config.output.record_dir:
+        from daemon.recorder import Recorder
+
+        run_dir = Path(config.output.record_dir) / time.strftime("%Y%m%d-%H%M%S")
+        recorder = Recorder(run_dir)
+        recorder.attach(sources.lidar, sources.radar, link, config.radar.profile)
     link.start()
     tracks_file = None
     if config.output.tracks_out:
@@ -233,7 +245,7 @@ def start_daemon(
     for r in readers:
         r.start()
     loop.status_text = lambda: _source_status(sources, link)
-    return RunningDaemon(config, loop, sources, link, readers, stop, tracks_file)
+    return RunningDaemon(config, loop, sources, link, readers, stop, tracks_file, recorder)
 
 
 def _frames_of(radar: Any) -> Callable[[threading.Event], Iterator[RadarFrame]]:

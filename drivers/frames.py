@@ -5,6 +5,7 @@ All geometry is in the body frame (FRD, metres) once it leaves a driver; all tim
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -29,6 +30,11 @@ class LidarScan:
     return_mode: str = "strongest"  # strongest | last | dual
     model: str = "VLP16"
     pps_locked: bool = False
+    # Sensor azimuths (rad, clockwise from the sensor's forward) swept by the firings in this scan: start and the
+    # sweep's extent (2*pi for a whole revolution). A partial scan (stream start, stall, loss) only vouches for
+    # "nothing there" within its sweep.
+    sweep_start: float = 0.0
+    sweep_extent: float = 2 * math.pi
 
     @property
     def n_points(self) -> int:

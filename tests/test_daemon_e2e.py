@@ -28,6 +28,8 @@ from simulator.scene import OwnBoat, Scene, Trajectory, Vessel
 
 BEARING = math.radians(30.0)
 NEAR_FACE_M = 18.75
+# The bin holds the NEAREST of ~100 returns on the face, each with 2 cm range noise: 5-8 cm short of the face.
+NEAR_TOL_CM = 15
 
 
 def one_box_scene() -> Scene:
@@ -76,8 +78,8 @@ def test_obstacle_distance_reaches_autopilot_at_10_hz_with_the_vessel_in_its_bin
         assert last.frame == 12 and last.increment_f == 5.0 and last.angle_offset == 0.0
         assert (last.min_distance, last.max_distance) == (50, 10000)
         d = np.asarray(last.distances)
-        # the near face, seen by the LiDAR (at the body origin): within 10 cm
-        assert abs(int(d[6]) - NEAR_FACE_M * 100) <= 10, d[4:9]
+        # the near face, seen by the LiDAR (at the body origin)
+        assert abs(int(d[6]) - NEAR_FACE_M * 100) <= NEAR_TOL_CM, d[4:9]
         # the hull spans about +-9 deg around 30 deg: bins 4..8 are obstacles, all nearer than its far corners
         assert np.all(d[4:9] < 2100), d[4:9]
         # everything else is looked at and clear (the LiDAR covers all round)
@@ -134,7 +136,7 @@ def test_silent_sensors_stop_the_output_and_it_comes_back() -> None:
             assert wait_for(lambda: len(ap.obstacle_distances()) >= n_silent + 5, timeout=3.0)
             assert wait_for(lambda: [h for h in ap.heartbeats() if h.src_component == 196][-1].system_status == 4)
             d = np.asarray(ap.obstacle_distances()[-1].distances)
-            assert abs(int(d[6]) - NEAR_FACE_M * 100) <= 10
+            assert abs(int(d[6]) - NEAR_FACE_M * 100) <= NEAR_TOL_CM
 
 
 def test_autopilot_absent_at_start_connects_later() -> None:
@@ -207,4 +209,4 @@ def test_radar_cli_error_runs_lidar_only_when_not_required() -> None:
             assert ap is not None
             assert wait_for(lambda: len(ap.obstacle_distances()) >= 5)
             d = np.asarray(ap.obstacle_distances()[-1].distances)
-            assert abs(int(d[6]) - NEAR_FACE_M * 100) <= 10
+            assert abs(int(d[6]) - NEAR_FACE_M * 100) <= NEAR_TOL_CM

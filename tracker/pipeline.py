@@ -19,6 +19,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from drivers.frames import EgoPose, LidarScan, RadarFrame
+from drivers.mount import Mount
 from tracker.ego import rotation_matrices, world_to_body_2d
 from tracker.fusion import fuse_tracks
 from tracker.obstacle_map import SensorCoverage, build_obstacle_distances, outline_points
@@ -55,6 +56,7 @@ class PipelineSettings:
     radar_yaw_rad: float = 0.0
     radar_max_range_m: float = 50.0
     fusion_gate_m: float = 3.0
+    lidar_mount: Mount = field(default_factory=Mount)
 
 
 @dataclass
@@ -100,6 +102,9 @@ class PerceptionPipeline:
     def __post_init__(self) -> None:
         self._last_lidar_t = -np.inf
         self._last_radar_t = -np.inf
+        self._lidar_coverage = SensorCoverage(0.0, 2 * np.pi, self.settings.lidar_max_range_m)
+        self._lidar_solid = np.empty((0, 2))  # newest revolution's solid returns, body (fwd, stbd)
+        self._radar_solid = np.empty((0, 2))  # newest radar frame's solid returns
         self._epoch: int | None = None
         self.lidar_tracker = self.lidar_tracker_factory() if self.lidar_tracker_factory else None
         self.radar_tracker = self.radar_tracker_factory() if self.radar_tracker_factory else None
@@ -131,30 +136,42 @@ class PerceptionPipeline:
 
         if scan is not None:
             self._last_lidar_t = max(self._last_lidar_t, scan.stamp)
+            self._lidar_coverage = lidar_coverage(scan, s)
+            self._lidar_solid = np.empty((0, 2))
             if scan.n_points:
-                pts_body, n_lidar = _timed(timings, "lidar", lambda: self._lidar(scan, ego, ego_ok))
-                solid.append(pts_body)
+                self._lidar_solid, n_lidar = _timed(timings, "lidar", lambda: self._lidar(scan, ego, ego_ok))
         for frame in radar_frames:
             self._last_radar_t = max(self._last_radar_t, frame.stamp)
-            pts = _timed(timings, "radar", lambda f=frame: self._radar(f, ego, ego_ok))
+            self._radar_solid = _timed(timings, "radar", lambda f=frame: self._radar(f, ego, ego_ok))
             n_radar += frame.n_points
-            solid.append(pts)
+        # A tick with no new revolution (10 Hz sensor, 10 Hz loop: jitter) still reports what the newest one saw;
+        # the returns are dropped with the sensor's freshness, never reused beyond it.
+        lidar_fresh = t - self._last_lidar_t <= self.freshness_s
+        radar_fresh = t - self._last_radar_t <= self.freshness_s
+        if lidar_fresh:
+            solid.append(self._lidar_solid)
+        if radar_fresh:
+            solid.append(self._radar_solid)
 
         tracks = fuse_tracks(self._lidar_tracks, self._radar_tracks, s.fusion_gate_m)
         own = _pose_now(ego, ego_ok, t)
         if own is not None:
-            outlines = [outline_points(tr.footprint()) for tr in tracks if tr.confirmed]
+            # Returns measured this cycle are the truth about a hull; an estimated outline is only added where the
+            # sensors did not see the track this cycle (coasting through an occlusion) or saw it sparsely (radar).
+            outlines = [
+                outline_points(tr.footprint())
+                for tr in tracks
+                if tr.confirmed and (tr.time_since_update > 0 or tr.source == "radar")
+            ]
             if self.radar_tracker is not None and hasattr(self.radar_tracker, "shore_points"):
                 outlines.append(self.radar_tracker.shore_points())
             outlines = [o for o in outlines if len(o)]
             if outlines:
                 solid.append(world_to_body_2d(np.concatenate(outlines), own[0][:2], own[3]))
 
-        lidar_fresh = t - self._last_lidar_t <= self.freshness_s
-        radar_fresh = t - self._last_radar_t <= self.freshness_s
         coverages = []
         if lidar_fresh:
-            coverages.append(SensorCoverage(0.0, 2 * np.pi, s.lidar_max_range_m))
+            coverages.append(self._lidar_coverage)
         if radar_fresh:
             coverages.append(SensorCoverage(s.radar_yaw_rad, s.radar_fov_rad, s.radar_max_range_m))
         distances = _timed(
@@ -220,6 +237,16 @@ class PerceptionPipeline:
             return np.empty((0, 2))
         # Returns that form clusters (vessels and shore alike); isolated returns are sea clutter or ghosts.
         return np.concatenate([c.points_body[:, :2] for c in last.clusters])
+
+
+def lidar_coverage(scan: LidarScan, s: PipelineSettings) -> SensorCoverage:
+    """The body-frame wedge a scan's firings swept (sensor azimuth is clockwise from the sensor's forward)."""
+    if scan.sweep_extent >= 2 * np.pi - 1e-6:
+        return SensorCoverage(0.0, 2 * np.pi, s.lidar_max_range_m)
+    mid = scan.sweep_start + scan.sweep_extent / 2
+    # sensor FLU direction (cos a, -sin a, 0) is (cos a, sin a, 0) in sensor-FRD; the mount turns it into the body
+    direction = s.lidar_mount.rotate_sensor_frd_to_body(np.array([np.cos(mid), np.sin(mid), 0.0]))
+    return SensorCoverage(float(np.arctan2(direction[1], direction[0])), scan.sweep_extent, s.lidar_max_range_m)
 
 
 def _pose_now(ego: EgoSource | None, ego_ok: bool, t: float) -> tuple[np.ndarray, float, float, float] | None:

@@ -113,6 +113,8 @@ class SerialRadarSource:
         self.parser = RadarFrameParser(self.profile, self.mount)
         self.stats = SourceStats(parser=self.parser.stats)
         self._data: serial.Serial | None = None
+        # Called with every chunk read from the data port, before parsing (the recorder keeps the raw bytes).
+        self.raw_sink: Callable[[bytes], None] | None = None
 
     @property
     def silent(self) -> bool:
@@ -215,6 +217,8 @@ class SerialRadarSource:
                 last_frame = self.clock()
                 continue
             now = self.clock()
+            if data and self.raw_sink is not None:
+                self.raw_sink(data)
             frames = self.parser.feed(data, now) if data else []
             for frame in frames:
                 if self.stats.silent:

@@ -436,6 +436,26 @@ class ScanAssembler:
         azimuth = np.rint(np.degrees(np.arctan2(-y, x)) * 100.0).astype(np.int64)
         return (azimuth - self._cut_cdeg) % AZIMUTH_UNITS
 
+    def _sweep(self, rev: _Revolution, packets: list[_Packet]) -> tuple[float, float]:
+        """Sensor azimuths this scan's firings swept: (start, extent), radians clockwise from sensor forward.
+
+        Block azimuths bound the sweep; a straddling packet cut at ``cut_angle`` contributes up to the cut only,
+        and the last block's firings reach about one block step further.
+        """
+        first, last = packets[0].header, packets[-1].header
+        step = ((last.last_azimuth_cdeg - last.first_azimuth_cdeg) % AZIMUTH_UNITS) / 11.0  # per block
+        start = first.first_azimuth_cdeg
+        end = last.last_azimuth_cdeg + step
+        if self._cut_cdeg is not None:
+            if rev.head is not None:
+                start = self._cut_cdeg
+            if rev.tail is not None:
+                end = self._cut_cdeg
+        extent = (end - start) % AZIMUTH_UNITS
+        if extent == 0 or (rev.head is not None and rev.tail is not None) or len(packets) * 12 * step >= AZIMUTH_UNITS:
+            extent = AZIMUTH_UNITS
+        return math.radians(start / 100.0), math.radians(min(extent, AZIMUTH_UNITS) / 100.0)
+
     def _build_scan(self, rev: _Revolution) -> LidarScan | None:
         packets = rev.all_packets()
         if not packets:
@@ -467,6 +487,7 @@ class ScanAssembler:
         else:
             points = np.zeros((0, 8), dtype=np.float32)
             device_t = np.zeros(0)
+        sweep_start, sweep_extent = self._sweep(rev, packets)
         last = packets[-1]
         if device_t.size:
             stamp_device = float(device_t.max())
@@ -488,6 +509,8 @@ class ScanAssembler:
             return_mode=RETURN_MODE_NAMES.get(last.header.return_mode, "unknown"),
             model=model,
             pps_locked=self.pps_locked,
+            sweep_start=sweep_start,
+            sweep_extent=sweep_extent,
         )
         self.stats.scans += 1
         self.stats.points += scan.n_points

@@ -135,6 +135,9 @@ class VelodyneUdpSource:
         self._silent_since: float = 0.0
         self._last_silence_log: float | None = None
         self.polls = 0  # wake-ups of the reader loop (a health counter; lets tests step an injected clock)
+        # Called with (dst_port, payload, src_ip) for every datagram received on either port, before any check:
+        # the recorder keeps the raw stream, bad packets included, so a replay meets what the daemon met.
+        self.raw_sink: Callable[[int, bytes, str], None] | None = None
 
     # --- sockets ------------------------------------------------------------------------------------------
     @property
@@ -232,6 +235,8 @@ class VelodyneUdpSource:
             except (BlockingIOError, InterruptedError):
                 return
             now = self.clock()
+            if self.raw_sink is not None:
+                self.raw_sink(self.port, bytes(view[:n]), address[0])
             if not self._accepted(address):
                 continue
             if n != DATA_PACKET_SIZE:
@@ -255,6 +260,8 @@ class VelodyneUdpSource:
                 n, address = sock.recvfrom_into(self._buffer)
             except (BlockingIOError, InterruptedError):
                 return
+            if self.raw_sink is not None and self.position_port is not None:
+                self.raw_sink(self.position_port, bytes(self._buffer[:n]), address[0])
             if self._accepted(address):
                 self.stats.take_position(self.clock(), bytes(self._buffer[:n]), self.assembler)
 
