@@ -13,7 +13,6 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from tracker.ego import body_to_world
 from tracker.lidar.config import PreprocessConfig
@@ -30,6 +29,36 @@ class PreprocessResult:
     n_own_boat: int = 0
     n_height: int = 0  # outside [min_height, max_height] above the water
     n_spray: int = 0  # low and isolated: water surface or spray
+
+
+_OFFSETS = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)], dtype=np.int64)
+
+
+def neighbour_counts(points: np.ndarray, queries: np.ndarray, radius: float) -> np.ndarray:
+    """For each query point (itself among ``points``), how many OTHER points lie in the 3 x 3 x 3 block of cubes of
+    side ``radius`` around its cube: a box of about 1.5 x radius either way, counted with sorts, not a tree walk.
+
+    A k-d tree ball query costs per neighbour: a wall 5 m away gives every return hundreds of neighbours within
+    0.5 m and 29k queries took 150 ms. Counting cube occupancy costs per cube, whatever the density.
+    """
+    if points.shape[0] == 0 or queries.shape[0] == 0:
+        return np.zeros(queries.shape[0], dtype=np.int64)
+    origin = points.min(axis=0) - 2 * radius
+    cells = np.floor((points - origin) / radius).astype(np.int64)
+    span = cells.max(axis=0) + 3
+    keys = (cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]
+    uniq, count = np.unique(keys, return_counts=True)
+    # Work per occupied query cube, not per query point: dense surfaces put dozens of returns in one cube.
+    qc = np.floor((queries - origin) / radius).astype(np.int64)
+    q_keys, q_inverse = np.unique((qc[:, 0] * span[1] + qc[:, 1]) * span[2] + qc[:, 2], return_inverse=True)
+    q = np.stack([q_keys // (span[1] * span[2]), (q_keys // span[2]) % span[1], q_keys % span[2]], axis=1)
+    cube_total = np.zeros(q.shape[0], dtype=np.int64)
+    for di, dj, dk in _OFFSETS:
+        nk = ((q[:, 0] + di) * span[1] + (q[:, 1] + dj)) * span[2] + (q[:, 2] + dk)
+        pos = np.minimum(np.searchsorted(uniq, nk), uniq.size - 1)
+        cube_total += np.where(uniq[pos] == nk, count[pos], 0)
+    total = cube_total[q_inverse.ravel()]
+    return total - 1
 
 
 def preprocess(
@@ -84,11 +113,11 @@ def preprocess(
     if np.any(low):
         # Neighbours among the kept returns within reach of a suspect (a low return next to a hull is hull),
         # counted without itself.
-        reach = (height < cfg.spray_max_height + cfg.spray_radius) | (
-            r2[idx] < (cfg.spray_near_range + cfg.spray_radius) ** 2
+        reach = in_height & (
+            (height < cfg.spray_max_height + cfg.spray_radius)
+            | (r2[idx] < (cfg.spray_near_range + cfg.spray_radius) ** 2)
         )
-        tree = cKDTree(world[in_height & reach])
-        counts = tree.query_ball_point(world[low], r=cfg.spray_radius, return_length=True) - 1
+        counts = neighbour_counts(world[reach], world[low], cfg.spray_radius)
         spray[np.flatnonzero(low)] = counts < cfg.spray_min_neighbours
     n_spray = int(np.count_nonzero(spray))
 
