@@ -30,6 +30,7 @@ MAV_DISTANCE_SENSOR_LASER = 0
 MAV_STATE_ACTIVE = 4
 MAV_STATE_CRITICAL = 5  # degraded: one of the expected sensors is down
 MAV_STATE_EMERGENCY = 6  # no sensor at all: no obstacle output
+STARTUP_GRACE_S = 3.0  # a sensor not heard from yet is only reported silent after this
 MAV_SEVERITY_WARNING = 4
 MAV_SEVERITY_INFO = 6
 
@@ -92,6 +93,8 @@ class DaemonLoop:
         self.withheld = 0
         self._publishing: bool | None = None
         self._sensor_state: dict[str, bool] = {}
+        self._status: int | None = None
+        self._first_tick: float | None = None
         self._last_health = -math.inf
         self._rates = {"lidar": RateCounter(), "radar": RateCounter(), "sent": RateCounter()}
         self.last_output: PerceptionOutput | None = None
@@ -138,19 +141,28 @@ class DaemonLoop:
             self.tracks_out.write(json.dumps(tick_record(out, sent=has_data), separators=(",", ":")) + "\n")
 
     def _check_sensors(self, out: PerceptionOutput) -> None:
-        """Per-sensor up/down transitions: a log line and a STATUSTEXT each, and the heartbeat's system_status."""
-        state = {}
+        """Per-sensor up/down transitions: a log line and a STATUSTEXT each, and the heartbeat's system_status.
+
+        A sensor not heard from yet is not "down" during the first STARTUP_GRACE_S: a radar takes a second or two to
+        deliver after its cfg is accepted.
+        """
+        if self._first_tick is None:
+            self._first_tick = out.t
+        in_grace = out.t - self._first_tick < STARTUP_GRACE_S
+        fresh = {}
         if self.s.lidar_expected:
-            state["LiDAR"] = out.lidar_fresh
+            fresh["LiDAR"] = out.lidar_fresh
         if self.s.radar_expected:
-            state["radar"] = out.radar_fresh
-        if state == self._sensor_state:
-            return
-        for name, ok in state.items():
+            fresh["radar"] = out.radar_fresh
+        for name, ok in fresh.items():
             was = self._sensor_state.get(name)
-            if was is None and ok:
+            if was is None and not ok and in_grace:
                 continue
-            if was is None or was != ok:
+            if was is None and ok:
+                self._sensor_state[name] = True
+                continue
+            if was != ok:
+                self._sensor_state[name] = ok
                 if ok:
                     log.info("%s delivering again", name)
                     self._statustext(MAV_SEVERITY_INFO, f"usv-tracker: {name} back")
@@ -161,9 +173,11 @@ class DaemonLoop:
                         self.s.no_data_timeout_s,
                     )
                     self._statustext(MAV_SEVERITY_WARNING, f"usv-tracker: {name} silent")
-        self._sensor_state = state
-        up = sum(state.values())
-        self._set_status(MAV_STATE_ACTIVE if up == len(state) else MAV_STATE_CRITICAL if up else MAV_STATE_EMERGENCY)
+        up = sum(1 for ok in fresh.values() if ok)
+        status = MAV_STATE_ACTIVE if up == len(fresh) else MAV_STATE_CRITICAL if up else MAV_STATE_EMERGENCY
+        if status != self._status:
+            self._status = status
+            self._set_status(status)
 
     def _on_data_state_change(self, has_data: bool) -> None:
         first = self._publishing is None

@@ -56,6 +56,8 @@ class PipelineSettings:
     radar_yaw_rad: float = 0.0
     radar_max_range_m: float = 50.0
     fusion_gate_m: float = 3.0
+    # A hull hidden behind another stays an obstacle this long; beyond it a prediction is a guess, not an obstacle.
+    coast_outline_s: float = 1.0
     lidar_mount: Mount = field(default_factory=Mount)
 
 
@@ -161,7 +163,7 @@ class PerceptionPipeline:
             outlines = [
                 outline_points(tr.footprint())
                 for tr in tracks
-                if tr.confirmed and (tr.time_since_update > 0 or tr.source == "radar")
+                if tr.confirmed and (0 < tr.time_since_update <= s.coast_outline_s or tr.source == "radar")
             ]
             if self.radar_tracker is not None and hasattr(self.radar_tracker, "shore_points"):
                 outlines.append(self.radar_tracker.shore_points())
