@@ -112,6 +112,7 @@ class VelodyneUdpSource:
         silence_timeout_s: float = 2.0,
         rcvbuf_bytes: int = RCVBUF_BYTES,
         poll_s: float = 0.1,
+        batch_s: float = 0.01,
         clock: Callable[[], float] = time.monotonic,
         wall_clock: Callable[[], float] = time.time,
     ) -> None:
@@ -122,6 +123,10 @@ class VelodyneUdpSource:
         self.silence_timeout_s = silence_timeout_s
         self.rcvbuf_bytes = rcvbuf_bytes
         self.poll_s = poll_s
+        # After draining the socket, let packets gather for this long before the next wake-up: one wake per
+        # ~8 packets instead of one per packet cuts the reader's CPU by more than half on a Pi, for at most 10 ms
+        # of extra latency on a 100 ms revolution. The 4 MB+ socket buffer holds seconds of packets.
+        self.batch_s = batch_s
         self.clock = clock
         self.wall_clock = wall_clock
         self.assembler = ScanAssembler(
@@ -216,6 +221,8 @@ class VelodyneUdpSource:
                 self.stats.position_stale(now, self.silence_timeout_s, self.assembler)
                 self._check_silence(now)
                 self.polls += 1
+                if self.batch_s > 0:
+                    stop.wait(self.batch_s)
         finally:
             selector.close()
             self.close()
