@@ -216,7 +216,8 @@ class DaemonLoop:
             f"lidar {self._rates['lidar'].rate(li.received, t):.1f}/s (dropped {li.dropped}) "
             f"radar {self._rates['radar'].rate(ra.received, t):.1f}/s (dropped {ra.dropped}) "
             f"sent {self._rates['sent'].rate(self.sent, t):.1f}/s withheld {self.withheld} "
-            f"cycle p50 {p50:.1f} ms p99 {p99:.1f} ms misses {self.stats.deadline_misses} tracks {n_tracks}"
+            f"cycle p50 {p50:.1f} ms p99 {p99:.1f} ms misses {self.stats.deadline_misses} tracks {n_tracks} "
+            "(stage p50 " + " ".join(f"{k} {v:.1f}" for k, v in self.stats.stage_p50().items()) + " ms)"
         )
         if self.status_text is not None:
             line += " " + self.status_text()
