@@ -72,7 +72,7 @@ def test_obstacle_distance_reaches_autopilot_at_10_hz_with_the_vessel_in_its_bin
         time.sleep(2.0)
         msgs = ap.obstacle_distances()
         recent = [m for m in msgs if m.host_time >= msgs[-1].host_time - 2.0]
-        assert 17 <= len(recent) <= 23  # 10 Hz over 2 s
+        assert 15 <= len(recent) <= 25, len(recent)  # 10 Hz over 2 s (a loaded CI machine may slip a tick)
         last = msgs[-1]
         assert (last.src_system, last.src_component) == (1, 196)
         assert last.frame == 12 and last.increment_f == 5.0 and last.angle_offset == 0.0
