@@ -84,7 +84,7 @@ def test_obstacle_distance_reaches_autopilot_at_10_hz_with_the_vessel_in_its_bin
         assert np.all(d[4:9] < 2100), d[4:9]
         # everything else is looked at and clear (the LiDAR covers all round)
         clear = np.r_[0:3, 10:72]
-        assert np.all(d[clear] == 10001), d[clear]
+        assert np.all(d[clear] == 10001), {int(j): int(d[j]) for j in clear if d[j] != 10001}
         assert ap.proximity_health() == "Good"
 
 

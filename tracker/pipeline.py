@@ -221,7 +221,9 @@ class PerceptionPipeline:
         if self.lidar_tracker is not None and track_points is not None:
             own = _pose_now(ego, ego_ok, scan.stamp)
             own_pos, own_yaw = (own[0][:2], own[3]) if own is not None else (np.zeros(2), 0.0)
-            self._lidar_tracks = self.lidar_tracker.step(track_points, scan.stamp, own_pos, own_yaw)
+            self._lidar_tracks = self.lidar_tracker.step(
+                track_points, scan.stamp, own_pos, own_yaw, point_times=scan.t[pre.keep]
+            )
         return body[above][:, :2], int(above.sum())
 
     # ---- radar ----------------------------------------------------------------------------------------------

@@ -69,6 +69,18 @@ def occluded_by_nearer(members: list[int], result: ClusterResult, margin: float,
     return bool(np.any((o_lo <= hi + margin) & (o_hi >= lo - margin)))
 
 
+def occluded_clusters(result: ClusterResult, margin: float, depth: float = 1.0) -> np.ndarray:
+    """:func:`occluded_by_nearer` for every single cluster at once: (k,) bool."""
+    k = len(result.clusters)
+    if k == 0 or result.bearing is None or result.bearing_lo is None or result.bearing_hi is None:
+        return np.zeros(k, dtype=bool)
+    b, lo, hi = result.bearing, result.bearing_lo, result.bearing_hi
+    shift = (b[None, :] - b[:, None] + np.pi) % (2.0 * np.pi) - np.pi  # [i, j]: j's centre seen from i's
+    nearer = result.min_range[None, :] < result.min_range[:, None] - depth
+    touch = (shift + lo[None, :] <= hi[:, None] + margin) & (shift + hi[None, :] >= lo[:, None] - margin)
+    return np.any(nearer & touch, axis=1)
+
+
 def range_tolerance(range_m: np.ndarray, config: ClusterConfig) -> np.ndarray:
     """Neighbour distance tolerance at a given horizontal range, m."""
     return np.minimum(config.base_tolerance + config.tolerance_per_metre * range_m, config.max_tolerance)

@@ -113,12 +113,38 @@ class ShapeConfig:
     rotation_min_distance: float = 0.01  # m, closeness criterion floor d0 of Algorithm 2's source [7]
     # Corner method: a corner closer than this to the P1-P2 diagonal means one visible side ("I-shape").
     corner_min_offset: float = 0.15  # m (ours)
+    # Hull symmetry (ours, not in the paper; shape_fit.complete_symmetric_hull): a box fit of one long side and a
+    # tapered end (a bow seen from abeam) has only seen to the stem, on the centreline: the tracker widens it to
+    # twice the stem's depth. A taper is told from a square end (a container's) by how far back along the hull
+    # the deeper half of the end's points reaches: more than max(taper_min_band, taper_band_ratio * depth).
+    # Like Algorithm 4's box-or-ellipse choice it decides what kind of object this is (a boat's hull or a
+    # rectangular box), so it is part of mode "adaptive" only; the L-shape modes keep the box they fit.
+    symmetric_hull: bool = True
+    # Heading guard (ours): the tracker also tries the smallest-area rectangle's heading and keeps whichever box
+    # more points hug (shape_fit.guard_heading); a cabin's faces inside the outline fool Algorithms 1-3.
+    heading_guard: bool = True
+    guard_min_mse: float = 0.001  # m^2: a box whose points hug its edges closer than ~3 cm is an L; no guard
+    taper_min_band: float = 0.3  # m, above the footprint grid's and the range noise's blur of a square corner
+    taper_band_ratio: float = 0.3  # a taper steeper than ~73 deg from the hull axis counts as a square end
+    taper_band_max_ratio: float = 2.0  # and one gentler than ~14 deg is a straight side seen slightly turned
+    taper_end_zone: float = 0.15  # x length: where a stem is looked for at each end (cabins sit amidships)
+    taper_min_depth: float = 0.4  # m; a shallower one-sided view is a flat side, no taper to measure
 
     def __post_init__(self) -> None:
         _choice(self, "mode", ("adaptive", "lshape-bruteforce", "lshape-rotation", "lshape-corner", "ellipse"))
         _choice(self, "lshape_method", ("bruteforce", "rotation", "corner"))
         _positive(self, "rotation_step", "rotation_min_distance")
-        _positive(self, "corner_min_offset", allow_zero=True)
+        _positive(
+            self,
+            "corner_min_offset",
+            "taper_min_band",
+            "taper_band_ratio",
+            "taper_min_depth",
+            "guard_min_mse",
+            allow_zero=True,
+        )
+        if not 0.0 < self.taper_end_zone <= 0.5:
+            raise ConfigError(f"ShapeConfig.taper_end_zone: must be within (0, 0.5], got {self.taper_end_zone!r}")
         if self.rotation_step >= math.pi / 2:
             raise ConfigError("ShapeConfig.rotation_step: must be below 90 deg (radians inside)")
 
@@ -156,6 +182,22 @@ class EkfConfig:
     # Eq. 10 measures visibility against "theta - theta_sensor"; what matters physically is the aspect to the line
     # of sight (which sides of the hull face the sensor), so that is the default; "sensor_heading" is the literal one.
     aspect_reference: AspectReference = "line_of_sight"
+    # View-aware update (ours, not in the paper; the paper measures the centre of whatever was seen; see
+    # EkfBank._update_view_aware). A LiDAR sees at most two sides of a hull, and the far end of a side seen
+    # obliquely from afar is sparse: an extent with no face across it in view (subtending at least
+    # face_min_angle), or shorter than the track's by more than partial_tolerance, measures its visible edge,
+    # not the centre; only a seen extent measures the size; one longer than the track's by more than
+    # partial_tolerance opens the size's variance and is measured, seen or not. False gives the paper's centre measurement.
+    view_aware: bool = True
+    face_min_angle: float = 0.01  # rad: three VLP-16 azimuth steps at 10 Hz (0.2 deg each)
+    partial_tolerance: float = 0.3  # m, about the footprint grid and the fit's noise on an extent
+    # A hull first seen from one side has an unknown beam: it starts at beam_ratio x the seen length (a typical
+    # length-to-beam ratio of small craft is 2.5-4, ours) with unseen_size_std uncertainty, behind the seen side.
+    beam_ratio: float = 1.0 / 3.0
+    unseen_size_std: float = 2.0  # m
+    # With per-point times (LidarTracker.step's point_times), each detection is moved by the track's velocity
+    # from when its cluster was swept to the scan's time (a 3 m/s boat moves up to 0.3 m in one revolution).
+    compensate_sweep: bool = True
 
     def __post_init__(self) -> None:
         if len(self.r_full_std) != 6:
@@ -167,6 +209,9 @@ class EkfConfig:
         _positive(self, "visibility_half_range", "visibility_mse_scale", "max_dt", "velocity_valid_std")
         _positive(self, "r_inflation", "accel_std", "yaw_accel_std", "size_drift_std", allow_zero=True)
         _positive(self, "init_speed_std", "init_yaw_rate_std", "align_heading_min_speed", allow_zero=True)
+        _positive(self, "partial_tolerance", "beam_ratio", allow_zero=True)
+        _positive(self, "unseen_size_std")
+        _positive(self, "face_min_angle", allow_zero=True)
         for name in ("visibility_aspect_floor", "occluded_visibility"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ConfigError(f"EkfConfig.{name}: must be within [0, 1], got {getattr(self, name)!r}")

@@ -4,7 +4,8 @@ State (eq. 6), world NED: x = [p_n, p_e, v_n, v_e, heading, yaw_rate, length, wi
 clockwise positive, so a velocity (v_n, v_e) turning at yaw_rate w rotates as d/dt (v_n, v_e) = w (-v_e, v_n).
 Motion model (eq. 8): a rigid body at constant turn rate and speed (the coordinated-turn model with Cartesian
 velocity): the hull heading and the velocity vector both turn at w; sizes are constant. Its Jacobian feeds the
-covariance prediction. All tracks are predicted at once with numpy; each track's update is filterpy's.
+covariance prediction. All tracks are predicted at once with numpy; the filterpy objects hold each track's state,
+and the updates (Joseph form, as filterpy's) run stacked for all tracks that take eq. 7's plain update.
 
 Measurement (eq. 7): y = [p_n, p_e, heading, length, width, height], linear in the state. R (eq. 11, 12) is the
 full-visibility noise inflated where visibility (eq. 10) is poor: far away, a bad fit, or the object seen
@@ -16,6 +17,11 @@ once cut to a bow-on view, see :func:`heading_aliases`). Before each
 update the measurement is replaced by the alias with the smallest Mahalanobis distance in (heading, length,
 width) to the prediction, and the heading residual is wrapped; so a box seen from a new side never flips the
 track. Once the track's speed is clearly known, its heading is turned once by 180 deg if it points astern.
+
+Ours, not in the paper (``EkfConfig.view_aware``; see :meth:`EkfBank._view_aware_plan`): a LiDAR sees at most two
+sides, so an extent whose far end is out of view only bounds the size from below, and the update then measures the
+near edge instead of the centre; a newborn seen from one side gets a prior beam behind that side; a track whose
+width outgrows its length is re-expressed a quarter turn on (:meth:`EkfBank._canonical`).
 """
 
 from __future__ import annotations
@@ -35,6 +41,13 @@ Z_PN, Z_PE, Z_PSI, Z_LEN, Z_WID, Z_HGT = range(6)
 H_FULL = np.zeros((DIM_Z, DIM_X))
 H_FULL[[0, 1, 2, 3, 4, 5], [PN, PE, PSI, LEN, WID, HGT]] = 1.0
 H_POSITION = H_FULL[:2]
+# Heading aliases (see heading_aliases): state and measurement indices of (heading, length, width), and the four
+# quarter turns, the odd ones swapping length and width.
+_ALIAS_STATE = np.array([[PSI], [LEN], [WID]])
+_ALIAS_MEAS = np.array([[Z_PSI], [Z_LEN], [Z_WID]])
+_QUARTERS = 0.5 * math.pi * np.arange(4)
+_Z_STATES = np.array([PN, PE, PSI, LEN, WID, HGT])  # the state each measurement component observes (H_FULL)
+_ODD = np.arange(4) % 2 == 1
 
 
 def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
@@ -84,7 +97,9 @@ def process_noise(dt: float, config: EkfConfig) -> np.ndarray:
     return q
 
 
-def visibility(range_m: float, mse: float, aspect: float, config: EkfConfig, occluded: bool = False) -> np.ndarray:
+def visibility(
+    range_m: float, mse: float, aspect: float, config: EkfConfig, occluded: bool = False, use_aspect: bool = True
+) -> np.ndarray:
     """Eq. 10: trust (0..1) in each measured component [p_n, p_e, heading, length, width, height].
 
     ``aspect`` is the object's heading relative to the line of sight from the sensor; at 0 or 90 deg only one
@@ -95,7 +110,9 @@ def visibility(range_m: float, mse: float, aspect: float, config: EkfConfig, occ
     """
     f_range = 1.0 / (1.0 + (range_m / config.visibility_half_range) ** 2)
     f_fit = math.exp(-max(mse, 0.0) / config.visibility_mse_scale)
-    f_aspect = max(abs(math.sin(2.0 * aspect)), config.visibility_aspect_floor)
+    # The view-aware update (EkfConfig.view_aware) knows which extents the view cuts short from the faces in view;
+    # it passes use_aspect=False, so a well-seen L at a small aspect angle is not distrusted as well.
+    f_aspect = max(abs(math.sin(2.0 * aspect)), config.visibility_aspect_floor) if use_aspect else 1.0
     # A one-sided view (aspect 0 or 90 deg) leaves the unseen dimension, and so the centre across it, unknown;
     # the visible side's direction, and so the heading (modulo its aliases), is as good as ever.
     position = f_range * f_fit * (0.5 + 0.5 * f_aspect)
@@ -108,7 +125,7 @@ def visibility(range_m: float, mse: float, aspect: float, config: EkfConfig, occ
 
 def measurement_noise(p_vis: np.ndarray | None, config: EkfConfig) -> np.ndarray:
     """Eq. 11: R_k = R_full + r (1 - p)(1 - p)^T (or its diagonal, see ``EkfConfig.inflation_form``); eq. 12."""
-    r_full = np.diag(np.square(config.r_full_std))
+    r_full = np.diag(np.square(np.asarray(config.r_full_std, dtype=float)))
     if p_vis is None or not config.adaptive_r:
         return r_full
     miss = 1.0 - np.clip(np.asarray(p_vis, dtype=float), 0.0, 1.0)
@@ -128,6 +145,9 @@ class Measurement:
     height: float
     kind: ShapeKind
     r: np.ndarray  # (6, 6) measurement covariance (eq. 11)
+    # Own boat (north, east) when the cluster was seen; enables the view-aware update (EkfConfig.view_aware).
+    sensor: np.ndarray | None = None
+    completed: bool = False  # width doubled by hull symmetry (shape_fit.complete_symmetric_hull): whole
 
     def vector(self) -> np.ndarray:
         return np.array([self.center[0], self.center[1], self.heading, self.length, self.width, self.height])
@@ -151,6 +171,76 @@ def _residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     if y.shape[0] > Z_PSI:
         y[Z_PSI] = wrap_angle(float(y[Z_PSI]))
     return y
+
+
+def faces_seen(
+    center: np.ndarray, heading: float, length: float, width: float, sensor: np.ndarray, min_angle: float
+) -> tuple[bool, bool]:
+    """Whether the box's extent along (length, width) is fully in view from ``sensor``.
+
+    A LiDAR sees at most two adjacent faces, and a face in view shows its whole span. The length is fully seen
+    when a long side faces the sensor and subtends at least ``min_angle`` (rad, a few azimuth steps, so that both
+    its ends carry returns); the width likewise when an end face does.
+    """
+    c, s = math.cos(heading), math.sin(heading)
+    rx, ry = float(sensor[0] - center[0]), float(sensor[1] - center[1])
+    su, sv = rx * c + ry * s, ry * c - rx * s
+    du, dv = abs(su) - 0.5 * length, abs(sv) - 0.5 * width
+    # Apparent size of a face: its span x cos(incidence) / distance = span x (normal offset) / distance^2.
+    end_angle = width * du / (du * du + sv * sv) if du > 0.0 else 0.0
+    side_angle = length * dv / (dv * dv + su * su) if dv > 0.0 else 0.0
+    return side_angle >= min_angle, end_angle >= min_angle
+
+
+def _kalman_update_full(ekf: ExtendedKalmanFilter, m: Measurement) -> None:
+    """:func:`_kalman_update` for eq. 7's measurement, whose H only picks states: products become indexing."""
+    x, p = ekf.x, ekf.P
+    y = np.array([m.center[0], m.center[1], m.heading, m.length, m.width, m.height]) - x[_Z_STATES]
+    y[Z_PSI] = (y[Z_PSI] + math.pi) % (2.0 * math.pi) - math.pi
+    pht = p[:, _Z_STATES]
+    s = pht[_Z_STATES] + m.r
+    k = np.linalg.solve(s, pht.T).T
+    ekf.x = x + k @ y
+    i_kh = np.eye(DIM_X)
+    i_kh[:, _Z_STATES] -= k
+    ekf.P = i_kh @ p @ i_kh.T + k @ m.r @ k.T
+    ekf.y, ekf.S, ekf.K = y, s, k
+
+
+def _kalman_update_full_many(filters: list[ExtendedKalmanFilter], ms: list[Measurement]) -> None:
+    """:func:`_kalman_update_full` for many tracks at once, as stacked arrays (same formulas)."""
+    x = np.array([f.x for f in filters])
+    p = np.array([f.P for f in filters])
+    r = np.array([m.r for m in ms])
+    y = np.array([[m.center[0], m.center[1], m.heading, m.length, m.width, m.height] for m in ms]) - x[:, _Z_STATES]
+    y[:, Z_PSI] = (y[:, Z_PSI] + math.pi) % (2.0 * math.pi) - math.pi
+    pht = p[:, :, _Z_STATES]  # (k, 9, 6)
+    s = pht[:, _Z_STATES, :] + r
+    k = np.linalg.solve(s, pht.transpose(0, 2, 1)).transpose(0, 2, 1)  # (k, 9, 6)
+    x = x + np.einsum("kij,kj->ki", k, y)
+    i_kh = np.broadcast_to(np.eye(DIM_X), p.shape).copy()
+    i_kh[:, :, _Z_STATES] -= k
+    p = i_kh @ p @ i_kh.transpose(0, 2, 1) + k @ r @ k.transpose(0, 2, 1)
+    for j, f in enumerate(filters):
+        f.x, f.P, f.y, f.S, f.K = x[j], p[j], y[j], s[j], k[j]
+
+
+def _kalman_update(ekf: ExtendedKalmanFilter, z: np.ndarray, h: np.ndarray, r: np.ndarray, psi_row: int) -> None:
+    """Linear(ised) Kalman update in Joseph form, as filterpy's, without its per-call bookkeeping.
+
+    ``psi_row`` is the row of ``z`` that is a heading (its residual is wrapped), -1 for none.
+    """
+    x, p = ekf.x, ekf.P
+    y = z - h @ x
+    if psi_row >= 0:
+        y[psi_row] = wrap_angle(float(y[psi_row]))
+    pht = p @ h.T
+    s = h @ pht + r
+    k = np.linalg.solve(s, pht.T).T
+    ekf.x = x + k @ y
+    i_kh = np.eye(DIM_X) - k @ h
+    ekf.P = i_kh @ p @ i_kh.T + k @ r @ k.T
+    ekf.y, ekf.S, ekf.K = y, s, k
 
 
 class EkfBank:
@@ -179,10 +269,36 @@ class EkfBank:
         if m.kind is ShapeKind.POINT:  # no heading or size seen: wide priors
             p[PSI, PSI] = math.pi**2
             p[LEN, LEN] = p[WID, WID] = 4.0
+        elif cfg.view_aware and m.sensor is not None:
+            self._unseen_beam(x, p, m)
         ekf.x, ekf.P, ekf.R = x, p, m.r
         self.filters.append(ekf)
         self.aligned.append(False)
         return len(self.filters) - 1
+
+    def _unseen_beam(self, x: np.ndarray, p: np.ndarray, m: Measurement) -> None:
+        """A newborn seen from one side only: its beam is a prior, and the centre lies behind the seen side.
+
+        The fitted box puts its length along the seen side; when no end face was in view, the width is a lower
+        bound. It becomes max(seen, beam_ratio x length) with ``unseen_size_std``, the centre half the difference
+        further from the sensor, and the centre's uncertainty across the hull is tied to the width's.
+        """
+        cfg = self.config
+        assert m.sensor is not None
+        prior = cfg.beam_ratio * m.length
+        # Would a hull of the prior's beam show an end face from here? Then the thin outline is the whole object.
+        _, width_seen = faces_seen(m.center, m.heading, m.length, prior, m.sensor, cfg.face_min_angle)
+        if width_seen or m.completed or m.width >= prior:
+            return
+        c, s = math.cos(m.heading), math.sin(m.heading)
+        e_v = np.array([-s, c])
+        away = -1.0 if float((m.sensor - m.center) @ e_v) > 0.0 else 1.0  # across the hull, away from the sensor
+        x[[PN, PE]] += away * 0.5 * (prior - m.width) * e_v
+        x[WID] = prior
+        var = cfg.unseen_size_std**2
+        p[WID, WID] = var
+        p[np.ix_([PN, PE], [PN, PE])] += 0.25 * var * np.outer(e_v, e_v)
+        p[[PN, PE], WID] = p[WID, [PN, PE]] = 0.5 * away * var * e_v
 
     def remove(self, indices: list[int]) -> None:
         drop = set(indices)
@@ -213,36 +329,212 @@ class EkfBank:
             ekf.x, ekf.P, ekf.F = xi, pi, fi
             ekf.x_prior, ekf.P_prior = xi.copy(), pi.copy()
 
-    def choose_alias(self, i: int, m: Measurement) -> Measurement:
-        """The alias of ``m`` closest (Mahalanobis in heading, length, width) to track ``i``'s prediction."""
+    def choose_alias(self, i: int, m: Measurement, seen: tuple[bool, bool] = (True, True)) -> Measurement:
+        """The alias of ``m`` closest (Mahalanobis in heading, length, width) to track ``i``'s prediction.
+
+        ``seen`` says whether the track's (length, width) extents are fully in view; a size that may be cut short
+        only counts against an alias when it comes out larger than the track's.
+        """
         if m.kind is ShapeKind.POINT:
             return m
         ekf = self.filters[i]
         x = ekf.x
-        idx = [PSI, LEN, WID]
-        s = ekf.P[np.ix_(idx, idx)] + m.r[np.ix_([Z_PSI, Z_LEN, Z_WID], [Z_PSI, Z_LEN, Z_WID])]
-        s_inv = np.linalg.inv(s)
-        best, best_d = None, math.inf
-        for heading, length, width in heading_aliases(m):
-            y = np.array([wrap_angle(heading - x[PSI]), length - x[LEN], width - x[WID]])
-            d = float(y @ s_inv @ y)
-            if d < best_d:
-                best, best_d = (heading, length, width), d
-        assert best is not None
-        heading, length, width = best
-        return Measurement(m.center, float(wrap_angle(heading)), length, width, m.height, m.kind, m.r)
+        s = ekf.P[_ALIAS_STATE, _ALIAS_STATE.T] + m.r[_ALIAS_MEAS, _ALIAS_MEAS.T]
+        heading = m.heading + _QUARTERS
+        length = np.where(_ODD, m.width, m.length)
+        width = np.where(_ODD, m.length, m.width)
+        y = np.empty((3, 4))  # columns: the four aliases
+        y[0] = (heading - x[PSI] + math.pi) % (2.0 * math.pi) - math.pi
+        y[1] = length - x[LEN]
+        y[2] = width - x[WID]
+        for row, full in ((1, seen[0]), (2, seen[1])):
+            if not full:
+                np.maximum(y[row], 0.0, out=y[row])
+        d = (y * np.linalg.solve(s, y)).sum(axis=0)
+        best = int(np.argmin(d))
+        if best == 0:
+            return m
+        return Measurement(
+            m.center,
+            float(wrap_angle(heading[best])),
+            float(length[best]),
+            float(width[best]),
+            m.height,
+            m.kind,
+            m.r,
+            m.sensor,
+            m.completed,
+        )
+
+    def choose_aliases(self, pairs: list[tuple[int, Measurement]], seen: list[tuple[bool, bool]]) -> list[Measurement]:
+        """:meth:`choose_alias` for many (track, measurement) pairs at once (box or ellipse kinds only)."""
+        k = len(pairs)
+        x = np.array([self.filters[i].x for i, _ in pairs])
+        s = np.array(
+            [self.filters[i].P[_ALIAS_STATE, _ALIAS_STATE.T] + m.r[_ALIAS_MEAS, _ALIAS_MEAS.T] for i, m in pairs]
+        )
+        meas = np.array([(m.heading, m.length, m.width) for _, m in pairs])
+        heading = meas[:, :1] + _QUARTERS  # (k, 4)
+        length = np.where(_ODD, meas[:, 2:3], meas[:, 1:2])
+        width = np.where(_ODD, meas[:, 1:2], meas[:, 2:3])
+        y = np.empty((k, 3, 4))
+        y[:, 0] = (heading - x[:, PSI : PSI + 1] + math.pi) % (2.0 * math.pi) - math.pi
+        y[:, 1] = length - x[:, LEN : LEN + 1]
+        y[:, 2] = width - x[:, WID : WID + 1]
+        full = np.array(seen, dtype=bool).reshape(k, 2)
+        y[:, 1:] = np.where(full[:, :, None], y[:, 1:], np.maximum(y[:, 1:], 0.0))
+        best = np.argmin((y * np.linalg.solve(s, y)).sum(axis=1), axis=1)
+        out = []
+        for j, (_, m) in enumerate(pairs):
+            b = int(best[j])
+            if b == 0:
+                out.append(m)
+                continue
+            out.append(
+                Measurement(
+                    m.center,
+                    float(wrap_angle(heading[j, b])),
+                    float(length[j, b]),
+                    float(width[j, b]),
+                    m.height,
+                    m.kind,
+                    m.r,
+                    m.sensor,
+                    m.completed,
+                )
+            )
+        return out
 
     def update(self, i: int, m: Measurement) -> None:
+        """Update track ``i`` with measurement ``m`` (eq. 7 and 11, view-aware if configured)."""
+        self.update_many([(i, m)])
+
+    def update_many(self, pairs: list[tuple[int, Measurement]]) -> None:
+        """Update several tracks, one measurement each; the plain eq. 7 updates run as one stacked solve."""
+        full: list[tuple[int, Measurement]] = []
+        aware: list[tuple[int, Measurement]] = []
+        for i, m in pairs:
+            if m.kind is ShapeKind.POINT:
+                _kalman_update(self.filters[i], m.center, H_POSITION, m.r[:2, :2], -1)
+            elif self.config.view_aware and m.sensor is not None:
+                aware.append((i, m))
+            else:
+                full.append((i, self.choose_alias(i, m)))
+        if aware:
+            seen = [self._seen(i, m) for i, m in aware]
+            for (i, m), aliased, s in zip(aware, self.choose_aliases(aware, seen), seen, strict=True):
+                aliased, rows = self._view_aware_plan(i, m, aliased, s)
+                if rows is None:
+                    full.append((i, aliased))
+                else:
+                    _kalman_update(self.filters[i], *rows, 2)
+        if len(full) == 1:
+            _kalman_update_full(self.filters[full[0][0]], full[0][1])
+        elif full:
+            _kalman_update_full_many([self.filters[i] for i, _ in full], [m for _, m in full])
+        for i, _ in pairs:
+            x = self.filters[i].x
+            x[PSI] = wrap_angle(float(x[PSI]))
+            np.maximum(x[LEN : HGT + 1], 0.0, out=x[LEN : HGT + 1])
+            self._canonical(i)
+            self._align_with_course(i)
+
+    def _seen(self, i: int, m: Measurement) -> tuple[bool, bool]:
+        """Whether track ``i``'s (length, width) extents are fully in view from ``m``'s sensor position."""
+        x = self.filters[i].x
+        assert m.sensor is not None
+        return faces_seen(
+            x[[PN, PE]], float(x[PSI]), float(x[LEN]), float(x[WID]), m.sensor, self.config.face_min_angle
+        )
+
+    def _view_aware_plan(
+        self, i: int, m: Measurement, aliased: Measurement, seen: tuple[bool, bool]
+    ) -> tuple[Measurement, tuple[np.ndarray, np.ndarray, np.ndarray] | None]:
+        """Eq. 7's update, with the centre measured from the visible edge where the far one may be missing.
+
+        In the track's frame (u along its heading, v across), per axis, with d = measured extent - track size:
+
+        * d > partial_tolerance: the hull is at least that long; the size's variance grows by d^2 (the
+          centre's along the axis by (d / 2)^2, tied to the size so that the near edge stays put) and the extent
+          is measured, seen or not: the size and centre move most of the way at once, not the velocity.
+        * no face across the axis in view (:func:`faces_seen`; a width completed by hull symmetry counts as
+          seen), or d < -partial_tolerance, with the sensor beyond one end of the axis: the far edge may be
+          missing (out of view, or too sparse to show), so the axis measures the coordinate of its near edge,
+          h = p.e + side * size / 2, not the centre.
+        * otherwise the size itself is measured only when seen, so a one-sided view never shrinks it.
+
+        The heading and height update as usual; directions are the predicted heading's. ``aliased`` is ``m``'s
+        alias chosen with ``seen`` (:meth:`choose_alias`). Returns the aliased measurement and, unless it is
+        eq. 7's plain update, the rows (z, H, R) to apply.
+        """
+        cfg = self.config
         ekf = self.filters[i]
-        if m.kind is ShapeKind.POINT:
-            h = H_POSITION
-            ekf.update(m.center, HJacobian=lambda _x: h, Hx=lambda x: h @ x, R=m.r[:2, :2])
-        else:
-            m = self.choose_alias(i, m)
-            ekf.update(m.vector(), HJacobian=lambda _x: H_FULL, Hx=lambda x: H_FULL @ x, R=m.r, residual=_residual)
-        ekf.x[PSI] = wrap_angle(float(ekf.x[PSI]))
-        ekf.x[[LEN, WID, HGT]] = np.maximum(ekf.x[[LEN, WID, HGT]], 0.0)
-        self._align_with_course(i)
+        x = ekf.x
+        assert m.sensor is not None
+        if m.completed:  # the measured width is whole; after a quarter-turn alias it is the track's length
+            quarter = abs(wrap_angle(aliased.heading - m.heading)) % math.pi > 0.25 * math.pi
+            seen = (True, seen[1]) if quarter else (seen[0], True)
+        m = aliased
+        c, s = math.cos(float(x[PSI])), math.sin(float(x[PSI]))
+        axes = np.array([[c, s], [-s, c]])  # rows: e_u, e_v in (north, east)
+        rel = axes @ (m.sensor - m.center)
+        sizes = (m.length, m.width)
+        edge = [False, False]
+        measured = list(seen)
+        for a in (0, 1):
+            d = sizes[a] - float(x[LEN + a])
+            if d > cfg.partial_tolerance:  # at least this long: open the size up to it, and measure it
+                # With the near edge where it was: the centre is as uncertain as half the size, against it.
+                side = 1.0 if rel[a] > 0.0 else -1.0
+                j = LEN + a
+                ekf.P[j, j] += d * d
+                ekf.P[np.ix_([PN, PE], [PN, PE])] += 0.25 * d * d * np.outer(axes[a], axes[a])
+                ekf.P[[PN, PE], j] -= 0.5 * side * d * d * axes[a]
+                ekf.P[j, [PN, PE]] -= 0.5 * side * d * d * axes[a]
+                measured[a] = True
+            # Only a sensor clearly beyond one end of the axis (that end's face in view at less than ~80 deg
+            # incidence) knows which edge is the near one; from abeam, a short extent may have lost either end
+            # (a shadow, a sparse far part), so the centre stays the measurement.
+            beyond = abs(float(rel[a])) - 0.5 * sizes[a] > 0.2 * abs(float(rel[1 - a]))
+            edge[a] = beyond and (not seen[a] or d < -cfg.partial_tolerance)
+        if measured[0] and measured[1] and not (edge[0] or edge[1]):
+            return m, None
+        rows = np.zeros((6, DIM_X))
+        z = np.zeros(6)
+        r = np.zeros((6, 6))
+        r[:2, :2] = axes @ m.r[:2, :2] @ axes.T
+        for a in (0, 1):
+            rows[a, [PN, PE]] = axes[a]
+            z[a] = float(axes[a] @ m.center)
+            if edge[a]:
+                side = 1.0 if rel[a] > 0.0 else -1.0
+                rows[a, LEN + a] = 0.5 * side
+                z[a] += 0.5 * side * sizes[a]
+        vec = m.vector()
+        for j, (comp, state) in enumerate(((Z_PSI, PSI), (Z_LEN, LEN), (Z_WID, WID), (Z_HGT, HGT)), start=2):
+            rows[j, state] = 1.0
+            z[j] = vec[comp]
+            r[j, j] = m.r[comp, comp]
+        keep = [0, 1, 2] + [3 + a for a in (0, 1) if measured[a]] + [5]
+        return m, (z[keep], rows[keep], r[np.ix_(keep, keep)])
+
+    def _canonical(self, i: int) -> None:
+        """Keep length >= width: a track whose width has outgrown its length is the same box turned 90 deg.
+
+        A hull first seen end-on starts with its beam as its "length"; when its long side comes into view, the
+        width grows past the length, and the state is re-expressed (heading + 90 deg, sizes and their covariance
+        swapped) so the heading runs along the hull again. The course alignment may then turn it once more.
+        """
+        ekf = self.filters[i]
+        x, p = ekf.x, ekf.P
+        if x[WID] <= x[LEN] + 0.1:
+            return
+        perm = np.arange(DIM_X)
+        perm[LEN], perm[WID] = WID, LEN
+        ekf.x = x[perm]
+        ekf.x[PSI] = wrap_angle(float(x[PSI]) + 0.5 * math.pi)
+        ekf.P = p[np.ix_(perm, perm)]
+        self.aligned[i] = False
 
     def _align_with_course(self, i: int) -> None:
         """Turn the heading once by 180 deg if it points against the course over ground.

@@ -13,6 +13,7 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from tracker.ego import body_to_world
 from tracker.lidar.config import PreprocessConfig
@@ -31,6 +32,7 @@ class PreprocessResult:
     n_spray: int = 0  # low and isolated: water surface or spray
 
 
+_EXACT_BELOW = 10  # cube counts under 10x the minimum get an exact ball count (dense surfaces never need one)
 _OFFSETS = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)], dtype=np.int64)
 
 
@@ -117,8 +119,17 @@ def preprocess(
             (height < cfg.spray_max_height + cfg.spray_radius)
             | (r2[idx] < (cfg.spray_near_range + cfg.spray_radius) ** 2)
         )
-        counts = neighbour_counts(world[reach], world[low], cfg.spray_radius)
-        spray[np.flatnonzero(low)] = counts < cfg.spray_min_neighbours
+        # The cube block holds the whole ball of spray_radius, so its count is an upper bound: below the minimum
+        # is spray for sure; a few above it is checked exactly (a k-d tree ball query on those few only).
+        upper = neighbour_counts(world[reach], world[low], cfg.spray_radius)
+        verdict = upper < cfg.spray_min_neighbours
+        unsure = ~verdict & (upper < _EXACT_BELOW * max(cfg.spray_min_neighbours, 1))
+        if np.any(unsure):
+            tree = cKDTree(world[reach])
+            low_pts = world[low][unsure]
+            exact = tree.query_ball_point(low_pts, r=cfg.spray_radius, return_length=True) - 1
+            verdict[unsure] = exact < cfg.spray_min_neighbours
+        spray[np.flatnonzero(low)] = verdict
     n_spray = int(np.count_nonzero(spray))
 
     good = in_height & ~spray

@@ -15,6 +15,11 @@ squared point-to-shape distance (m^2) and the kind.
   nearest to it (the bounding edge itself sits on the noisiest point and would penalise boxes unfairly); the
   ellipse's is the Sampson distance, a first-order geometric distance that needs no iterative solve.
 
+Ours, not in the paper, used by the tracker's detection step: :func:`guard_heading` (a cabin's faces inside the
+outline break the L-shape assumption; the outline's own edges are tried too), :func:`complete_symmetric_hull` (a
+boat seen from abeam shows its stem on the centreline: the beam is twice its depth), and batch forms of the corner
+and ellipse fits (:func:`fit_lshape_corners`, :func:`fit_ellipses`) with the same results for a whole scan at once.
+
 Degenerate input: non-finite rows are dropped; no finite point at all raises :class:`DegenerateClusterError`;
 one or two distinct points give a POINT fit; collinear points give a BOX of width 0. The ellipse fit raises
 :class:`DegenerateClusterError` when no ellipse exists (fewer than 5 points, collinear, hyperbola); the shape
@@ -48,6 +53,8 @@ class ShapeFit:
     kind: ShapeKind
     n_points: int
     method: str  # corner | rotation | bruteforce | ellipse | point
+    # Width doubled by hull symmetry: only one side and a tapered end were seen (see complete_symmetric_hull).
+    completed: bool = False
 
     def corners(self) -> np.ndarray:
         """(4, 2) corners of the oriented rectangle (an ellipse's bounding rectangle)."""
@@ -108,22 +115,21 @@ def _edge_mse(uv: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
     Per edge k with points at distances d: sum (d - mean d)^2 = sum d^2 - (sum d)^2 / count.
     """
     n = uv.shape[1]
-    dist = np.empty((4, n))
-    np.subtract(uv, lo[:, None], out=dist[:2])
-    np.subtract(hi[:, None], uv, out=dist[2:])
-    dmin = dist.min(axis=0)
-    owner = dist == dmin
-    count = np.maximum(owner.sum(axis=1), 1)
-    per_edge = owner @ dmin
-    return max(float(dmin @ dmin - np.sum(per_edge * per_edge / count)), 0.0) / n
+    dist = np.concatenate((uv - lo[:, None], hi[:, None] - uv))
+    owner = dist.argmin(axis=0)
+    dmin = dist[owner, np.arange(n)]
+    count = np.bincount(owner, minlength=4)
+    per_edge = np.bincount(owner, weights=dmin, minlength=4)
+    return max(float(dmin @ dmin - (per_edge * per_edge / np.maximum(count, 1)).sum()), 0.0) / n
 
 
 def box_from_heading(xy: np.ndarray, theta: float, method: str, origin: np.ndarray) -> ShapeFit:
     """Bounding rectangle of centred (2, n) points with a side along ``theta``; heading along the longest side."""
     c, s = math.cos(theta), math.sin(theta)
-    uv = np.array([[c, s], [-s, c]]) @ xy
+    x, y = xy
+    uv = np.stack((c * x + s * y, c * y - s * x))  # elementwise, as boxes_from_headings: the same rounding
     lo, hi = uv.min(axis=1), uv.max(axis=1)
-    mu, mv = 0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])
+    mu, mv = 0.5 * float(lo[0] + hi[0]), 0.5 * float(lo[1] + hi[1])
     center = np.array([origin[0] + mu * c - mv * s, origin[1] + mu * s + mv * c])
     length, width = float(hi[0] - lo[0]), float(hi[1] - lo[1])
     if length == 0.0 and width == 0.0:  # all points identical
@@ -228,21 +234,129 @@ def fit_lshape_corner(points: np.ndarray, min_offset: float = 0.15) -> ShapeFit:
     return box_from_heading(xy, theta, "corner", origin)
 
 
+_CORNER_DIRS = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, -1.0]])
+
+
+def _pad(xys: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Centred (2, n_i) point sets as one (k, 2, n_max) array (zeros beyond n_i) and its (k, n_max) bool mask."""
+    nmax = max(xy.shape[1] for xy in xys)
+    pad = np.zeros((len(xys), 2, nmax))
+    mask = np.zeros((len(xys), nmax), dtype=bool)
+    for j, xy in enumerate(xys):
+        pad[j, :, : xy.shape[1]] = xy
+        mask[j, : xy.shape[1]] = True
+    return pad, mask
+
+
+def fit_lshape_corners(clouds: list[np.ndarray], min_offset: float = 0.15) -> list[ShapeFit | DegenerateClusterError]:
+    """:func:`fit_lshape_corner` for many clusters at once (the same steps on stacked, padded arrays).
+
+    Each entry is the fit, or the :class:`DegenerateClusterError` :func:`fit_lshape_corner` would have raised.
+    """
+    out: list[ShapeFit | DegenerateClusterError] = [DegenerateClusterError("corner: not fitted")] * len(clouds)
+    batch: list[tuple[int, np.ndarray, np.ndarray]] = []
+    for i, pts in enumerate(clouds):
+        try:
+            xy, origin = _prepare(pts)
+        except DegenerateClusterError as exc:
+            out[i] = exc
+            continue
+        point = _point_fit(xy, origin)
+        if point is not None:
+            out[i] = point
+            continue
+        batch.append((i, xy, origin))
+    if not batch:
+        return out
+    pad, mask = _pad([xy for _, xy, _ in batch])
+    k = len(batch)
+    rows = np.arange(k)
+    proj = np.einsum("dc,kcn->kdn", _CORNER_DIRS, pad)
+    cand = np.concatenate(
+        [
+            np.where(mask[:, None, :], proj, np.inf).argmin(axis=2),
+            np.where(mask[:, None, :], proj, -np.inf).argmax(axis=2),
+        ],
+        axis=1,
+    )  # (k, 8)
+    cp = pad[rows[:, None], :, cand]  # (k, 8, 2)
+    diff = cp[:, :, None, :] - cp[:, None, :, :]
+    flat = (diff * diff).sum(axis=3).reshape(k, -1).argmax(axis=1)
+    p1, p2 = cp[rows, flat // 8], cp[rows, flat % 8]  # (k, 2)
+    diag = p2 - p1
+    diag_len = np.hypot(diag[:, 0], diag[:, 1])
+    offset = np.abs(diag[:, 0:1] * (p1[:, 1:2] - pad[:, 1]) - diag[:, 1:2] * (p1[:, 0:1] - pad[:, 0]))
+    k3 = np.where(mask, offset, -np.inf).argmax(axis=1)
+    p3 = pad[rows, :, k3]
+    leg1, leg2 = p1 - p3, p2 - p3
+    leg = np.where(((leg1 * leg1).sum(axis=1) >= (leg2 * leg2).sum(axis=1))[:, None], leg1, leg2)
+    one_side = offset[rows, k3] <= min_offset * diag_len
+    # Angles with math.atan2, as the one-cluster fitter: identical rounding gives identical boxes.
+    direction = np.where(one_side[:, None], diag, leg)
+    theta = np.array([math.atan2(float(d[1]), float(d[0])) for d in direction])
+    boxes = boxes_from_headings(pad, mask, theta, "corner", [origin for _, _, origin in batch])
+    for (i, _, _), box in zip(batch, boxes, strict=True):
+        out[i] = box
+    return out
+
+
+def boxes_from_headings(
+    pad: np.ndarray, mask: np.ndarray, theta: np.ndarray, method: str, origins: list[np.ndarray]
+) -> list[ShapeFit]:
+    """:func:`box_from_heading` for padded point sets (see :func:`_pad`), one heading each."""
+    c = np.array([math.cos(float(t)) for t in theta])[:, None]
+    s = np.array([math.sin(float(t)) for t in theta])[:, None]
+    x, y = pad[:, 0], pad[:, 1]
+    u, v = c * x + s * y, c * y - s * x
+    lo_u, hi_u = np.where(mask, u, np.inf).min(axis=1), np.where(mask, u, -np.inf).max(axis=1)
+    lo_v, hi_v = np.where(mask, v, np.inf).min(axis=1), np.where(mask, v, -np.inf).max(axis=1)
+    mu, mv = 0.5 * (lo_u + hi_u), 0.5 * (lo_v + hi_v)
+    cn, ce = mu * c[:, 0] - mv * s[:, 0], mu * s[:, 0] + mv * c[:, 0]
+    length, width = hi_u - lo_u, hi_v - lo_v
+    # Edge MSE as _edge_mse: each point's nearest edge, each edge refit to the mean line of its points.
+    dist = np.stack([u - lo_u[:, None], v - lo_v[:, None], hi_u[:, None] - u, hi_v[:, None] - v], axis=1)
+    owner = dist.argmin(axis=1)  # (k, n)
+    dmin = np.where(mask, np.take_along_axis(dist, owner[:, None, :], axis=1)[:, 0], 0.0)
+    onehot = (owner[:, None, :] == np.arange(4)[None, :, None]) & mask[:, None, :]
+    count = onehot.sum(axis=2)
+    per_edge = (onehot * dmin[:, None, :]).sum(axis=2)
+    n = mask.sum(axis=1)
+    mse = np.maximum((dmin * dmin).sum(axis=1) - (per_edge * per_edge / np.maximum(count, 1)).sum(axis=1), 0.0) / n
+    out = []
+    for j, origin in enumerate(origins):
+        center = np.array([origin[0] + cn[j], origin[1] + ce[j]])
+        lj, wj, tj = float(length[j]), float(width[j]), float(theta[j])
+        if lj == 0.0 and wj == 0.0:
+            out.append(ShapeFit(origin.copy(), 0.0, 0.0, 0.0, 0.0, ShapeKind.POINT, int(n[j]), "point"))
+            continue
+        if wj > lj:
+            lj, wj, tj = wj, lj, tj + HALF_PI
+        out.append(ShapeFit(center, _axis_angle(tj), lj, wj, float(mse[j]), ShapeKind.BOX, int(n[j]), method))
+    return out
+
+
 # ---------------------------------------------------------------------------------------------------------------------
 # Ellipse fitting
 
 
-def _conic_fit(q: np.ndarray) -> np.ndarray:
-    """Halir & Flusser's stable direct least-squares ellipse: conic [a, b, c, d, e, f] for normalised (2, n) points."""
+def _conic_fit(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Halir & Flusser's stable direct least-squares ellipse for normalised (2, n) points.
+
+    Returns the conic [a, b, c, d, e, f] and the (6, n) design matrix of monomials [x^2, xy, y^2, x, y, 1] (its
+    rows evaluate the conic and its gradient without recomputing them).
+    """
     x, y = q
-    d1 = np.stack([x * x, x * y, y * y])
-    d2 = np.stack([x, y, np.ones_like(x)])
-    s1, s2, s3 = d1 @ d1.T, d1 @ d2.T, d2 @ d2.T
+    design = np.empty((6, x.shape[0]))
+    np.multiply(x, x, out=design[0])
+    np.multiply(x, y, out=design[1])
+    np.multiply(y, y, out=design[2])
+    design[3], design[4], design[5] = x, y, 1.0
+    scatter = design @ design.T
     try:
-        t = -np.linalg.solve(s3, s2.T)
+        t = -np.linalg.solve(scatter[3:, 3:], scatter[3:, :3])
     except np.linalg.LinAlgError as exc:
         raise DegenerateClusterError("ellipse: points are collinear") from exc
-    m = s1 + s2 @ t
+    m = scatter[:3, :3] + scatter[:3, 3:] @ t
     # Premultiply by the inverse of the constraint matrix C1 = [[0, 0, 2], [0, -1, 0], [2, 0, 0]].
     m = np.array([m[2] / 2.0, -m[1], m[0] / 2.0])
     if not np.all(np.isfinite(m)):
@@ -254,7 +368,7 @@ def _conic_fit(q: np.ndarray) -> np.ndarray:
     if ok.size == 0:
         raise DegenerateClusterError("ellipse: no elliptic solution")
     a1 = vecs[:, ok[np.argmax(cond[ok])]]
-    return np.concatenate([a1, t @ a1])
+    return np.concatenate([a1, t @ a1]), design
 
 
 def ellipse_sampson_sq(conic: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -273,34 +387,39 @@ def fit_ellipse(points: np.ndarray) -> ShapeFit:
     n = xy.shape[1]
     if n < 5:
         raise DegenerateClusterError(f"ellipse: needs 5 points, got {n}")
-    cov = xy @ xy.T / n
-    scale = math.sqrt(cov[0, 0] + cov[1, 1])
-    if not scale > 0:
+    x, y = xy
+    sxx, syy, sxy = float(x @ x) / n, float(y @ y) / n, float(x @ y) / n
+    tr = sxx + syy
+    if not tr > 0:
         raise DegenerateClusterError("ellipse: all points coincide")
     # Collinear points (smallest principal spread ~ 0) admit no ellipse.
-    det, tr = cov[0, 0] * cov[1, 1] - cov[0, 1] ** 2, cov[0, 0] + cov[1, 1]
-    if det < 1e-10 * tr * tr:
+    if sxx * syy - sxy * sxy < 1e-10 * tr * tr:
         raise DegenerateClusterError("ellipse: points are collinear")
-    q = xy / scale
-    conic = _conic_fit(q)
+    scale = math.sqrt(tr)
+    conic, design = _conic_fit(xy / scale)
+    mse = _sampson_mse(conic / np.linalg.norm(conic), design, scale)
+    return _cut_ellipse(xy, origin, scale, conic, mse, n)
+
+
+def _cut_ellipse(xy: np.ndarray, origin: np.ndarray, scale: float, conic: np.ndarray, mse: float, n: int) -> ShapeFit:
+    """The ellipse of a fitted (normalised) conic, cut to the points' extent along its major axis (sec. 2.2.2)."""
     if conic[0] + conic[2] < 0.0:  # eigenvectors have no sign; make the quadratic form positive definite
         conic = -conic
-    a, b, c, d, e, f = conic
+    a, b, c, d, e, f = (float(v) for v in conic)
     den = 4.0 * a * c - b * b
     if not den > 0:
         raise DegenerateClusterError("ellipse: conic is not an ellipse")
     x0 = (b * e - 2.0 * c * d) / den
     y0 = (b * d - 2.0 * a * e) / den
     f0 = f + 0.5 * (d * x0 + e * y0)
-    lam, vec = np.linalg.eigh(np.array([[a, 0.5 * b], [0.5 * b, c]]))
-    semi_sq = -f0 / lam
-    if not (np.all(semi_sq > 0) and np.all(np.isfinite(semi_sq))):
+    # Eigen-decomposition of [[a, b/2], [b/2, c]] in closed form: the major axis (smaller eigenvalue) lies a
+    # quarter turn from the direction 0.5 atan2(b, a - c) along which the quadratic form grows fastest.
+    mean, half = 0.5 * (a + c), math.hypot(0.5 * (a - c), 0.5 * b)
+    lam_small, lam_big = mean - half, mean + half
+    if not (lam_small > 0.0 and f0 < 0.0):
         raise DegenerateClusterError("ellipse: imaginary ellipse")
-    # eigh sorts ascending: the smaller eigenvalue belongs to the major semi-axis, which the cut below replaces.
-    semi_minor = math.sqrt(semi_sq[1]) * scale
-    theta = math.atan2(vec[1, 0], vec[0, 0])
-    mse = float(np.mean(ellipse_sampson_sq(conic / np.linalg.norm(conic), q))) * scale * scale
-
+    semi_minor = math.sqrt(-f0 / lam_big) * scale
+    theta = 0.5 * math.atan2(b, a - c) + HALF_PI
     # Cut: coordinates along the major (u) and minor (v) axis, relative to the fitted centre.
     ct, st = math.cos(theta), math.sin(theta)
     cx, cy = x0 * scale, y0 * scale
@@ -322,6 +441,255 @@ def fit_ellipse(points: np.ndarray) -> ShapeFit:
     if width > length:
         length, width, theta = width, length, theta + HALF_PI
     return ShapeFit(center, _axis_angle(theta), length, width, mse, ShapeKind.ELLIPSE, n, "ellipse")
+
+
+def _sampson_mse(conic: np.ndarray, design: np.ndarray, scale: float) -> float:
+    """Mean squared Sampson distance, m^2, of the points behind a (6, n) design matrix to a normalised conic."""
+    a, b, c, d, e, _ = conic
+    val = conic @ design
+    gx = np.array([2.0 * a, b, d]) @ design[3:]
+    gy = np.array([b, 2.0 * c, e]) @ design[3:]
+    return float(np.mean(val * val / np.maximum(gx * gx + gy * gy, 1e-300))) * scale * scale
+
+
+def fit_ellipses(clouds: list[np.ndarray]) -> list[ShapeFit | DegenerateClusterError]:
+    """:func:`fit_ellipse` for many clusters at once: the least-squares systems of all of them are built and
+    solved as stacked arrays, so a scan's twenty boats cost about what a few cost one at a time.
+
+    Each entry is the fit, or the :class:`DegenerateClusterError` :func:`fit_ellipse` would have raised.
+    """
+    out: list[ShapeFit | DegenerateClusterError] = [DegenerateClusterError("ellipse: not fitted")] * len(clouds)
+    batch: list[tuple[int, np.ndarray, np.ndarray]] = []
+    for i, pts in enumerate(clouds):
+        try:
+            xy, origin = _prepare(pts)
+        except DegenerateClusterError as exc:
+            out[i] = exc
+            continue
+        if xy.shape[1] < 5:
+            out[i] = DegenerateClusterError(f"ellipse: needs 5 points, got {xy.shape[1]}")
+            continue
+        batch.append((i, xy, origin))
+    if not batch:
+        return out
+    k, nmax = len(batch), max(xy.shape[1] for _, xy, _ in batch)
+    pad = np.zeros((k, 2, nmax))
+    ones = np.zeros((k, nmax))
+    for j, (_, xy, _) in enumerate(batch):
+        pad[j, :, : xy.shape[1]] = xy
+        ones[j, : xy.shape[1]] = 1.0
+    n = ones.sum(axis=1)
+    sxx = np.einsum("kn,kn->k", pad[:, 0], pad[:, 0]) / n
+    syy = np.einsum("kn,kn->k", pad[:, 1], pad[:, 1]) / n
+    sxy = np.einsum("kn,kn->k", pad[:, 0], pad[:, 1]) / n
+    tr = sxx + syy
+    flat = ~(tr > 0.0) | (sxx * syy - sxy * sxy < 1e-10 * tr * tr)
+    scale = np.sqrt(np.where(flat, 1.0, tr))
+    q = pad / scale[:, None, None]
+    design = np.empty((k, 6, nmax))
+    x, y = q[:, 0], q[:, 1]
+    design[:, 0], design[:, 1], design[:, 2] = x * x, x * y, y * y
+    design[:, 3], design[:, 4], design[:, 5] = x, y, ones
+    scatter = design @ design.transpose(0, 2, 1)
+    s3 = scatter[:, 3:, 3:]
+    s3[flat] = np.eye(3)  # keeps the stacked solve regular; these clusters are reported below
+    t = -np.linalg.solve(s3, scatter[:, 3:, :3])
+    m = scatter[:, :3, :3] + scatter[:, :3, 3:] @ t
+    m = np.stack([m[:, 2] / 2.0, -m[:, 1], m[:, 0] / 2.0], axis=1)
+    finite = np.isfinite(m).all(axis=(1, 2))
+    m[~finite] = np.eye(3)
+    _, vecs = np.linalg.eig(m)
+    vecs = np.real(vecs)
+    cond = 4.0 * vecs[:, 0] * vecs[:, 2] - vecs[:, 1] ** 2  # (k, 3): one per eigenvector
+    elliptic = cond > 0.0
+    pick = np.argmax(np.where(elliptic, cond, -np.inf), axis=1)
+    a1 = vecs[np.arange(k), :, pick]  # (k, 3)
+    conics = np.concatenate([a1, np.einsum("kij,kj->ki", t, a1)], axis=1)
+    # From here on as _cut_ellipse, for all clusters at once (the same formulas, as arrays).
+    norm = np.linalg.norm(conics, axis=1, keepdims=True)
+    cn = conics / np.where(norm > 0.0, norm, 1.0)
+    val = np.einsum("kj,kjn->kn", cn, design)
+    gx = np.einsum("kj,kjn->kn", np.stack([2.0 * cn[:, 0], cn[:, 1], cn[:, 3]], axis=1), design[:, 3:])
+    gy = np.einsum("kj,kjn->kn", np.stack([cn[:, 1], 2.0 * cn[:, 2], cn[:, 4]], axis=1), design[:, 3:])
+    mse = (val * val / np.maximum(gx * gx + gy * gy, 1e-300)).sum(axis=1) / n * scale * scale
+    conics = np.where((conics[:, 0] + conics[:, 2] < 0.0)[:, None], -conics, conics)
+    a, b, c, d, e, f = conics.T
+    den = 4.0 * a * c - b * b
+    ok = ~flat & finite & elliptic.any(axis=1) & (den > 0.0)
+    den = np.where(ok, den, 1.0)
+    x0 = (b * e - 2.0 * c * d) / den
+    y0 = (b * d - 2.0 * a * e) / den
+    f0 = f + 0.5 * (d * x0 + e * y0)
+    mean, half = 0.5 * (a + c), np.hypot(0.5 * (a - c), 0.5 * b)
+    real = (mean - half > 0.0) & (f0 < 0.0)
+    semi_minor = np.sqrt(np.where(real & ok, -f0 / np.where(mean + half > 0.0, mean + half, 1.0), 0.0)) * scale
+    theta = 0.5 * np.arctan2(b, a - c) + HALF_PI
+    ct, st = np.cos(theta), np.sin(theta)
+    cx, cy = x0 * scale, y0 * scale
+    px, py = pad[:, 0] - cx[:, None], pad[:, 1] - cy[:, None]
+    u = ct[:, None] * px + st[:, None] * py
+    v = ct[:, None] * py - st[:, None] * px
+    inside = ones > 0.0
+    lo_u, hi_u = np.where(inside, u, np.inf).min(axis=1), np.where(inside, u, -np.inf).max(axis=1)
+    lo_v, hi_v = np.where(inside, v, np.inf).min(axis=1), np.where(inside, v, -np.inf).max(axis=1)
+    mean_v = (v * ones).sum(axis=1) / n
+    length = hi_u - lo_u
+    mid_u = 0.5 * (lo_u + hi_u)
+    # The minor axis is only as trustworthy as the hull's curvature (see _cut_ellipse).
+    spread_v, full_v = hi_v - lo_v, 2.0 * semi_minor
+    wide = spread_v >= full_v
+    fits = ~wide & (full_v <= length)
+    width = np.where(wide, spread_v, np.where(fits, full_v, np.maximum(spread_v, length)))
+    shrunk = np.where(mean_v < 0.0, lo_v + 0.5 * width, hi_v - 0.5 * width)
+    mid_v = np.where(wide, 0.5 * (lo_v + hi_v), np.where(fits, 0.0, shrunk))
+    cen_n = cx + mid_u * ct - mid_v * st
+    cen_e = cy + mid_u * st + mid_v * ct
+    swap = width > length
+    length, width = np.where(swap, width, length), np.where(swap, length, width)
+    theta = theta + np.where(swap, HALF_PI, 0.0)
+    for j, (i, xy, origin) in enumerate(batch):
+        if flat[j]:
+            msg = "all points coincide" if not tr[j] > 0.0 else "points are collinear"
+            out[i] = DegenerateClusterError(f"ellipse: {msg}")
+        elif not finite[j]:
+            out[i] = DegenerateClusterError("ellipse: ill-conditioned scatter matrix")
+        elif not elliptic[j].any():
+            out[i] = DegenerateClusterError("ellipse: no elliptic solution")
+        elif not ok[j]:
+            out[i] = DegenerateClusterError("ellipse: conic is not an ellipse")
+        elif not real[j]:
+            out[i] = DegenerateClusterError("ellipse: imaginary ellipse")
+        else:
+            center = np.array([origin[0] + cen_n[j], origin[1] + cen_e[j]])
+            out[i] = ShapeFit(
+                center,
+                _axis_angle(float(theta[j])),
+                float(length[j]),
+                float(width[j]),
+                float(mse[j]),
+                ShapeKind.ELLIPSE,
+                xy.shape[1],
+                "ellipse",
+            )
+    return out
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# Hull symmetry (ours, not in the paper)
+
+
+_EXTREME_DIRS = np.stack(
+    [np.cos(np.arange(16) * math.pi / 16), np.sin(np.arange(16) * math.pi / 16)], axis=1
+)  # (16, 2): the outline's extreme points along these directions stand in for its convex hull
+
+
+def outline_edge_headings(xy: np.ndarray, min_fraction: float = 0.25) -> np.ndarray:
+    """Directions (rad, [0, pi/2)) of the edges of centred (2, n) points' convex outline.
+
+    The outline is approximated by the points extreme along 16 directions: enough to catch a hull's long straight
+    sides, whose two ends are extreme for every direction near the side's normal. Edges shorter than
+    ``min_fraction`` of the longest are left out.
+    """
+    proj = _EXTREME_DIRS @ xy
+    idx = np.unique(np.concatenate((proj.argmin(axis=1), proj.argmax(axis=1))))
+    ext = xy[:, idx]
+    if idx.size < 2:
+        return np.zeros(0)
+    mid = ext.mean(axis=1, keepdims=True)
+    ext = ext[:, np.argsort(np.arctan2(ext[1] - mid[1], ext[0] - mid[0]))]
+    edge = np.roll(ext, -1, axis=1) - ext
+    size = np.hypot(edge[0], edge[1])
+    edge = edge[:, size >= min_fraction * size.max()]  # a hull's sides, not the short chords of a rounded end
+    return np.arctan2(edge[1], edge[0]) % HALF_PI
+
+
+def closeness_scores(xy: np.ndarray, thetas: np.ndarray, min_distance: float) -> np.ndarray:
+    """Zhang et al.'s closeness of centred (2, n) points to their bounding rectangle along each heading."""
+    c, s = np.cos(thetas)[:, None], np.sin(thetas)[:, None]
+    u = c * xy[0] + s * xy[1]
+    v = c * xy[1] - s * xy[0]
+    du = np.minimum(u - u.min(axis=1, keepdims=True), u.max(axis=1, keepdims=True) - u)
+    dv = np.minimum(v - v.min(axis=1, keepdims=True), v.max(axis=1, keepdims=True) - v)
+    return (1.0 / np.maximum(np.minimum(du, dv), min_distance)).sum(axis=1)
+
+
+def guard_heading(fit: ShapeFit, points: np.ndarray, min_distance: float = 0.1) -> ShapeFit:
+    """The box along the outline edge that most points hug, instead of ``fit``'s when it scores higher.
+
+    Algorithms 1-3 assume the outline is an L; a boat's cabin adds faces inside it (the paper's "more than 2 lines"),
+    and the corner method then takes a cabin corner for the hull's and turns the box by tens of degrees. A hull's
+    real sides are edges of its convex outline, so the outline's edge directions are the candidates, scored by
+    Algorithm 2's closeness criterion (with ``min_distance`` about the footprint's grid cell) against the fit's own.
+    """
+    if fit.kind is not ShapeKind.BOX:
+        return fit
+    xy, origin = _prepare(points)
+    if xy.shape[1] < 3:
+        return fit
+    thetas = np.concatenate(([fit.heading % HALF_PI], outline_edge_headings(xy)))
+    best = int(np.argmax(closeness_scores(xy, thetas, min_distance)))
+    if best == 0 or abs((thetas[best] - thetas[0] + 0.25 * math.pi) % HALF_PI - 0.25 * math.pi) < 1e-3:
+        return fit
+    return box_from_heading(xy, float(thetas[best]), fit.method, origin)
+
+
+def complete_symmetric_hull(
+    fit: ShapeFit, points: np.ndarray, sensor_position: np.ndarray, config: ShapeConfig | None = None
+) -> ShapeFit:
+    """Widen a box seen from one side to the full beam when a tapered end shows where the centreline is.
+
+    Seen from abeam, a boat shows one side and the near half of its bow (or a rounded stern) curving in to the
+    stem, which lies on the centreline; the box around that is half the beam, its centre a quarter beam short.
+    A container's square end, in the same view, runs straight across to its far corner. So: with the sensor
+    beside the box (outside it across the width), look at the points near each end (``taper_end_zone`` x length);
+    the deepest one (from the near side) is the end's tip. Where the deeper half of that end's points reaches back
+    along the hull by more than a square corner's blur, the end is tapered and the beam is twice the tip's depth.
+    A square end as deep as the box means the whole width is in view already. Cabin faces amidships are ignored.
+    Returns ``fit`` itself when nothing applies; otherwise a copy with ``completed`` set.
+    """
+    cfg = config or ShapeConfig()
+    if fit.kind is not ShapeKind.BOX or fit.n_points < 6 or fit.length <= 0.0:
+        return fit
+    c, s = math.cos(fit.heading), math.sin(fit.heading)
+    pts = np.asarray(points, dtype=float)[:, :2]
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    d = pts - fit.center
+    u = d[:, 0] * c + d[:, 1] * s
+    v = d[:, 1] * c - d[:, 0] * s
+    rel = np.asarray(sensor_position, dtype=float)[:2] - fit.center
+    sv = float(rel[1] * c - rel[0] * s)
+    half_w, half_l = 0.5 * fit.width, 0.5 * fit.length
+    if abs(sv) <= half_w:  # the sensor is not beside the box: no one-sided view across the width
+        return fit
+    near = 1.0 if sv > 0.0 else -1.0
+    depth = half_w - near * v  # 0 on the near side, fit.width on the far edge
+    zone = half_l - cfg.taper_end_zone * fit.length
+    tip_depth = 0.0
+    for end in (1.0, -1.0):
+        at_end = u * end >= zone
+        if np.count_nonzero(at_end) < 3:
+            continue
+        de, ue = depth[at_end], u[at_end]
+        tip = float(de.max())
+        if tip < cfg.taper_min_depth:
+            continue
+        band = float(np.max(half_l - end * ue[de > 0.5 * tip]))  # how far back the deeper half reaches
+        if band > cfg.taper_band_max_ratio * tip:
+            continue  # too gentle for a stem: a straight side the box is slightly turned against
+        if band > max(cfg.taper_min_band, cfg.taper_band_ratio * tip):
+            tip_depth = max(tip_depth, tip)
+        elif tip >= 0.9 * fit.width:
+            return fit  # a square end across the whole box: the width is seen
+    if tip_depth <= 0.0 or 2.0 * tip_depth < fit.width:
+        return fit  # no taper, or one too shallow to hold what was seen beyond it
+    # The centreline is tip_depth behind the near side; the beam is twice that.
+    width = 2.0 * tip_depth
+    shift = near * (half_w - tip_depth)  # new centre's v in the old box frame
+    center = fit.center + shift * np.array([-s, c])
+    length, heading = fit.length, fit.heading
+    if width > length:
+        length, width, heading = width, length, _axis_angle(heading + HALF_PI)
+    return ShapeFit(center, heading, length, width, fit.mse, fit.kind, fit.n_points, fit.method, completed=True)
 
 
 # ---------------------------------------------------------------------------------------------------------------------
@@ -346,28 +714,35 @@ _LSHAPE_MODES = {"lshape-bruteforce": "bruteforce", "lshape-rotation": "rotation
 
 
 def fit_shape(
-    points: np.ndarray, config: ShapeConfig | None = None, sensor_position: np.ndarray | None = None
+    points: np.ndarray,
+    config: ShapeConfig | None = None,
+    sensor_position: np.ndarray | None = None,
+    ellipse: ShapeFit | DegenerateClusterError | None = None,
+    box: ShapeFit | None = None,
 ) -> ShapeFit:
     """Fit per ``config.mode``; "adaptive" is Algorithm 4: box and ellipse, the smaller MSE wins.
 
+    ``ellipse``: these points' :func:`fit_ellipse` result (or its error) when already computed, e.g. for a whole
+    scan by :func:`fit_ellipses`; ``box`` likewise the configured L-shape fit (e.g. :func:`fit_lshape_corners`).
     Never raises for a cluster with at least one finite point: an impossible ellipse falls back to the box.
     """
     cfg = config or ShapeConfig()
     mode = cfg.mode
-    if mode == "adaptive":
-        box = fit_box(points, cfg, sensor_position)
-        if box.kind is ShapeKind.POINT:
-            return box
+    if mode in ("adaptive", "ellipse") and ellipse is None:
         try:
             ellipse = fit_ellipse(points)
-        except DegenerateClusterError:
+        except DegenerateClusterError as exc:
+            ellipse = exc
+    if mode == "adaptive":
+        box = box or fit_box(points, cfg, sensor_position)
+        if box.kind is ShapeKind.POINT or isinstance(ellipse, DegenerateClusterError):
             return box
+        assert ellipse is not None
         return ellipse if ellipse.mse < box.mse else box
     if mode == "ellipse":
-        try:
-            return fit_ellipse(points)
-        except DegenerateClusterError:
-            return fit_lshape_corner(points, cfg.corner_min_offset)
+        if isinstance(ellipse, ShapeFit):
+            return ellipse
+        return fit_lshape_corner(points, cfg.corner_min_offset)
     if mode not in _LSHAPE_MODES:
         raise ValueError(f"unknown shape mode {mode!r}")
-    return fit_box(points, cfg, sensor_position, _LSHAPE_MODES[mode])
+    return box or fit_box(points, cfg, sensor_position, _LSHAPE_MODES[mode])

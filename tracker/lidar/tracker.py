@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from tracker.assignment import Assignment
 from tracker.lidar.association import associate, footprint_covariance
-from tracker.lidar.clustering import ClusterResult, cluster_points, occluded_by_nearer
+from tracker.lidar.clustering import ClusterResult, cluster_points, occluded_by_nearer, occluded_clusters
 from tracker.lidar.config import LidarTrackerConfig
 from tracker.lidar.ekf import (
     HGT,
@@ -30,11 +31,27 @@ from tracker.lidar.ekf import (
     measurement_noise,
     visibility,
 )
-from tracker.lidar.shape_fit import DegenerateClusterError, cluster_height, fit_shape
+from tracker.lidar.shape_fit import (
+    DegenerateClusterError,
+    ShapeFit,
+    cluster_height,
+    complete_symmetric_hull,
+    fit_ellipses,
+    fit_lshape_corners,
+    fit_shape,
+    guard_heading,
+)
 from tracker.lifecycle import IdSource, Lifecycle, TrackLife
 from tracker.types import Detection, ShapeKind, Track
 
 log = logging.getLogger(__name__)
+
+
+@dataclass
+class LidarDetection(Detection):
+    """A :class:`Detection` that also says whether its width was completed by hull symmetry."""
+
+    completed: bool = False  # shape_fit.complete_symmetric_hull doubled the width: the whole beam is measured
 
 
 class LidarTracker:
@@ -56,12 +73,15 @@ class LidarTracker:
 
     # -- detection ---------------------------------------------------------------------------------------------
 
-    def detect(self, points_world: np.ndarray, t: float, own_position: np.ndarray) -> list[Detection]:
+    def detect(
+        self, points_world: np.ndarray, t: float, own_position: np.ndarray, point_times: np.ndarray | None = None
+    ) -> list[Detection]:
         """Cluster and fit one scan: one :class:`Detection` per vessel-sized cluster, nearest first.
 
         ``points_world`` (N, 3) world NED; ``own_position`` the own boat's (north, east) (a 3rd value is ignored).
-        Also sets :attr:`last_clusters` (every cluster, structure included) for the obstacle map. Does not touch
-        the tracks.
+        ``point_times`` (N,) s, optional: each point's firing time; a detection's ``t`` is then the mean time its
+        cluster was swept, else ``t``. Also sets :attr:`last_clusters` (every cluster, structure included) for the
+        obstacle map. Does not touch the tracks.
         """
         own = np.asarray(own_position, dtype=float)[:2]
         result = cluster_points(points_world, own, self.config.cluster)
@@ -69,29 +89,59 @@ class LidarTracker:
         self.last_clusters = result.clusters
         self.last_cluster_track = [None] * len(result.clusters)
         self._detection_clusters = []
+        swept = self._sweep_times(result, point_times, t)
+        vessels = np.flatnonzero(~result.oversized)
+        footprints = [result.footprints[k] for k in vessels]
+        shape = self.config.shape
+        # The whole scan's fits as stacked arrays where the fitter has a batch form (same results, less overhead).
+        ellipses: list[ShapeFit | DegenerateClusterError | None] = [None] * len(vessels)
+        boxes: list[ShapeFit | DegenerateClusterError | None] = [None] * len(vessels)
+        if shape.mode in ("adaptive", "ellipse"):
+            ellipses = list(fit_ellipses(footprints))
+        if shape.mode == "lshape-corner" or (shape.mode == "adaptive" and shape.lshape_method == "corner"):
+            boxes = list(fit_lshape_corners(footprints, shape.corner_min_offset))
         detections = []
-        for k, (cluster, footprint, big) in enumerate(
-            zip(result.clusters, result.footprints, result.oversized, strict=True)
-        ):
-            if big:
-                continue
-            det = self._fit_cluster(cluster, footprint, t, own, k)
+        for j, k in enumerate(vessels):
+            box = boxes[j] if isinstance(boxes[j], ShapeFit) else None
+            det = self._fit_cluster(result.clusters[k], footprints[j], float(swept[k]), own, int(k), ellipses[j], box)
             if det is not None:
                 detections.append(det)
                 self._detection_clusters.append([k])
         self.last_detections = detections
         return detections
 
+    @staticmethod
+    def _sweep_times(result: ClusterResult, point_times: np.ndarray | None, t: float) -> np.ndarray:
+        """Mean firing time of each cluster's points (``t`` for all without point times or on a size mismatch)."""
+        k = len(result.clusters)
+        if point_times is None or k == 0:
+            return np.full(k, t)
+        times = np.asarray(point_times, dtype=float).ravel()
+        if times.shape[0] != result.labels.shape[0]:
+            log.warning("point_times has %d entries for %d points: ignored", times.shape[0], result.labels.shape[0])
+            return np.full(k, t)
+        inside = (result.labels >= 0) & np.isfinite(times)
+        counts = np.bincount(result.labels[inside], minlength=k)
+        sums = np.bincount(result.labels[inside], weights=times[inside], minlength=k)
+        return np.where(counts > 0, sums / np.maximum(counts, 1), t)
+
     def _fit_cluster(
-        self, cluster: np.ndarray, footprint: np.ndarray, t: float, own: np.ndarray, k: int
+        self,
+        cluster: np.ndarray,
+        footprint: np.ndarray,
+        t: float,
+        own: np.ndarray,
+        k: int,
+        ellipse: ShapeFit | DegenerateClusterError | None = None,
+        box: ShapeFit | None = None,
     ) -> Detection | None:
         try:
-            fit = fit_shape(footprint, self.config.shape, sensor_position=own)
+            fit = self.fit_footprint(footprint, own, ellipse, box)
         except DegenerateClusterError as exc:
             self.stats["degenerate_clusters"] += 1
             log.debug("cluster %d skipped: %s", k, exc)
             return None
-        return Detection(
+        return LidarDetection(
             t=t,
             center=fit.center,
             heading=fit.heading,
@@ -104,7 +154,28 @@ class LidarTracker:
             range_m=float(np.hypot(*(fit.center - own))),
             points=footprint,
             source="lidar",
+            completed=fit.completed,
         )
+
+    def fit_footprint(
+        self,
+        footprint: np.ndarray,
+        own: np.ndarray,
+        ellipse: ShapeFit | DegenerateClusterError | None = None,
+        box: ShapeFit | None = None,
+    ) -> ShapeFit:
+        """The shape a detection reports for one cluster's (n, 2) footprint seen from ``own`` (north, east).
+
+        The configured fit (paper sec. 2.2-2.3), then, as configured, the heading guard and (mode "adaptive") the
+        hull symmetry completion. Raises :class:`DegenerateClusterError` for a footprint without finite points.
+        """
+        cfg = self.config.shape
+        fit = fit_shape(footprint, cfg, sensor_position=own, ellipse=ellipse, box=box)
+        if cfg.heading_guard and fit.mse > cfg.guard_min_mse:
+            fit = guard_heading(fit, footprint)
+        if cfg.symmetric_hull and cfg.mode == "adaptive":  # the hull-shape decision belongs to the adaptive mode
+            fit = complete_symmetric_hull(fit, footprint, own, cfg)
+        return fit
 
     def _merge_split_detections(self, detections: list[Detection], t: float, own: np.ndarray) -> list[Detection]:
         """Refit as one the detections that lie inside one confirmed track's predicted footprint and no other's.
@@ -138,7 +209,8 @@ class LidarTracker:
             members = [k for d in group for k in self._detection_clusters[d]]
             points = np.concatenate([self.last_clusters[k] for k in members])
             footprint = np.concatenate([result.footprints[k] for k in members])
-            det = self._fit_cluster(points, footprint, t, own, members[0])
+            swept = float(np.mean([detections[d].t for d in group]))
+            det = self._fit_cluster(points, footprint, swept, own, members[0])
             if det is None:  # cannot happen for merged non-empty clusters, but never lose the pieces
                 out.extend(detections[d] for d in group)
                 clusters_out.extend(self._detection_clusters[d] for d in group)
@@ -158,20 +230,31 @@ class LidarTracker:
         else:
             d = det.center - np.asarray(own_position, dtype=float)[:2]
             reference = math.atan2(d[1], d[0])
-        p_vis = visibility(det.range_m, det.mse, det.heading - reference, cfg, occluded)
+        p_vis = visibility(det.range_m, det.mse, det.heading - reference, cfg, occluded, use_aspect=not cfg.view_aware)
         r = measurement_noise(p_vis, cfg)
-        return Measurement(det.center, det.heading, det.length, det.width, det.height, det.shape, r)
+        sensor = np.asarray(own_position, dtype=float)[:2].copy()
+        completed = det.shape is ShapeKind.BOX and getattr(det, "completed", False)
+        return Measurement(det.center, det.heading, det.length, det.width, det.height, det.shape, r, sensor, completed)
 
     # -- the cycle ---------------------------------------------------------------------------------------------
 
-    def step(self, points_world: np.ndarray, t: float, own_position: np.ndarray, own_yaw: float = 0.0) -> list[Track]:
+    def step(
+        self,
+        points_world: np.ndarray,
+        t: float,
+        own_position: np.ndarray,
+        own_yaw: float = 0.0,
+        point_times: np.ndarray | None = None,
+    ) -> list[Track]:
         """Process one scan taken at ``t`` (s); returns every live track (``Track.confirmed`` tells which count).
 
         ``points_world`` (N, 3) world NED, from :func:`tracker.lidar.preprocess.preprocess`; ``own_position``
         (2,) or (3,) NED of the own boat; ``own_yaw`` rad (used only with ``EkfConfig.aspect_reference =
-        "sensor_heading"``). The whole revolution is taken to be seen at ``t``: a boat at 5 m/s smears by 0.5 m
-        over the 100 ms sweep, inside the fit's tolerance. A scan older than the previous one is ignored
-        (counted in ``stats["out_of_order"]``).
+        "sensor_heading"``). ``point_times`` (N,) s, optional, each point's firing time (``LidarScan.t`` of the
+        kept points): a moving boat's detection is then moved by its track's velocity from when it was swept to
+        ``t`` (``EkfConfig.compensate_sweep``); without them the whole revolution counts as seen at ``t``, which
+        puts a 5 m/s boat up to 0.5 m behind. A scan older than the previous one is ignored (counted in
+        ``stats["out_of_order"]``).
         """
         if self._t is not None and t < self._t:
             self.stats["out_of_order"] += 1
@@ -183,16 +266,25 @@ class LidarTracker:
         own = np.asarray(own_position, dtype=float)[:2]
 
         self.bank.predict(dt)
-        detections = self._merge_split_detections(self.detect(points_world, t, own), t, own)
+        detections = self._merge_split_detections(self.detect(points_world, t, own, point_times), t, own)
         self.last_detections = detections
         margin, result = self.config.cluster.occlusion_margin, self._cluster_result
         assert result is not None  # set by detect()
-        occluded = [occluded_by_nearer(m, result, margin) for m in self._detection_clusters]
+        single = occluded_clusters(result, margin)
+        occluded = [
+            bool(single[m[0]]) if len(m) == 1 else occluded_by_nearer(m, result, margin)
+            for m in self._detection_clusters
+        ]
         measurements = [self.measurement(d, own, own_yaw, occ) for d, occ in zip(detections, occluded, strict=True)]
         assignment = self._associate(measurements)
 
+        self.bank.update_many(
+            [
+                (int(ti), self._swept_to(measurements[di], int(ti), t - detections[di].t))
+                for ti, di in assignment.matches
+            ]
+        )
         for ti, di in assignment.matches:
-            self.bank.update(int(ti), measurements[di])
             self._lives[ti].hit(t)
             self._kinds[ti] = measurements[di].kind
             for k in self._detection_clusters[di]:
@@ -213,6 +305,16 @@ class LidarTracker:
             for k in self._detection_clusters[di]:
                 self.last_cluster_track[k] = life.id
         return self.tracks()
+
+    def _swept_to(self, m: Measurement, ti: int, lag: float) -> Measurement:
+        """``m`` moved by track ``ti``'s predicted velocity over ``lag`` s (from its sweep to the scan time)."""
+        if not (self.config.ekf.compensate_sweep and lag > 0.0):
+            return m
+        ekf = self.bank.filters[ti]
+        if max(ekf.P[VN, VN], ekf.P[VE, VE]) > self.config.ekf.velocity_valid_std**2:
+            return m  # velocity not known yet: moving the detection would only add noise
+        shifted = m.center + lag * ekf.x[[VN, VE]]
+        return Measurement(shifted, m.heading, m.length, m.width, m.height, m.kind, m.r, m.sensor, m.completed)
 
     def _associate(self, measurements: list[Measurement]) -> Assignment:
         x, p = self.bank.states(), self.bank.covariances()
