@@ -89,6 +89,7 @@ def run_demo(
         loop_thread.start()
         try:
             if live_view:
+                print("nearest obstacle per 45-degree sector, as the autopilot reduces OBSTACLE_DISTANCE ('--': none)")
                 print(
                     f"{'time':>5} {'msgs/s':>6}  "
                     + " ".join(f"{n:>6}" for n in SECTOR_LABELS)
