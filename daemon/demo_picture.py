@@ -38,6 +38,14 @@ def save_demo_picture(path: Path, scene: Scene, t_sim: float, output: Any, dista
     if output is not None and output.solid_points_body is not None and len(output.solid_points_body):
         p = output.solid_points_body
         ax.scatter(p[:, 1], p[:, 0], s=0.5, color="k", alpha=0.6, label="solid returns (LiDAR + radar)")
+    if output is not None:
+        for tr in output.tracks:
+            if not tr.confirmed:
+                continue
+            poly = world_to_body_2d(tr.footprint(), own.position[:2], own.yaw)
+            closed = np.vstack([poly, poly[:1]])
+            ax.plot(closed[:, 1], closed[:, 0], color="tab:orange", lw=1.2, ls="--")
+            ax.annotate(f"#{tr.id}", (poly[:, 1].max(), poly[:, 0].max()), fontsize=6, color="tab:orange")
     if distances_cm is not None:
         d = np.asarray(distances_cm, dtype=float)
         for j in range(N_BINS):
