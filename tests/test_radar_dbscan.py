@@ -79,3 +79,24 @@ def test_one_dimensional_input_and_empty_and_bad_input() -> None:
     assert dbscan(np.empty((0, 2)), 1.0, 2).shape == (0,)
     with pytest.raises(ValueError, match="finite"):
         dbscan(np.array([[0.0, np.nan]]), 1.0, 1)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_component_labels_match_scipy_connected_components(seed: int) -> None:
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from tracker.radar.dbscan import component_labels
+
+    rng = np.random.default_rng(seed)
+    n = 300
+    a = rng.integers(0, n, 250)
+    b = rng.integers(0, n, 250)
+    lab = component_labels(n, a, b)
+    _, ref = connected_components(coo_matrix((np.ones(a.size), (a, b)), shape=(n, n)), directed=False)
+    # Same partition, and each label is the lowest node index of its component.
+    assert len(np.unique(lab)) == len(np.unique(ref))
+    for c in np.unique(ref):
+        members = np.flatnonzero(ref == c)
+        assert (lab[members] == members.min()).all()
+    np.testing.assert_array_equal(component_labels(4, np.empty(0, int), np.empty(0, int)), [0, 1, 2, 3])

@@ -198,3 +198,17 @@ def test_doppler_veto_counts_as_moved() -> None:
     off.observe(0.0, pts)
     off.observe(0.1, pts, doppler_moving=True)
     assert off.counter == -1
+
+
+def test_vectorised_intersection_area_equals_clipping() -> None:
+    from tracker.radar.hull import convex_intersection_area
+
+    rng = np.random.default_rng(9)
+    for _ in range(300):
+        a = padded_hull(rng.normal(0, 1, (int(rng.integers(1, 12)), 2)), 0.15)
+        b = padded_hull(rng.normal(rng.normal(0, 1, 2), 1, (int(rng.integers(1, 12)), 2)), 0.15)
+        want = max(polygon_area(clip_convex(a, b)), 0.0)
+        assert convex_intersection_area(a, b) == pytest.approx(want, abs=1e-9)
+    sq = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
+    assert convex_intersection_area(sq, sq + np.array([1.0, 1.0])) == pytest.approx(1.0)
+    assert convex_intersection_area(sq, sq + np.array([3.0, 0.0])) == 0.0

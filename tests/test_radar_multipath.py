@@ -97,3 +97,23 @@ def test_detector_drops_the_ghost_cluster_of_a_boat() -> None:
     assert vel.radial_speed == pytest.approx(boat_v @ vel.radial_direction, abs=0.02)
     off = replace(cfg, multipath_enabled=False)
     assert len(RadarDetector(off).detect(pts, doppler, snr, 0.0, np.zeros(2), 0.0, np.zeros(2)).detections) == 2
+
+
+def test_a_real_boat_at_twice_the_range_of_another_is_kept_per_cluster() -> None:
+    # Two boats at rest on nearly the same bearing, the far one at twice the range: with both still, the Doppler
+    # test cannot tell, and the near boat explains 3 of the far boat's 8 returns as double bounces.
+    own = OwnBoat(position=np.zeros(2))
+    near = np.array([[14.0, -0.6], [14.1, 0.0], [14.0, 0.6], [14.3, -0.3], [14.4, 0.4], [14.2, 0.2]])
+    far = np.array(
+        [[29.6, 0.0], [30.0, 1.2], [30.3, 0.6], [31.0, -0.4], [31.6, 0.8], [32.2, 0.0], [32.8, 1.0], [33.4, 0.4]]
+    )
+    xyz, dop = observe(own, np.concatenate([near, far]), np.zeros(2))
+    snr = np.concatenate([np.full(6, 30.0), np.full(8, 18.0)])
+    cfg = RadarTrackerConfig(
+        cluster_min_points=6, velocity_cluster_min_points=6, cluster_radius_m=2.5, shore_filter_enabled=False
+    )
+    out = RadarDetector(cfg).detect(xyz, dop, snr, 0.0, np.zeros(2), 0.0, np.zeros(2))
+    np.testing.assert_array_equal(out.ghost[6:], [True] * 3 + [False] * 5)  # within 2 x 14.4 m + 1.6 m
+    assert len(out.detections) == 2  # 3 of 8 is under multipath_cluster_ghost_share: the far boat is real
+    paper = RadarDetector(replace(cfg, multipath_per_cluster=False))
+    assert len(paper.detect(xyz, dop, snr, 0.0, np.zeros(2), 0.0, np.zeros(2)).detections) == 1  # 5 left < 6

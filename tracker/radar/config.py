@@ -61,12 +61,33 @@ class RadarTrackerConfig:
     static_submaps_across: int = 3
     static_decay_time_s: float = 30.0  # not in the paper: e-folding time of map evidence (tide, moving moorings)
     static_occupied_hits: float = 3.0  # not in the paper: decayed hits that make a cell occupied
+    # Not in the paper: hits are pooled over squares of this side before the occupancy test (0: per cell). At 1 deg
+    # azimuth noise a wall 40 m away smears over ~1.4 m, so per 0.25 m cell it took ~15 s to show up as shore.
+    static_evidence_pool_m: float = 0.75
+    # Not in the paper: a static return enters the map only with this many other static returns within
+    # cluster_radius_m in the same frame (0: all do). Keeps scattered sea clutter from building a "shore".
+    static_map_min_neighbours: int = 1
+    # Not in the paper: only cells hit within this many seconds count toward the shore (the evidence itself decays
+    # with static_decay_time_s). inf: every occupied cell counts.
+    static_recent_s: float = 2.0
+    # Not in the paper: returns of a track moving faster than this (and than twice its speed's std), whose velocity
+    # explains their Doppler within the tolerance, stay out of the map (see RadarTracker._moving).
+    map_exclude_min_speed_mps: float = 0.25
+    map_exclude_doppler_tolerance_mps: float = 0.15
     shore_link_radius_m: float = 0.75  # not in the paper: gaps up to 2x this join one structure (sparse wall)
     shore_min_extent_m: float = 10.0  # not in the paper: a static structure this long is shore, not a moored boat
     shore_margin_m: float = 1.0  # not in the paper: a cluster this close to the shore is "on" it
     shore_on_fraction: float = 0.5  # share of a cluster's points on the shore that removes it
     shore_horizon_bin_rad: float = math.radians(1.0)  # bearing bins of the "what lies behind the shore" test
-    shore_update_interval_s: float = 0.0  # 0: extract the shore every frame
+    # Not in the paper: seconds between shore extractions (map and lines); in between the last shore is used. At
+    # 0.3 s a wall is found at most three frames later, for a third of the cost of extracting every frame.
+    shore_update_interval_s: float = 0.3
+    # Not in the paper (tracker.radar.shore_lines): static returns of the last shore_line_window_s linked at
+    # shore_line_link_m into a line at least shore_min_extent_m long and at most shore_line_max_thickness_m thick (RMS)
+    # are shore at once, before the static map has caught up. shore_line_window_s = 0 disables.
+    shore_line_window_s: float = 2.0
+    shore_line_link_m: float = 2.0
+    shore_line_max_thickness_m: float = 1.0
 
     # --- Multipath (sec. 3.2) ------------------------------------------------------------------------------------
     multipath_enabled: bool = True
@@ -75,9 +96,19 @@ class RadarTrackerConfig:
     multipath_range_tolerance_m: float = 0.75  # not in the paper; ~5 range bins of the sec. 3.1 configuration
     multipath_range_tolerance_rel: float = 0.03
     multipath_doppler_tolerance_mps: float = 0.5  # a k-bounce ghost also has k x the raw Doppler; <0 disables
+    # Not in the paper (it drops ghost returns before clustering). With both boats at rest the Doppler test cannot tell
+    # a ghost from a real boat at twice the range of another within the search angle: in the simulated paper scene
+    # a third of the far boat's returns were called ghosts of the near one. Clustered with everything, a cluster is
+    # dropped only when at least this share of its returns are ghosts; ghost returns never reach the static map.
+    multipath_per_cluster: bool = True
+    multipath_cluster_ghost_share: float = 0.5
 
     # --- Kalman filter (sec. 2.3-1, eq. 1-2) ---------------------------------------------------------------------
+    # "ca": constant acceleration driven by white jerk (jerk_std); "cv": constant velocity driven by white
+    # acceleration (accel_std). Not in the paper, which names a Kalman filter without its motion model.
+    motion_model: str = "ca"
     jerk_std: float = 0.1  # m/s^3, white-noise jerk: boats change acceleration slowly; not in the paper
+    accel_std: float = 2.0  # m/s^2, white-noise acceleration of the "cv" model (a 3 m/s boat turning on 2.5 m: 3.6)
     size_std_rate: float = 0.2  # m/sqrt(s), random walk of l and w
     position_std_m: float = 0.5  # radar cluster centre noise at short range
     position_std_per_m: float = 0.02  # plus this per metre of range (azimuth resolution)
@@ -89,11 +120,49 @@ class RadarTrackerConfig:
     doppler_measurement_enabled: bool = True  # ablation switch ("Remove Velocity Measurement", Table 4)
     fusion_gamma: float = 0.8  # sec. 3.2: weight of the Doppler velocity measurement
     fusion_reference_distance_m: float = 10.0  # not in the paper: eq. 7's 1/d weight is capped at 1 inside this
+    # Not in the paper: when the position innovation's NIS exceeds maneuver_nis (0: off), this much velocity variance
+    # is added before the update (see kalman.fused_update).
+    maneuver_nis: float = 9.21  # 99 % of chi2(2)
+    maneuver_velocity_std_mps: float = 1.5
+    maneuver_skip_doppler: bool = True  # the Doppler velocity is not fused in a frame flagged as a manoeuvre
+    # Not in the paper: added to the Doppler velocity's variance along the directions it determines (turning hulls,
+    # near-side returns); 0 trusts the profile fit's own covariance.
+    doppler_model_std_mps: float = 0.3
     doppler_gate_chi2: float = 13.8  # not in the paper: 99.9 % of chi2(2); a Doppler velocity beyond it is not fused
+
+    # --- Visible-side compensation (not in the paper; see tracker.radar.visible_side) -------------------------------
+    # The paper measures the box centre of the returns, which sits on the near side of the hull. On: the centre
+    # measurement is moved behind the nearest return by these shares of the track's recent outline depth and width.
+    visible_side_enabled: bool = True
+    visible_depth_gain: float = 0.4  # fitted on the simulated paper boats; check on real returns
+    visible_width_gain: float = 0.2
+    shape_window_s: float = 1.0  # the outline is the track's returns of this long, relative to its centre
 
     # --- Association (sec. 2.3-1) ---------------------------------------------------------------------------------
     association_min_iou: float = 0.01  # below: the IoU cost gives way to the distance fallback
     association_distance_gate_m: float = 3.0  # centre distance for sparse clusters whose boxes do not overlap
+    # Not in the paper: a sparse hull often comes as two or three clusters. A cluster left over after the one-to-one
+    # assignment joins the track whose predicted box is within this gap (and whose velocity explains its Doppler)
+    # instead of starting a second track on the same boat. 0 disables.
+    merge_gap_m: float = 2.0
+    # Not in the paper: a confirmed track left without a cluster takes a would-be new track's cluster within this
+    # distance of its prediction (a hard turn leaves the predicted box). 0 disables.
+    recovery_gate_m: float = 5.0
+    # Not in the paper: loose returns of this many frames are clustered together to start tracks on far, sparse
+    # boats (RadarTracker._pooled_births). 1: one frame, as the paper.
+    birth_window_frames: int = 3
+    birth_pool_min_range_m: float = 20.0  # only returns this far are pooled (clutter is dense near the radar)
+    # Not in the paper: a track that gets no cluster takes this many loose returns (in no cluster) within
+    # merge_gap_m of its predicted box as its measurement. 0 disables.
+    update_min_points: int = 2
+    merge_doppler_tolerance_mps: float = 0.8  # = velocity_cluster_threshold_mps: what the Doppler split would tell
+    # Not in the paper: tracks born from pieces of one hull before either was established are duplicates when their
+    # boxes overlap this much or their centres are this close while moving alike; the younger is dropped.
+    # duplicate_distance_m = 0 disables.
+    duplicate_iou: float = 0.1
+    duplicate_distance_m: float = 2.5
+    duplicate_velocity_mps: float = 1.0
+    duplicate_velocity_chi2: float = 9.21  # or their difference within 99 % of chi2(2) of the two filters' covariance
 
     # --- Lifecycle (shared tracker.lifecycle) ---------------------------------------------------------------------
     confirm_hits: int = 3
@@ -143,6 +212,7 @@ class RadarTrackerConfig:
             "static_occupied_hits",
             "shore_min_extent_m",
             "shore_horizon_bin_rad",
+            "shore_line_max_thickness_m",
             "multipath_search_angle_rad",
             "position_std_m",
             "size_std_m",
@@ -159,11 +229,31 @@ class RadarTrackerConfig:
         nonneg = (
             "roi_min_range_m",
             "shore_link_radius_m",
+            "merge_gap_m",
+            "birth_pool_min_range_m",
+            "recovery_gate_m",
+            "static_evidence_pool_m",
+            "static_recent_s",
+            "shore_line_window_s",
+            "shore_line_link_m",
+            "visible_depth_gain",
+            "visible_width_gain",
+            "shape_window_s",
+            "map_exclude_min_speed_mps",
+            "map_exclude_doppler_tolerance_mps",
+            "merge_doppler_tolerance_mps",
+            "duplicate_distance_m",
+            "duplicate_velocity_mps",
+            "duplicate_velocity_chi2",
             "shore_margin_m",
             "shore_update_interval_s",
             "multipath_range_tolerance_m",
             "multipath_range_tolerance_rel",
             "jerk_std",
+            "accel_std",
+            "maneuver_nis",
+            "maneuver_velocity_std_mps",
+            "doppler_model_std_mps",
             "size_std_rate",
             "position_std_per_m",
             "motion_hull_baseline_s",
@@ -174,11 +264,19 @@ class RadarTrackerConfig:
         for name in nonneg:
             if not getattr(self, name) >= 0:
                 raise ValueError(f"RadarTrackerConfig.{name} must be >= 0, got {getattr(self, name)!r}")
-        for name in ("cluster_min_points", "velocity_cluster_min_points", "static_submap_cells", "ego_min_points"):
+        for name in (
+            "cluster_min_points",
+            "velocity_cluster_min_points",
+            "static_submap_cells",
+            "ego_min_points",
+            "birth_window_frames",
+        ):
             if int(getattr(self, name)) < 1:
                 raise ValueError(f"RadarTrackerConfig.{name} must be >= 1")
         if self.static_submaps_across < 1 or self.static_submaps_across % 2 == 0:
             raise ValueError("RadarTrackerConfig.static_submaps_across must be odd (the boat's sub-map in the middle)")
+        if self.motion_model not in ("ca", "cv"):
+            raise ValueError(f"RadarTrackerConfig.motion_model must be 'ca' or 'cv', not {self.motion_model!r}")
         if self.roi_min_range_m >= self.roi_max_range_m:
             raise ValueError("RadarTrackerConfig: roi_min_range_m must be below roi_max_range_m")
         if self.roi_min_z_m >= self.roi_max_z_m:
@@ -186,7 +284,14 @@ class RadarTrackerConfig:
         for name in ("ransac_outlier_rate", "ego_outlier_rate"):
             if not 0.0 <= getattr(self, name) < 1.0:
                 raise ValueError(f"RadarTrackerConfig.{name} must be in [0, 1)")
-        for name in ("ransac_confidence", "min_inlier_fraction", "shore_on_fraction", "motion_iou_threshold"):
+        for name in (
+            "ransac_confidence",
+            "min_inlier_fraction",
+            "shore_on_fraction",
+            "motion_iou_threshold",
+            "multipath_cluster_ghost_share",
+            "duplicate_iou",
+        ):
             if not 0.0 < getattr(self, name) <= 1.0:
                 raise ValueError(f"RadarTrackerConfig.{name} must be in (0, 1]")
         if not 0.0 <= self.fusion_gamma <= 1.0:

@@ -23,11 +23,13 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from tracker.ego import body_to_world
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.dbscan import dbscan
 from tracker.radar.multipath import MultipathSettings, multipath_ghosts
+from tracker.radar.shore_lines import ShoreLines
 from tracker.radar.static_map import StaticMap
 from tracker.radar.velocity_profile import VelocityEstimate, VelocityStatus, fit_velocity_profile
 from tracker.types import Detection, ShapeKind
@@ -88,9 +90,16 @@ class DetectorOutput:
     t: float
     sensor_ne: np.ndarray  # (2,) radar position, world
     points: np.ndarray  # (m, 2) world N/E of the returns inside the ROI
+    points_body: np.ndarray  # (m, 3) the same, body FRD
+    doppler: np.ndarray  # (m,) raw Doppler, m/s
+    snr: np.ndarray  # (m,) dB
+    los: np.ndarray  # (m, 2) unit lines of sight from the radar, world
+    range_m: np.ndarray  # (m,) horizontal range from the radar
+    loose: np.ndarray  # (m,) bool, in no kept cluster, no ghost, not on the shore
     doppler_world: np.ndarray  # (m,) ego-compensated Doppler (NaN without an ego velocity)
     ghost: np.ndarray  # (m,) bool, multipath ghosts
     static: np.ndarray  # (m,) bool, returns at rest over ground (candidates for the static map)
+    line_static: np.ndarray  # (m,) bool, returns at rest over ground (candidates for the shore lines)
     sensor_velocity: np.ndarray  # (2,) radar velocity over ground used for compensation; NaN if none
     ego_source: str  # "autopilot", "doppler" or "none"
     ego_estimate: VelocityEstimate | None  # the Doppler ego fit, when one was made
@@ -110,6 +119,14 @@ class RadarDetector:
         self.cfg = config
         self.rng = rng if rng is not None else np.random.default_rng(config.seed)
         self.static_map = StaticMap(config)
+        self.shore_lines = ShoreLines(
+            config.shore_line_window_s,
+            config.shore_line_link_m,
+            config.shore_min_extent_m,
+            config.shore_line_max_thickness_m,
+            config.shore_update_interval_s,
+            config.position_std_per_m,
+        )
         self.multipath = MultipathSettings(
             search_angle=config.multipath_search_angle_rad,
             orders=tuple(int(k) for k in config.multipath_range_orders),
@@ -222,34 +239,35 @@ class RadarDetector:
             static = (np.abs(dop_world) <= c.static_doppler_threshold_mps) & ~ghost
         else:
             static = ~ghost
+        on_line = np.zeros(len(xyz), bool)
+        line_static = static.copy()
+        if c.shore_filter_enabled and c.shore_line_window_s > 0:
+            on_line[static] = self.shore_lines.mark(t, world[static], sensor_ne)
+        if c.static_map_min_neighbours > 0 and static.any():
+            # Sea clutter is static-looking but scattered: over minutes it would fill the water near the boat with
+            # "occupied" cells. A wall or a hull gives returns with neighbours in the same frame; lone ones are left out.
+            idx = np.flatnonzero(static)
+            pairs = cKDTree(world[idx]).query_pairs(c.cluster_radius_m, output_type="ndarray")
+            nbrs = np.bincount(pairs.reshape(-1), minlength=idx.size)
+            static[idx[nbrs < c.static_map_min_neighbours]] = False
 
-        # 5. clustering over the non-ghost returns
-        real = np.flatnonzero(~ghost)
+        # 5. clustering over the non-ghost returns (paper), or over all returns with the ghost verdict per cluster
+        per_cluster = c.multipath_enabled and c.multipath_per_cluster
+        real = np.arange(len(xyz)) if per_cluster else np.flatnonzero(~ghost)
         labels = np.full(len(xyz), -1, np.int64)
         if real.size:
             spatial = dbscan(world[real], c.cluster_radius_m, c.cluster_min_points)
-            labels[real] = self._split_by_doppler(spatial, dop_world[real] if source != "none" else dop[real])
+            labels[real] = self.split_by_doppler(spatial, dop_world[real] if source != "none" else dop[real])
         n_clusters = int(labels.max()) + 1 if labels.size else 0
         self._count(counts, "clustered_points", int((labels >= 0).sum()))
 
         clusters: list[RadarCluster] = []
         for k in range(n_clusters):  # one iteration per cluster (a handful), each vectorised
             idx = np.flatnonzero(labels == k)
-            fit_dop = dop_world[idx] if source != "none" else np.full(idx.size, np.nan)
-            vel = fit_velocity_profile(los[idx], fit_dop, self.profile, self.rng)
-            clusters.append(
-                RadarCluster(
-                    points=world[idx],
-                    points_body=xyz[idx],
-                    doppler=dop[idx],
-                    doppler_world=dop_world[idx],
-                    snr=snr_a[idx],
-                    los=los[idx],
-                    range_m=rng[idx],
-                    velocity=vel,
-                    index=idx,
-                )
-            )
+            if per_cluster and ghost[idx].mean() >= c.multipath_cluster_ghost_share:
+                self._count(counts, "ghost_clusters", 1)
+                continue
+            clusters.append(self._make_cluster(idx, world, xyz, dop, dop_world, snr_a, los, rng))
 
         # 6. shore filter, with the shore as known before this frame
         if c.shore_filter_enabled:
@@ -258,17 +276,34 @@ class RadarDetector:
             self.static_map.update_shore(t, pos, c.roi_max_range_m)
         if c.shore_filter_enabled and clusters:
             verdict = self.static_map.shore_verdict(sensor_ne, [cl.points for cl in clusters])
+            line_share = np.array([on_line[cl.index].mean() for cl in clusters])
+            verdict[(verdict == SHORE_KEEP) & (line_share >= c.shore_on_fraction)] = SHORE_ON
             for cl, v in zip(clusters, verdict, strict=True):
                 cl.shore = int(v)
             self._count(counts, "shore_clusters", int((verdict != SHORE_KEEP).sum()))
         kept = [cl for cl in clusters if cl.shore == SHORE_KEEP]
+        # Returns in no kept cluster, no ghost and not on the shore: too few to start a track, but a track that finds
+        # no cluster this frame may take them (RadarTracker, update_min_points).
+        loose = np.ones(len(xyz), bool)
+        for cl in kept:
+            loose[cl.index] = False
+        loose &= ~ghost & ~on_line & (labels < 0)
+        if c.shore_filter_enabled and loose.any():
+            loose[loose] = ~self.static_map.on_shore(world[loose])
         out = DetectorOutput(
             t=t,
             sensor_ne=sensor_ne,
             points=world,
+            points_body=xyz,
+            doppler=dop,
+            snr=snr_a,
+            los=los,
+            range_m=rng,
+            loose=loose,
             doppler_world=dop_world,
             ghost=ghost,
             static=static,
+            line_static=line_static,
             sensor_velocity=v_sensor,
             ego_source=source,
             ego_estimate=ego_est,
@@ -281,14 +316,74 @@ class RadarDetector:
             self.update_map(out)
         return out
 
+    def _make_cluster(
+        self,
+        idx: np.ndarray,
+        world: np.ndarray,
+        xyz: np.ndarray,
+        dop: np.ndarray,
+        dop_world: np.ndarray,
+        snr: np.ndarray,
+        los: np.ndarray,
+        rng: np.ndarray,
+    ) -> RadarCluster:
+        return RadarCluster(
+            points=world[idx],
+            points_body=xyz[idx],
+            doppler=dop[idx],
+            doppler_world=dop_world[idx],  # NaN without an ego velocity: the fit then finds nothing
+            snr=snr[idx],
+            los=los[idx],
+            range_m=rng[idx],
+            velocity=fit_velocity_profile(los[idx], dop_world[idx], self.profile, self.rng),
+            index=idx,
+        )
+
+    def cluster_of(self, out: DetectorOutput, idx: np.ndarray) -> RadarCluster:
+        """A cluster made of rows ``idx`` of a frame's output (loose returns a track gathers)."""
+        return self._make_cluster(
+            np.asarray(idx, np.int64),
+            out.points,
+            out.points_body,
+            out.doppler,
+            out.doppler_world,
+            out.snr,
+            out.los,
+            out.range_m,
+        )
+
+    def merge_clusters(self, parts: list[RadarCluster]) -> RadarCluster:
+        """One cluster from pieces a track claims together (a sparse hull that DBSCAN split); velocity refitted."""
+        if len(parts) == 1:
+            return parts[0]
+
+        def cat(name: str) -> np.ndarray:
+            return np.concatenate([getattr(p, name) for p in parts])
+
+        los, dop_world = cat("los"), cat("doppler_world")
+        return RadarCluster(
+            points=cat("points"),
+            points_body=cat("points_body"),
+            doppler=cat("doppler"),
+            doppler_world=dop_world,
+            snr=cat("snr"),
+            los=los,
+            range_m=cat("range_m"),
+            velocity=fit_velocity_profile(los, dop_world, self.profile, self.rng),
+            index=cat("index"),
+        )
+
     def update_map(self, out: DetectorOutput, exclude: np.ndarray | None = None) -> None:
         """7. Add the frame's static returns to the static map, except rows flagged in ``exclude`` (m,) bool."""
         if not self.cfg.shore_filter_enabled:
             return
         use = out.static if exclude is None else out.static & ~exclude
         self.static_map.add_points(out.points[use], out.t)
+        if self.cfg.shore_line_window_s > 0:
+            line = out.line_static if exclude is None else out.line_static & ~exclude
+            self.shore_lines.add(out.t, out.points[line])
 
-    def _split_by_doppler(self, spatial: np.ndarray, dop: np.ndarray) -> np.ndarray:
+    def split_by_doppler(self, spatial: np.ndarray, dop: np.ndarray) -> np.ndarray:
         """Split each spatial cluster by 1-D DBSCAN over Doppler; one call for all clusters.
 
         Each cluster is put on its own line far from the others (label x a large offset), so the density search can

@@ -23,30 +23,40 @@ DIM_X = 8
 POS, VEL, ACC, SIZE = slice(0, 2), slice(2, 4), slice(4, 6), slice(6, 8)
 
 
-def transition(dt: float) -> np.ndarray:
+def transition(dt: float, cfg: RadarTrackerConfig | None = None) -> np.ndarray:
+    cv = cfg is not None and cfg.motion_model == "cv"
     f = np.eye(DIM_X)
     for axis in range(2):
         p, v, a = axis, 2 + axis, 4 + axis
         f[p, v] = dt
-        f[p, a] = 0.5 * dt * dt
-        f[v, a] = dt
+        if not cv:
+            f[p, a] = 0.5 * dt * dt
+            f[v, a] = dt
     return f
 
 
 def process_noise(dt: float, cfg: RadarTrackerConfig) -> np.ndarray:
-    """Discrete white-jerk noise per axis (position, velocity, acceleration) and a random walk of the size."""
+    """Per axis: discrete white-jerk noise on (position, velocity, acceleration) for the constant-acceleration model,
+    or discrete white-acceleration noise on (position, velocity) for the constant-velocity one (the acceleration
+    state then stays at zero); plus a random walk of the size."""
     q = np.zeros((DIM_X, DIM_X))
-    j2 = cfg.jerk_std**2
-    block = j2 * np.array(
-        [
-            [dt**5 / 20, dt**4 / 8, dt**3 / 6],
-            [dt**4 / 8, dt**3 / 3, dt**2 / 2],
-            [dt**3 / 6, dt**2 / 2, dt],
-        ]
-    )
-    for axis in range(2):
-        idx = [axis, 2 + axis, 4 + axis]
-        q[np.ix_(idx, idx)] = block
+    if cfg.motion_model == "cv":
+        block = cfg.accel_std**2 * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
+        for axis in range(2):
+            idx = [axis, 2 + axis]
+            q[np.ix_(idx, idx)] = block
+    else:
+        j2 = cfg.jerk_std**2
+        block = j2 * np.array(
+            [
+                [dt**5 / 20, dt**4 / 8, dt**3 / 6],
+                [dt**4 / 8, dt**3 / 3, dt**2 / 2],
+                [dt**3 / 6, dt**2 / 2, dt],
+            ]
+        )
+        for axis in range(2):
+            idx = [axis, 2 + axis, 4 + axis]
+            q[np.ix_(idx, idx)] = block
     q[SIZE, SIZE] = np.eye(2) * cfg.size_std_rate**2 * dt
     return q
 
@@ -58,6 +68,20 @@ def position_std(cfg: RadarTrackerConfig, distance: float) -> float:
 def doppler_weight(cfg: RadarTrackerConfig, distance: float) -> float:
     """Eq. 7's gamma / d, capped at gamma within the reference distance."""
     return cfg.fusion_gamma * min(1.0, cfg.fusion_reference_distance_m / max(distance, 1e-6))
+
+
+def velocity_noise(vel: VelocityEstimate, distance: float, cfg: RadarTrackerConfig) -> np.ndarray:
+    """R of the Doppler velocity: the profile fit's covariance plus a model-error floor (not in the paper: a turning
+    hull's returns differ by yaw rate x lever arm, and the visible side is not the hull's centre), over eq. 7's
+    weight. The floor applies along the directions the cluster determines only."""
+    cov = np.asarray(vel.covariance, float)
+    floor = cfg.doppler_model_std_mps**2
+    if vel.status is VelocityStatus.RADIAL_ONLY:
+        e = vel.radial_direction
+        cov = cov + floor * np.outer(e, e)
+    else:
+        cov = cov + floor * np.eye(2)
+    return cov / doppler_weight(cfg, distance)
 
 
 def uses_doppler(cfg: RadarTrackerConfig, vel: VelocityEstimate | None) -> bool:
@@ -78,13 +102,13 @@ def new_filter(
     x[POS] = centre
     x[SIZE] = size
     p[POS, POS] = np.eye(2) * position_std(cfg, distance) ** 2
-    p[ACC, ACC] = np.eye(2) * cfg.init_accel_std_mps2**2
+    p[ACC, ACC] = np.eye(2) * (0.0 if cfg.motion_model == "cv" else cfg.init_accel_std_mps2**2)
     p[SIZE, SIZE] = np.eye(2) * cfg.size_std_m**2
     prior_info = np.eye(2) / cfg.init_velocity_std_mps**2
     if uses_doppler(cfg, vel):
         # Prior "some boat speed" combined with the Doppler velocity: a radial-only measurement fixes the radial part.
         assert vel is not None
-        r_inv = np.linalg.inv(vel.covariance / doppler_weight(cfg, distance))
+        r_inv = np.linalg.inv(velocity_noise(vel, distance, cfg))
         p_v = np.linalg.inv(prior_info + r_inv)
         x[VEL] = p_v @ r_inv @ vel.velocity
         p[VEL, VEL] = (p_v + p_v.T) / 2
@@ -98,7 +122,8 @@ def new_filter(
 def predict(kf: KalmanFilter, dt: float, cfg: RadarTrackerConfig) -> None:
     if dt <= 0:
         return
-    kf.predict(F=transition(dt), Q=process_noise(dt, cfg))
+    kf.predict(F=transition(dt, cfg), Q=process_noise(dt, cfg))
+    kf.last_dt = dt  # for the manoeuvre rule in fused_update
     kf.x[SIZE, 0] = np.maximum(kf.x[SIZE, 0], cfg.min_box_size_m)
 
 
@@ -110,7 +135,7 @@ def doppler_consistent(kf: KalmanFilter, vel: VelocityEstimate, distance: float,
     line of sight 4 deg off north becomes ~14 m/s east. Such a measurement is left out; position still updates.
     """
     y = vel.velocity - kf.x[VEL, 0]
-    s = kf.P[VEL, VEL] + vel.covariance / doppler_weight(cfg, distance)
+    s = kf.P[VEL, VEL] + velocity_noise(vel, distance, cfg)
     try:
         d2 = float(y @ np.linalg.solve(s, y))
     except np.linalg.LinAlgError:
@@ -129,10 +154,32 @@ def fused_update(
     """Eq. 7: position and size, plus the distance-weighted Doppler velocity when the cluster determines one and it
     agrees with the track (see doppler_consistent)."""
     sp = position_std(cfg, distance) ** 2
+    maneuver = False
+    if cfg.maneuver_nis > 0:
+        # Manoeuvre: the centre is further from the prediction than the filter's own uncertainty allows (a boat
+        # turning 1 rad/s leaves a constant-velocity prediction within a second). The velocity is opened up so this
+        # update can turn it, instead of the track sliding off and a new one starting on the boat. Not in the paper.
+        y = np.asarray(centre, float) - kf.x[POS, 0]
+        s = kf.P[POS, POS] + sp * np.eye(2)
+        maneuver = float(y @ np.linalg.solve(s, y)) > cfg.maneuver_nis
+        if maneuver:
+            # As if the velocity had taken a random step of maneuver_velocity_std_mps at the start of the last
+            # prediction: position and velocity variance and their coupling grow, so this very update can turn it.
+            dt = float(getattr(kf, "last_dt", 0.1))
+            g = np.zeros((DIM_X, 2))
+            g[POS, :] = dt * np.eye(2)
+            g[VEL, :] = np.eye(2)
+            kf.P = kf.P + cfg.maneuver_velocity_std_mps**2 * (g @ g.T)
     rows = [0, 1, 6, 7]
     z = [centre[0], centre[1], size[0], size[1]]
     r_diag = [sp, sp, cfg.size_std_m**2, cfg.size_std_m**2]
-    with_v = uses_doppler(cfg, vel) and doppler_consistent(kf, vel, distance, cfg)  # type: ignore[arg-type]
+    # A turning hull's returns carry yaw rate x lever arm (1 m/s and more on a sharp turn, all one way when only one
+    # side is seen): during a manoeuvre the Doppler velocity is left out and the positions turn the track.
+    with_v = (
+        uses_doppler(cfg, vel)
+        and not (maneuver and cfg.maneuver_skip_doppler)
+        and doppler_consistent(kf, vel, distance, cfg)  # type: ignore[arg-type]
+    )
     m = 6 if with_v else 4
     h = np.zeros((m, DIM_X))
     h[np.arange(4), rows] = 1.0
@@ -142,7 +189,7 @@ def fused_update(
         assert vel is not None
         h[4, 2] = h[5, 3] = 1.0
         z += [vel.velocity[0], vel.velocity[1]]
-        r[4:, 4:] = vel.covariance / doppler_weight(cfg, distance)
+        r[4:, 4:] = velocity_noise(vel, distance, cfg)
     kf.update(np.asarray(z, float).reshape(-1, 1), R=r, H=h)
     kf.x[SIZE, 0] = np.maximum(kf.x[SIZE, 0], cfg.min_box_size_m)
 

@@ -44,19 +44,23 @@ class StaticMap:
         self.sub = int(config.static_submap_cells)
         self.size = self.sub * int(config.static_submaps_across)
         self.grid = np.zeros((self.size, self.size))
+        self.last_hit = np.full((self.size, self.size), -np.inf)  # time of each cell's latest hit
         self.origin: tuple[int, int] | None = None  # world cell (i, j) of grid[0, 0]
         self.t_ref = 0.0
         self.t_last = -math.inf
         self.shifts = 0
         # Flat indices of the cells holding evidence: the shore scan visits only these, not 1200 x 1200 cells.
         self._touched = np.empty(0, np.int64)
+        self._touched_new: list[np.ndarray] = []  # cells hit since the last shore extraction, merged there
         self._clear_shore()
 
     # --- bookkeeping -------------------------------------------------------------------------------------------------
 
     def reset(self) -> None:
         self.grid[:] = 0.0
+        self.last_hit[:] = -np.inf
         self._touched = np.empty(0, np.int64)
+        self._touched_new = []
         self.origin = None
         self.t_last = -math.inf
         self._clear_shore()
@@ -99,14 +103,18 @@ class StaticMap:
             return
         di, dj = want[0] - self.origin[0], want[1] - self.origin[1]
         new = np.zeros_like(self.grid)
+        new_hit = np.full_like(self.last_hit, -np.inf)
         src_i = slice(max(di, 0), self.size + min(di, 0))
         dst_i = slice(max(-di, 0), self.size + min(-di, 0))
         src_j = slice(max(dj, 0), self.size + min(dj, 0))
         dst_j = slice(max(-dj, 0), self.size + min(-dj, 0))
         if src_i.start < src_i.stop and src_j.start < src_j.stop:
             new[dst_i, dst_j] = self.grid[src_i, src_j]
+            new_hit[dst_i, dst_j] = self.last_hit[src_i, src_j]
         self.grid = new
+        self.last_hit = new_hit
         self._touched = np.flatnonzero(new)  # a rare event: one full scan
+        self._touched_new = []
         self.origin = want  # type: ignore[assignment]
         self.shifts += 1
 
@@ -121,7 +129,8 @@ class StaticMap:
         inside = np.all((rc >= 0) & (rc < self.size), axis=1)
         flat = np.unique(rc[inside, 0] * self.size + rc[inside, 1])
         self.grid.flat[flat] += self._scale(t)
-        self._touched = np.union1d(self._touched, flat)
+        self.last_hit.flat[flat] = t
+        self._touched_new.append(flat)
         return int(flat.size)
 
     def evidence(self, t: float) -> np.ndarray:
@@ -153,10 +162,28 @@ class StaticMap:
         self._clear_shore()
         self._t_shore = t
         scale = self._scale(t)
+        if self._touched_new:
+            self._touched = np.union1d(self._touched, np.concatenate(self._touched_new))
+            self._touched_new = []
         value = self.grid.flat[self._touched]
         keep = value >= 1e-3 * scale  # evidence decayed to nothing: forget the cell until it is hit again
         self._touched, value = self._touched[keep], value[keep]
-        occ = self._touched[value >= self.cfg.static_occupied_hits * scale]
+        recent = self.last_hit.flat[self._touched] >= t - self.cfg.static_recent_s
+        pool = max(1, round(self.cfg.static_evidence_pool_m / self.res))
+        if pool > 1:
+            # Evidence pooled over pool x pool cells: a wall seen through 1 deg of azimuth noise spreads its returns
+            # over a metre, so single 0.25 m cells fill up far slower than the wall is really seen.
+            blocks = np.stack(np.divmod(self._touched, self.size), axis=1) // pool
+            _, inv = np.unique(blocks[:, 0] * self.size + blocks[:, 1], return_inverse=True)
+            inv = inv.reshape(-1)
+            pooled = np.bincount(inv, weights=value)[inv]
+            recent = np.bincount(inv, weights=recent)[inv] > 0
+        else:
+            pooled = value
+        # Occupied: enough evidence, and seen lately. A structure is judged by what is there now: the returns a slow
+        # boat leaves behind (its Doppler looks static) fall out after static_recent_s instead of adding up to a
+        # "shore" as long as its track.
+        occ = self._touched[(pooled >= self.cfg.static_occupied_hits * scale) & recent]
         rc = np.stack(np.divmod(occ, self.size), axis=1)
         boat = self.cells(np.asarray(position_ne, float).reshape(1, 2))[0] - np.asarray(self.origin)
         rc = rc[np.all(np.abs(rc - boat) <= math.ceil(max_range_m / self.res) + 1, axis=1)]

@@ -10,20 +10,23 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from collections import deque
+from dataclasses import dataclass, field
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from drivers.frames import EgoPose, RadarFrame
 from tracker.assignment import gated_assignment
-from tracker.lifecycle import IdSource, Lifecycle, TrackLife
+from tracker.lifecycle import IdSource, Lifecycle, TrackLife, TrackStatus
 from tracker.radar import kalman
 from tracker.radar.config import RadarTrackerConfig
+from tracker.radar.dbscan import component_labels, dbscan
 from tracker.radar.detector import DetectorOutput, RadarCluster, RadarDetector
 from tracker.radar.motion import MotionDiscriminator
 from tracker.radar.static_map import StaticMap
 from tracker.radar.velocity_profile import VelocityStatus
+from tracker.radar.visible_side import visible_side_centre
 from tracker.types import Detection, MotionState, ShapeKind, Track
 
 log = logging.getLogger(__name__)
@@ -40,6 +43,12 @@ def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     area_b = np.prod(b[:, 2:] - b[:, :2], axis=1)
     union = area_a[:, None] + area_b[None, :] - inter
     return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
+
+
+def box_gap_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(n, m) distance between axis-aligned boxes [min0, min1, max0, max1]; 0 where they overlap or touch."""
+    gap = np.maximum(b[None, :, :2] - a[:, None, 2:], a[:, None, :2] - b[None, :, 2:])
+    return np.linalg.norm(np.clip(gap, 0.0, None), axis=2)
 
 
 def association_cost(track_boxes: np.ndarray, det_boxes: np.ndarray, cfg: RadarTrackerConfig) -> np.ndarray:
@@ -59,6 +68,8 @@ class RadarTrackState:
     motion: MotionDiscriminator
     t: float  # time of the filter's state
     points: np.ndarray  # last associated point group, world N/E
+    shape: deque[tuple[float, np.ndarray]] = field(default_factory=deque)  # (t, returns - centre) of recent frames
+    sparse: bool = False  # born from returns pooled over several frames (a far boat)
 
     def to_track(self, cfg: RadarTrackerConfig) -> Track:
         x = self.kf.x[:, 0]
@@ -99,6 +110,7 @@ class RadarTracker:
         self.tracks: list[RadarTrackState] = []
         self.t_last = -math.inf
         self.last: DetectorOutput | None = None
+        self._pool: deque[tuple[DetectorOutput, np.ndarray]] = deque()  # recent frames and their unused loose returns
         self.skipped_frames = 0
 
     # --- access to the last cycle ------------------------------------------------------------------------------------
@@ -126,6 +138,8 @@ class RadarTracker:
         self.t_last = -math.inf
         self.last = None
         self.detector.static_map.reset()
+        self.detector.shore_lines.reset()
+        self._pool.clear()
 
     # --- the cycle ---------------------------------------------------------------------------------------------------
 
@@ -175,53 +189,286 @@ class RadarTracker:
         for tr in self.tracks:
             kalman.predict(tr.kf, t - tr.t, cfg)
             tr.t = t
-        dets = out.detections
         clusters = out.kept_clusters
-        if self.tracks and dets:
-            cost = association_cost(
-                np.array([kalman.box_of(tr.kf) for tr in self.tracks]),
-                np.array([c.box() for c in clusters]),
-                cfg,
-            )
-            a = gated_assignment(cost, _GATE)
-            matches, lost, fresh = a.matches, a.unmatched_rows, a.unmatched_cols
-        else:
-            matches = np.empty((0, 2), int)
-            lost = np.arange(len(self.tracks))
-            fresh = np.arange(len(dets))
-        for ti, di in matches:
-            tr, det, cl = self.tracks[ti], dets[di], clusters[di]
+        claims, spawn = self._associate(clusters)
+        groups = {ti: self.detector.merge_clusters([clusters[di] for di in dis]) for ti, dis in claims.items()}
+        groups.update(self._gather_loose(out, [ti for ti in range(len(self.tracks)) if ti not in claims]))
+        lost = [ti for ti in range(len(self.tracks)) if ti not in groups]
+        births = [(cl, False) for cl in self._merge_births([clusters[di] for di in spawn])]
+        births += [(cl, True) for cl in self._pooled_births(out, groups)]
+        used: list[tuple[int, RadarCluster]] = []
+        for ti, cl in groups.items():
+            tr = self.tracks[ti]
+            det = cl.to_detection(t, out.sensor_ne, cfg.min_box_size_m)
             size = np.array([det.length, det.width])
-            kalman.fused_update(tr.kf, det.center, size, det.range_m, cl.velocity, cfg)
+            centre = self._centre(tr, cl, det.center, out.sensor_ne)
+            kalman.fused_update(tr.kf, centre, size, det.range_m, cl.velocity, cfg)
+            self._remember_shape(tr, cl, t)
             tr.life.hit(t)
             tr.points = cl.points
             if cfg.motion_discriminator_enabled:
                 tr.motion.observe(t, cl.points, self._doppler_moving(cl))
+            used.append((ti, cl))
         for ti in lost:
             self.tracks[ti].life.miss(t)
-        for di in fresh:
-            det, cl = dets[di], clusters[di]
+        for cl, sparse in births:
+            det = cl.to_detection(t, out.sensor_ne, cfg.min_box_size_m)
             size = np.array([det.length, det.width])
+            centre = det.center
+            if cfg.visible_side_enabled:
+                centre = visible_side_centre(
+                    cl.points, out.sensor_ne, cl.points - det.center, cfg.visible_depth_gain, cfg.visible_width_gain
+                )
             tr = RadarTrackState(
                 life=self.lifecycle.start(t),
-                kf=kalman.new_filter(det.center, size, det.range_m, cl.velocity, cfg),
+                kf=kalman.new_filter(centre, size, det.range_m, cl.velocity, cfg),
                 motion=MotionDiscriminator(cfg),
                 t=t,
                 points=cl.points,
+                sparse=sparse,
             )
+            self._remember_shape(tr, cl, t)
             if cfg.motion_discriminator_enabled:
                 tr.motion.observe(t, cl.points, self._doppler_moving(cl))
             self.tracks.append(tr)
-        self._update_static_map(out, matches)
+        self._update_static_map(out, used)
+        self._prune_duplicates()
         self.tracks = [tr for tr in self.tracks if tr.life.alive]
         return self.current_tracks()
 
-    def _update_static_map(self, out: DetectorOutput, matches: np.ndarray) -> None:
+    def _associate(self, clusters: list[RadarCluster]) -> tuple[dict[int, list[int]], list[int]]:
+        """Clusters per track, and the clusters that start tracks.
+
+        One-to-one assignment first (sec. 2.3-1). A sparse hull often comes as two or three DBSCAN clusters; a
+        cluster left over whose box lies within ``merge_gap_m`` of a track's predicted box and whose Doppler agrees
+        joins that track's measurement instead of starting a duplicate track (not in the paper).
+        """
+        cfg = self.cfg
+        if not clusters:
+            return {}, []
+        if not self.tracks:
+            return {}, list(range(len(clusters)))
+        track_boxes = np.array([kalman.box_of(tr.kf) for tr in self.tracks])
+        det_boxes = np.array([c.box() for c in clusters])
+        a = gated_assignment(association_cost(track_boxes, det_boxes, cfg), _GATE)
+        claims: dict[int, list[int]] = {int(ti): [int(di)] for ti, di in a.matches}
+        spawn: list[int] = []
+        if cfg.merge_gap_m <= 0 or a.unmatched_cols.size == 0:
+            return claims, [int(di) for di in a.unmatched_cols]
+        gaps = box_gap_matrix(track_boxes, det_boxes[a.unmatched_cols])
+        for col, di in enumerate(a.unmatched_cols):
+            order = np.argsort(gaps[:, col])
+            ti = int(order[0])
+            if gaps[ti, col] <= cfg.merge_gap_m and self._doppler_agrees(ti, clusters[di]):
+                claims.setdefault(ti, []).append(int(di))
+            else:
+                spawn.append(int(di))
+        if cfg.recovery_gate_m > 0 and spawn:
+            spawn = self._recover(claims, spawn, det_boxes)
+        return claims, spawn
+
+    def _recover(self, claims: dict[int, list[int]], spawn: list[int], det_boxes: np.ndarray) -> list[int]:
+        """A confirmed track left without a cluster takes the nearest would-be new track within ``recovery_gate_m``
+        of its prediction (not in the paper). A boat turning hard leaves its predicted box within a second; without
+        this a second track starts on it and the first coasts off on the old course, an id switch and a false track.
+        The update that follows opens the velocity up (maneuver_nis)."""
+        lost = [ti for ti, tr in enumerate(self.tracks) if ti not in claims and tr.life.confirmed]
+        if not lost:
+            return spawn
+        centres = np.array([kalman.box_of(self.tracks[ti].kf) for ti in lost])
+        centres = (centres[:, :2] + centres[:, 2:]) / 2
+        cand = np.array(spawn)
+        det_c = (det_boxes[cand, :2] + det_boxes[cand, 2:]) / 2
+        dist = np.linalg.norm(centres[:, None, :] - det_c[None, :, :], axis=2)
+        taken: set[int] = set()
+        for flat in np.argsort(dist, axis=None):  # nearest pairs first; a handful of entries
+            r, c = divmod(int(flat), len(cand))
+            if dist[r, c] > self.cfg.recovery_gate_m:
+                break
+            if lost[r] in claims or int(cand[c]) in taken:
+                continue
+            claims[lost[r]] = [int(cand[c])]
+            taken.add(int(cand[c]))
+        return [int(d) for d in cand if int(d) not in taken]
+
+    def _centre(
+        self, tr: RadarTrackState, cl: RadarCluster, box_centre: np.ndarray, sensor_ne: np.ndarray
+    ) -> np.ndarray:
+        """Position measurement: the box centre (paper), or the hull centre behind the visible sides."""
+        cfg = self.cfg
+        if not cfg.visible_side_enabled:
+            return box_centre
+        shape = np.concatenate([g for _, g in tr.shape] + [cl.points - tr.kf.x[kalman.POS, 0]])
+        return visible_side_centre(cl.points, sensor_ne, shape, cfg.visible_depth_gain, cfg.visible_width_gain)
+
+    def _remember_shape(self, tr: RadarTrackState, cl: RadarCluster, t: float) -> None:
+        if not self.cfg.visible_side_enabled:
+            return
+        tr.shape.append((t, cl.points - tr.kf.x[kalman.POS, 0]))
+        while tr.shape and tr.shape[0][0] <= t - self.cfg.shape_window_s:
+            tr.shape.popleft()
+
+    def _merge_births(self, fresh: list[RadarCluster]) -> list[RadarCluster]:
+        """New clusters within ``merge_gap_m`` of each other whose Doppler agrees start one track, not one each: the
+        same rule that joins a leftover cluster to a track (pieces of one sparse hull)."""
+        cfg = self.cfg
+        if len(fresh) < 2 or cfg.merge_gap_m <= 0:
+            return fresh
+        boxes = np.array([c.box() for c in fresh])
+        dop = np.array([np.nanmedian(c.doppler_world) if np.isfinite(c.doppler_world).any() else np.nan for c in fresh])
+        close = box_gap_matrix(boxes, boxes) <= cfg.merge_gap_m
+        close &= ~(np.abs(dop[:, None] - dop[None, :]) > cfg.merge_doppler_tolerance_mps)  # NaN: cannot tell apart
+        a, b = np.nonzero(np.triu(close, 1))
+        comp = component_labels(len(fresh), a, b)
+        return [self.detector.merge_clusters([fresh[i] for i in np.flatnonzero(comp == c)]) for c in np.unique(comp)]
+
+    def _pooled_births(self, out: DetectorOutput, groups: dict[int, RadarCluster]) -> list[RadarCluster]:
+        """New tracks from the loose returns of the last ``birth_window_frames`` frames clustered together (not in the
+        paper, which clusters one frame). A boat 45 m away gives 2-3 returns a frame, never the cluster_min_points of
+        one frame; over three frames it does. Only returns beyond ``birth_pool_min_range_m`` are pooled: nearer, a boat
+        fills a cluster in one frame while sea clutter, dense near the radar, would fill one over three. A pooled
+        cluster must hold returns of this frame and of an earlier one, and lie clear of every track (``merge_gap_m``
+        from its box, ``recovery_gate_m`` from its centre); its returns are then spent."""
+        cfg = self.cfg
+        free = out.loose & (out.range_m >= cfg.birth_pool_min_range_m)
+        for cl in groups.values():
+            free[cl.index] = False
+        self._pool.append((out, free))
+        while len(self._pool) > max(cfg.birth_window_frames, 1):
+            self._pool.popleft()
+        if cfg.birth_window_frames <= 1 or len(self._pool) < 2 or not free.any():
+            return []
+        frame = np.concatenate([np.full(int(m.sum()), k) for k, (_, m) in enumerate(self._pool)])
+        rows = np.concatenate([np.flatnonzero(m) for _, m in self._pool])
+        if rows.size < cfg.cluster_min_points:
+            return []
+        pts = np.concatenate([o.points[m] for o, m in self._pool])
+        dop = np.concatenate([o.doppler_world[m] for o, m in self._pool])
+        spatial = dbscan(pts, cfg.cluster_radius_m, cfg.cluster_min_points)
+        labels = self.detector.split_by_doppler(spatial, dop)
+        now = len(self._pool) - 1
+        boxes = np.array([kalman.box_of(tr.kf) for tr in self.tracks]).reshape(-1, 4)
+        births: list[RadarCluster] = []
+        for lab in np.unique(labels[labels >= 0]):  # a handful of pooled clusters
+            mine = labels == lab
+            frames = np.unique(frame[mine])
+            if frames[-1] != now or frames.size < 2:
+                continue
+            p = pts[mine]
+            box = np.concatenate([p.min(axis=0), p.max(axis=0)])[None, :]
+            if len(boxes):
+                # Sparse returns this close to a track are that track's (a far boat's track may sit a couple of
+                # metres off its returns); a second track there would be a duplicate.
+                centre = (box[0, :2] + box[0, 2:]) / 2
+                near = np.linalg.norm((boxes[:, :2] + boxes[:, 2:]) / 2 - centre, axis=1).min()
+                if box_gap_matrix(boxes, box).min() <= cfg.merge_gap_m or near <= cfg.recovery_gate_m:
+                    continue
+            parts = []
+            for k in frames:
+                o, m = self._pool[int(k)]
+                sel = rows[mine & (frame == k)]
+                parts.append(self.detector.cluster_of(o, sel))
+                m[sel] = False
+            births.append(self.detector.merge_clusters(parts))
+        if births and cfg.shore_filter_enabled:
+            verdict = self.detector.static_map.shore_verdict(out.sensor_ne, [b.points for b in births])
+            near_line = self.detector.shore_lines.near(np.concatenate([b.points for b in births]), cfg.shore_margin_m)
+            owner = np.repeat(np.arange(len(births)), [b.n_points for b in births])
+            on_line = np.bincount(owner, near_line, len(births)) / np.array([b.n_points for b in births])
+            births = [
+                b for b, v, f in zip(births, verdict, on_line, strict=True) if v == 0 and f < cfg.shore_on_fraction
+            ]
+        return births
+
+    def _gather_loose(self, out: DetectorOutput, lost: list[int]) -> dict[int, RadarCluster]:
+        """Confirmed tracks (and tentative ones born sparse) without a cluster this frame take the loose returns within ``merge_gap_m`` of their predicted box
+        (each return to the nearest such track), if there are ``update_min_points`` of them and their Doppler agrees.
+        A far boat gives 2-3 returns a frame: too few to start a track, enough to keep one on it."""
+        cfg = self.cfg
+        # Tentative tracks only when born from pooled returns: one born from sea clutter would live on clutter.
+        cand = [ti for ti in lost if self.tracks[ti].life.confirmed or self.tracks[ti].sparse]
+        idx = np.flatnonzero(out.loose)
+        if cfg.update_min_points <= 0 or not cand or idx.size == 0:
+            return {}
+        boxes = np.array([kalman.box_of(self.tracks[ti].kf) for ti in cand])
+        pts = out.points[idx]
+        gaps = box_gap_matrix(boxes, np.concatenate([pts, pts], axis=1))
+        owner = np.argmin(gaps, axis=0)
+        near = gaps[owner, np.arange(idx.size)] <= cfg.merge_gap_m
+        found: dict[int, RadarCluster] = {}
+        for k in np.unique(owner[near]):  # one iteration per track that found returns
+            mine = idx[near & (owner == k)]
+            if mine.size < cfg.update_min_points:
+                continue
+            cl = self.detector.cluster_of(out, mine)
+            if self._doppler_agrees(cand[int(k)], cl):
+                found[cand[int(k)]] = cl
+        return found
+
+    def _doppler_agrees(self, ti: int, cl: RadarCluster) -> bool:
+        """The cluster's Doppler is what the track's velocity predicts along its lines of sight (no Doppler: yes)."""
+        d = cl.doppler_world[np.isfinite(cl.doppler_world)]
+        if d.size == 0:
+            return True
+        los = cl.los[np.isfinite(cl.doppler_world)]
+        expect = los @ self.tracks[ti].kf.x[kalman.VEL, 0]
+        return bool(abs(float(np.median(d - expect))) <= self.cfg.merge_doppler_tolerance_mps)
+
+    def _prune_duplicates(self) -> None:
+        """Two tracks on one boat (born from pieces of one hull before either was established): the younger goes.
+
+        Duplicates are tracks whose boxes overlap by ``duplicate_iou`` or whose centres are within
+        ``duplicate_distance_m``, moving alike (``duplicate_velocity_mps``); two boats passing each other move
+        differently and are left alone. Not in the paper.
+        """
+        cfg = self.cfg
+        if len(self.tracks) < 2 or cfg.duplicate_distance_m <= 0:
+            return
+        boxes = np.array([kalman.box_of(tr.kf) for tr in self.tracks])
+        iou = box_iou_matrix(boxes, boxes)
+        x = np.array([tr.kf.x[:4, 0] for tr in self.tracks])
+        pv = np.array([tr.kf.P[kalman.VEL, kalman.VEL] for tr in self.tracks])
+        dist = np.linalg.norm(x[:, None, :2] - x[None, :, :2], axis=2)
+        near = (iou >= cfg.duplicate_iou) | (dist <= cfg.duplicate_distance_m)
+        np.fill_diagonal(near, False)
+        if not near.any():
+            return
+        # Moving alike: velocities within duplicate_velocity_mps, or, when one of them is still tentative, not told
+        # apart by their own uncertainty (a track born a few frames ago knows little of its velocity). Two confirmed
+        # tracks must really move alike: boats crossing each other do not.
+        i, j = np.nonzero(np.triu(near))
+        dv = x[i, 2:] - x[j, 2:]
+        s = pv[i] + pv[j]
+        det = s[:, 0, 0] * s[:, 1, 1] - s[:, 0, 1] * s[:, 1, 0]
+        m2 = (
+            s[:, 1, 1] * dv[:, 0] ** 2 - 2 * s[:, 0, 1] * dv[:, 0] * dv[:, 1] + s[:, 0, 0] * dv[:, 1] ** 2
+        ) / np.where(det > 0, det, np.inf)
+        young = np.array([not tr.life.confirmed for tr in self.tracks])
+        alike = (np.linalg.norm(dv, axis=1) <= cfg.duplicate_velocity_mps) | (
+            (young[i] | young[j]) & (m2 <= cfg.duplicate_velocity_chi2)
+        )
+        dup = np.zeros_like(near)
+        dup[i[alike], j[alike]] = dup[j[alike], i[alike]] = True
+        if not dup.any():
+            return
+        # Keep in order of merit: confirmed, then more hits, then older (lower id).
+        rank = sorted(
+            range(len(self.tracks)),
+            key=lambda i: (not self.tracks[i].life.confirmed, -self.tracks[i].life.hits, self.tracks[i].life.id),
+        )
+        kept: list[int] = []
+        for i in rank:
+            if any(dup[i, k] for k in kept):
+                self.tracks[i].life.status = TrackStatus.DELETED
+            else:
+                kept.append(i)
+
+    def _update_static_map(self, out: DetectorOutput, used: list[tuple[int, RadarCluster]]) -> None:
         """Static returns into the map, except those of clusters that belong to tracks known to move."""
         exclude = np.zeros(len(out.points), bool)
-        for ti, di in matches:
-            if self._moving(self.tracks[ti]):
-                exclude[out.kept_clusters[di].index] = True
+        for ti, cl in used:
+            if self._moving(self.tracks[ti], cl):
+                exclude[cl.index] = True
         self.detector.update_map(out, exclude)
 
     def _doppler_moving(self, cl: RadarCluster) -> bool:
@@ -235,14 +482,29 @@ class RadarTracker:
         std = math.sqrt(max(float(e @ v.covariance @ e), 0.0))
         return speed > self.cfg.static_doppler_threshold_mps + 3.0 * std
 
-    def _moving(self, tr: RadarTrackState) -> bool:
-        """Clearly faster than a static return may look (speed beyond twice its own standard deviation)."""
+    def _moving(self, tr: RadarTrackState, cl: RadarCluster | None = None) -> bool:
+        """Clearly moving: filter speed above ``map_exclude_min_speed_mps`` and twice its own standard deviation, and
+        (with a cluster) that velocity explains the cluster's Doppler.
+
+        A boat crossing the line of sight has near-zero Doppler, so its returns pass as static; left in the map, a
+        slow boat's wake of returns grows into a false "shore" that then swallows the boat. A quay fragment tracked
+        before the shore is known may pick up a spurious filter velocity; its Doppler (zero) contradicts it, so its
+        returns still build the shore.
+        """
         v = tr.kf.x[kalman.VEL, 0]
         speed = float(np.hypot(*v))
-        if speed <= self.cfg.static_doppler_threshold_mps:
+        if speed <= self.cfg.map_exclude_min_speed_mps:
             return False
         var_along = float(v @ tr.kf.P[kalman.VEL, kalman.VEL] @ v) / speed**2
-        return speed > 2.0 * math.sqrt(var_along)
+        if speed <= 2.0 * math.sqrt(var_along):
+            return False
+        if cl is None:
+            return True
+        ok = np.isfinite(cl.doppler_world)
+        if not ok.any():
+            return True
+        miss = float(np.median(cl.doppler_world[ok] - cl.los[ok] @ v))
+        return abs(miss) <= self.cfg.map_exclude_doppler_tolerance_mps
 
     def current_tracks(self) -> list[Track]:
         return [tr.to_track(self.cfg) for tr in self.tracks]

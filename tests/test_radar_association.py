@@ -1,0 +1,132 @@
+"""Sparse-hull association rules of the radar tracker (not in paper 001): split clusters merged, duplicate tracks
+dropped, a track recovered after a hard turn, loose returns keeping a far track, far boats born from pooled frames."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from tracker.radar import RadarTracker, RadarTrackerConfig
+from tracker.radar.synthetic import OwnBoat, box_points, observe
+
+BASE = RadarTrackerConfig(
+    cluster_min_points=4,
+    velocity_cluster_min_points=4,
+    shore_filter_enabled=False,
+    multipath_enabled=False,
+    visible_side_enabled=False,  # synthetic returns fill the whole box, not its visible sides
+)
+OWN = OwnBoat(position=np.zeros(2))
+
+
+def run(cfg: RadarTrackerConfig, frames: list[tuple[np.ndarray, np.ndarray]]) -> tuple[RadarTracker, list[list]]:
+    tracker = RadarTracker(cfg)
+    outs = []
+    for k, (pts, vel) in enumerate(frames):
+        xyz, dop = observe(OWN, pts, vel)
+        outs.append(tracker.step(xyz, dop, None, 0.1 * k, OWN.position, 0.0, np.zeros(2), 0.0))
+    return tracker, outs
+
+
+def two_piece_boat(n_frames: int, gap_east: float, seed: int = 0) -> list[tuple[np.ndarray, np.ndarray]]:
+    """A boat at rest 20 m north whose returns come from two ends ``gap_east`` apart (centre to centre)."""
+    rng = np.random.default_rng(seed)
+    frames = []
+    for _ in range(n_frames):
+        a = box_points(np.array([20.0, -gap_east / 2]), (0.8, 0.8), 5, rng)
+        b = box_points(np.array([20.0, gap_east / 2]), (0.8, 0.8), 5, rng)
+        frames.append((np.concatenate([a, b]), np.zeros(2)))
+    return frames
+
+
+def confirmed(tracks: list) -> list:
+    return [tr for tr in tracks if tr.confirmed]
+
+
+def test_pieces_of_one_hull_become_one_track() -> None:
+    frames = two_piece_boat(20, gap_east=2.6)  # pieces 1.8 m apart edge to edge: two DBSCAN clusters at 1.2 m
+    tracker, outs = run(BASE, frames)
+    assert len(tracker.last_clusters) == 2
+    assert [len(confirmed(o)) for o in outs[5:]] == [1] * 15
+    np.testing.assert_allclose(confirmed(outs[-1])[0].position, [20.0, 0.0], atol=0.3)
+    # Without the merge and the duplicate rule each piece is a boat of its own.
+    _, apart = run(replace(BASE, merge_gap_m=0.0, duplicate_distance_m=0.0), frames)
+    assert [len(confirmed(o)) for o in apart[5:]] == [2] * 15
+
+
+def test_duplicate_tracks_are_dropped_keeping_the_older() -> None:
+    frames = two_piece_boat(20, gap_east=2.2)
+    cfg = replace(BASE, merge_gap_m=0.0)  # both pieces start tracks; the duplicate rule removes one
+    _, outs = run(cfg, frames)
+    ids = {tr.id for o in outs[5:] for tr in confirmed(o)}
+    assert len(ids) == 1 and ids == {min(tr.id for tr in outs[0])}
+    _, kept = run(replace(cfg, duplicate_distance_m=0.0), frames)
+    assert [len(confirmed(o)) for o in kept[5:]] == [2] * 15
+
+
+def test_boats_crossing_are_not_duplicates() -> None:
+    # Two confirmed tracks 2 m apart moving 3 m/s apart from each other: both stay.
+    rng = np.random.default_rng(5)
+    frames = []
+    for k in range(40):
+        t = 0.1 * k
+        a = np.array([18.0, -6.0 + 1.5 * t])
+        b = np.array([20.0, 6.0 - 1.5 * t])
+        pts = np.concatenate([box_points(a, (1.5, 1.5), 8, rng), box_points(b, (1.5, 1.5), 8, rng)])
+        vel = np.concatenate([np.tile([0.0, 1.5], (8, 1)), np.tile([0.0, -1.5], (8, 1))])
+        frames.append((pts, vel))
+    _, outs = run(BASE, frames)
+    assert len({tr.id for tr in confirmed(outs[-1])}) == 2  # they passed each other at t = 4 s
+    assert len({tr.id for o in outs[5:] for tr in confirmed(o)}) == 2
+
+
+def hard_turn(seed: int = 1) -> list[tuple[np.ndarray, np.ndarray]]:
+    """3 m/s north for 2 s, then 3 m/s east: the constant-velocity prediction is 3 m off within a second."""
+    rng = np.random.default_rng(seed)
+    frames = []
+    for k in range(40):
+        t = 0.1 * k
+        if t <= 2.0:
+            c, v = np.array([15.0 + 3.0 * t, -4.0]), np.array([3.0, 0.0])
+        else:
+            c, v = np.array([21.0, -4.0 + 3.0 * (t - 2.0)]), np.array([0.0, 3.0])
+        frames.append((box_points(c, (1.5, 1.5), 8, rng), v))
+    return frames
+
+
+def test_track_keeps_its_id_through_a_hard_turn() -> None:
+    cfg = replace(BASE, motion_model="cv", accel_std=0.5)
+    _, outs = run(cfg, hard_turn())
+    ids = {tr.id for o in outs[5:] for tr in confirmed(o)}
+    assert ids == {confirmed(outs[5])[0].id}
+    assert np.linalg.norm(confirmed(outs[-1])[0].position - [21.0, -4.0 + 3.0 * 1.9]) < 2.0  # inside the MOT gate
+    # Without recovery a second track starts on the boat after the turn.
+    _, lost = run(replace(cfg, recovery_gate_m=0.0, duplicate_distance_m=0.0), hard_turn())
+    assert len({tr.id for o in lost[5:] for tr in confirmed(o)}) >= 2
+
+
+def test_loose_returns_keep_a_track_on_a_boat_below_the_cluster_size() -> None:
+    rng = np.random.default_rng(2)
+    frames = []
+    for k in range(30):
+        n = 8 if k < 10 else 2  # the boat drifts out of good view: two returns a frame, no cluster
+        frames.append((box_points(np.array([25.0, 3.0]), (1.0, 1.0), n, rng), np.zeros(2)))
+    _tracker, outs = run(BASE, frames)
+    assert [len(confirmed(o)) for o in outs[10:]] == [1] * 20
+    assert confirmed(outs[-1])[0].time_since_update == 0.0
+    _, dropped = run(replace(BASE, update_min_points=0), frames)
+    assert confirmed(dropped[-1]) == []  # coasted out after max_unseen_time_s
+
+
+def test_far_sparse_boat_is_born_from_pooled_frames() -> None:
+    rng = np.random.default_rng(3)
+    frames = [(box_points(np.array([40.0, -5.0]), (1.5, 1.5), 2, rng), np.zeros(2)) for _ in range(30)]
+    cfg = replace(BASE, birth_window_frames=3, birth_pool_min_range_m=20.0)
+    _, outs = run(cfg, frames)
+    assert confirmed(outs[-1]) and np.linalg.norm(confirmed(outs[-1])[0].position - [40.0, -5.0]) < 1.0
+    assert len({tr.id for o in outs for tr in confirmed(o)}) == 1
+    _, single = run(replace(cfg, birth_window_frames=1), frames)
+    assert all(o == [] for o in single)
+    _, near_only = run(replace(cfg, birth_pool_min_range_m=50.0), frames)
+    assert all(o == [] for o in near_only)

@@ -1,0 +1,93 @@
+"""The radar track filter's motion models and its manoeuvre rule (tracker.radar.kalman)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from tracker.radar import kalman
+from tracker.radar.config import RadarTrackerConfig
+from tracker.radar.velocity_profile import VelocityEstimate, VelocityStatus
+
+CV = RadarTrackerConfig(motion_model="cv", accel_std=2.0)
+
+
+def test_constant_velocity_model_matrices() -> None:
+    dt = 0.1
+    f = kalman.transition(dt, CV)
+    want = np.eye(8)
+    want[0, 2] = want[1, 3] = dt
+    np.testing.assert_array_equal(f, want)  # no acceleration terms
+    q = kalman.process_noise(dt, CV)
+    a2 = 4.0
+    np.testing.assert_allclose(q[np.ix_([0, 2], [0, 2])], a2 * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]]))
+    np.testing.assert_allclose(q[np.ix_([1, 3], [1, 3])], q[np.ix_([0, 2], [0, 2])])
+    assert not q[4:6].any() and not q[:, 4:6].any()  # the acceleration state stays at zero
+    ca = kalman.transition(dt, RadarTrackerConfig())
+    assert ca[0, 4] == pytest.approx(dt * dt / 2) and ca[2, 4] == pytest.approx(dt)
+    with pytest.raises(ValueError, match="motion_model"):
+        RadarTrackerConfig(motion_model="imm")
+
+
+def test_velocity_follows_positions_under_the_cv_model() -> None:
+    kf = kalman.new_filter(np.array([10.0, 0.0]), np.ones(2), 10.0, None, CV)
+    for k in range(1, 31):
+        kalman.predict(kf, 0.1, CV)
+        kalman.fused_update(kf, np.array([10.0 + 0.2 * k, 0.0]), np.ones(2), 10.0, None, CV)
+    np.testing.assert_allclose(kf.x[kalman.VEL, 0], [2.0, 0.0], atol=0.1)
+    np.testing.assert_array_equal(kf.x[kalman.ACC, 0], [0.0, 0.0])
+
+
+def radial(speed: float, direction: np.ndarray, var: float = 1e-4) -> VelocityEstimate:
+    e = direction / np.linalg.norm(direction)
+    across = np.array([-e[1], e[0]])
+    return VelocityEstimate(
+        status=VelocityStatus.RADIAL_ONLY,
+        velocity=speed * e,
+        covariance=var * np.outer(e, e) + 1e4 * np.outer(across, across),
+        radial_direction=e,
+        radial_speed=speed,
+        tangential_speed=float("nan"),
+        heading_determined=False,
+        inliers=np.ones(3, bool),
+        residual_std=0.01,
+    )
+
+
+def settled(cfg: RadarTrackerConfig) -> object:
+    kf = kalman.new_filter(np.array([20.0, 0.0]), np.ones(2), 20.0, None, cfg)
+    for _ in range(30):  # at rest for 3 s
+        kalman.predict(kf, 0.1, cfg)
+        kalman.fused_update(kf, np.array([20.0, 0.0]), np.ones(2), 20.0, None, cfg)
+    kalman.predict(kf, 0.1, cfg)
+    return kf
+
+
+def test_manoeuvre_opens_the_velocity_and_skips_the_doppler() -> None:
+    jump = np.array([20.0, 4.0])  # 4 m off a settled prediction: NIS ~19, above 9.21
+    wild = radial(5.0, np.array([1.0, 0.0]))  # a Doppler speed no boat here has (a turning hull's returns)
+    kf = settled(CV)
+    kalman.fused_update(kf, jump, np.ones(2), 20.0, wild, CV)
+    turned = kf.x[kalman.VEL, 0].copy()
+    assert turned[1] > 1.5  # this very update turns the velocity toward the jump
+    assert turned[0] == pytest.approx(0.0, abs=1e-9)  # and leaves the Doppler out
+    off = replace(CV, maneuver_nis=0.0)
+    kf2 = settled(off)
+    kalman.fused_update(kf2, jump, np.ones(2), 20.0, None, off)
+    assert kf2.x[3, 0] < turned[1] / 2  # without the rule the settled filter turns half as much
+    keep = replace(CV, maneuver_skip_doppler=False)
+    kf3 = settled(keep)
+    kalman.fused_update(kf3, jump, np.ones(2), 20.0, wild, keep)
+    assert kf3.x[2, 0] > 4.0  # the opened-up velocity takes the Doppler whole
+
+
+def test_doppler_is_fused_without_a_manoeuvre_with_its_model_floor() -> None:
+    kf = settled(CV)
+    v = radial(0.4, np.array([1.0, 0.0]))
+    r = kalman.velocity_noise(v, 20.0, CV)
+    w = kalman.doppler_weight(CV, 20.0)
+    assert r[0, 0] == pytest.approx((1e-4 + 0.3**2) / w)
+    kalman.fused_update(kf, np.array([20.0, 0.0]), np.ones(2), 20.0, v, CV)
+    assert 0.05 < kf.x[2, 0] < 0.4  # pulled toward the radial 0.4 m/s, not all the way

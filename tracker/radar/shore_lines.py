@@ -1,0 +1,118 @@
+"""Shore seen as a line of static returns over the last half second (not in paper 001; helps its static map).
+
+The static map (``static_map``) calls a structure shore once enough evidence has piled up in its cells. A quay wall
+40 m away gives 7-14 returns a frame spread along 25-40 m with a metre of azimuth scatter, and in the simulated paper
+scenes the map took 5-10 s to see it; until then wall pieces were tracked as boats. Over half a second the same wall
+gives 50-100 returns that link into one long, thin line: at least ``shore_min_extent_m`` along its main axis and at
+most ``shore_line_max_thickness_m`` plus ``position_std_per_m`` per metre of range (azimuth scatter) RMS across it. Boats are shorter than the extent; sea clutter near the radar
+links into blobs, not lines; a slow boat's returns in half a second are a boat-sized patch. Returns on such a line are
+shore now, whatever the map says yet.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from tracker.radar.dbscan import component_labels
+
+
+class ShoreLines:
+    """Keeps the static returns of the last ``window_s`` and finds the long thin structures among them.
+
+    ``mark`` a frame's static returns first (the detector), ``add`` them once the tracker has left out the returns of
+    tracks known to move (a fast boat crossing the line of sight has static-looking Doppler and, over a second or
+    two, draws a line of its own)."""
+
+    def __init__(
+        self,
+        window_s: float,
+        link_m: float,
+        min_extent_m: float,
+        max_thickness_m: float,
+        interval_s: float = 0.0,
+        thickness_per_m: float = 0.0,
+        sensor_ne: np.ndarray | None = None,
+    ) -> None:
+        self.window_s = float(window_s)
+        self.thickness_per_m = float(thickness_per_m)
+        self.sensor_ne = np.zeros(2) if sensor_ne is None else np.asarray(sensor_ne, float)
+        self.link_m = float(link_m)
+        self.min_extent_m = float(min_extent_m)
+        self.max_thickness_m = float(max_thickness_m)
+        self.interval_s = float(interval_s)
+        self._frames: deque[tuple[float, np.ndarray]] = deque()
+        self._t_lines = -np.inf
+        self._line_tree: cKDTree | None = None  # returns found on lines at the last full search
+
+    def reset(self) -> None:
+        self._frames.clear()
+        self._t_lines = -np.inf
+        self._line_tree = None
+
+    def add(self, t: float, static_ne: np.ndarray) -> None:
+        """Remember a frame's static returns (k, 2) world N/E (the tracker leaves out those of moving tracks)."""
+        self._frames.append((t, np.asarray(static_ne, float).reshape(-1, 2)))
+
+    def mark(self, t: float, static_ne: np.ndarray, sensor_ne: np.ndarray | None = None) -> np.ndarray:
+        """(k,) bool: which of this frame's static returns (k, 2) lie on a shore line, with the remembered frames.
+        ``sensor_ne``: the radar's position now (for the range-dependent thickness)."""
+        pts = np.asarray(static_ne, float).reshape(-1, 2)
+        if sensor_ne is not None:
+            self.sensor_ne = np.asarray(sensor_ne, float).reshape(2)
+        while self._frames and self._frames[-1][0] > t:  # time went back (a replay restarted)
+            self._frames.pop()
+        while self._frames and self._frames[0][0] <= t - self.window_s:
+            self._frames.popleft()
+        on = np.zeros(pts.shape[0], bool)
+        if pts.shape[0] == 0:
+            return on
+        if 0 <= t - self._t_lines < self.interval_s:
+            # Between full searches: a return within the link distance of a known line return is on the line.
+            if self._line_tree is not None:
+                dist, _ = self._line_tree.query(pts, k=1, distance_upper_bound=self.link_m)
+                on = np.isfinite(dist)
+            return on
+        self._t_lines = t
+        allp = np.concatenate([p for _, p in self._frames] + [pts])
+        n = allp.shape[0]
+        if n < 3:
+            self._line_tree = None
+            return on
+        pairs = cKDTree(allp).query_pairs(self.link_m, output_type="ndarray")
+        _, comp = np.unique(component_labels(n, pairs[:, 0], pairs[:, 1]), return_inverse=True)
+        comp = comp.reshape(-1)
+        count = np.bincount(comp)
+        # Principal axes of every component at once from its first and second moments.
+        w = count.astype(float)
+        mx = np.bincount(comp, allp[:, 0]) / w
+        my = np.bincount(comp, allp[:, 1]) / w
+        dx, dy = allp[:, 0] - mx[comp], allp[:, 1] - my[comp]
+        sxx = np.bincount(comp, dx * dx) / w
+        syy = np.bincount(comp, dy * dy) / w
+        sxy = np.bincount(comp, dx * dy) / w
+        half_tr, diff = (sxx + syy) / 2, np.hypot((sxx - syy) / 2, sxy)
+        minor = np.maximum(half_tr - diff, 0.0)  # variance across the main axis
+        theta = 0.5 * np.arctan2(2 * sxy, sxx - syy)  # main axis direction
+        along = dx * np.cos(theta[comp]) + dy * np.sin(theta[comp])
+        lo = np.full(count.size, np.inf)
+        hi = np.full(count.size, -np.inf)
+        np.minimum.at(lo, comp, along)
+        np.maximum.at(hi, comp, along)
+        # Azimuth noise smears a far wall across the line of sight: the allowed thickness grows with range.
+        rng = np.hypot(mx - self.sensor_ne[0], my - self.sensor_ne[1])
+        thick = self.max_thickness_m + self.thickness_per_m * rng
+        line = (count >= 3) & (hi - lo >= self.min_extent_m) & (np.sqrt(minor) <= thick)
+        on_all = line[comp]
+        self._line_tree = cKDTree(allp[on_all]) if on_all.any() else None
+        return on_all[n - pts.shape[0] :]
+
+    def near(self, points_ne: np.ndarray, margin_m: float) -> np.ndarray:
+        """(n,) bool: within ``margin_m`` of a return found on a line at the last full search."""
+        pts = np.asarray(points_ne, float).reshape(-1, 2)
+        if self._line_tree is None or len(pts) == 0:
+            return np.zeros(len(pts), bool)
+        dist, _ = self._line_tree.query(pts, k=1, distance_upper_bound=margin_m)
+        return np.isfinite(dist)
