@@ -154,9 +154,7 @@ class SimulationRun:
                     return
                 if self.lidar_paused.is_set():
                     continue
-                payload = encode_data_packet(
-                    pkt.block_azimuth_cdeg, pkt.distance_m, pkt.reflectivity, pkt.timestamp_us
-                )
+                payload = encode_data_packet(pkt.block_azimuth_cdeg, pkt.distance_m, pkt.reflectivity, pkt.timestamp_us)
                 with contextlib.suppress(OSError):  # nobody listening yet: a real sensor does not care either
                     self._sock.sendto(payload, dest)
                     self.packets_sent += 1

@@ -23,6 +23,7 @@ from drivers.mount import Mount
 from tracker.ego import rotation_matrices, world_to_body_2d
 from tracker.fusion import fuse_tracks
 from tracker.obstacle_map import SensorCoverage, build_obstacle_distances, outline_points
+from tracker.radar.detector import SHORE_KEEP
 from tracker.types import Track
 
 log = logging.getLogger(__name__)
@@ -236,11 +237,13 @@ class PerceptionPipeline:
             self.skipped_no_pose += 1
             return frame.xyz[finite][:, :2]
         self._radar_tracks = self.radar_tracker.step_frame(frame, pose)
+        # Vessels reach the obstacle array as confirmed radar tracks (their hulls); returns go in directly only
+        # where they are shore. A raw cluster is not enough: with the AWR1843's 3-10 returns per boat, clusters of
+        # 3 returns are needed for tracking, and sea clutter near the boat forms such clusters every few frames.
+        # A false obstacle stops the boat, so a radar vessel must first earn a confirmed track (0.3 s).
         last = getattr(self.radar_tracker, "last", None)
-        if last is None or not last.clusters:
-            return np.empty((0, 2))
-        # Returns that form clusters (vessels and shore alike); isolated returns are sea clutter or ghosts.
-        return np.concatenate([c.points_body[:, :2] for c in last.clusters])
+        shore = [c.points_body[:, :2] for c in (last.clusters if last is not None else []) if c.shore != SHORE_KEEP]
+        return np.concatenate(shore) if shore else np.empty((0, 2))
 
 
 def lidar_coverage(scan: LidarScan, s: PipelineSettings) -> SensorCoverage:
