@@ -119,11 +119,13 @@ def preprocess(
             (height < cfg.spray_max_height + cfg.spray_radius)
             | (r2[idx] < (cfg.spray_near_range + cfg.spray_radius) ** 2)
         )
-        # The cube block holds the whole ball of spray_radius, so its count is an upper bound: below the minimum
-        # is spray for sure; a few above it is checked exactly (a k-d tree ball query on those few only).
+        # The cube block (about 1.5 x spray_radius either way) holds the ball of spray_radius, so its count is an
+        # upper bound. Far out that generosity is right: rings are 2 deg apart, so a hull's low edge has few
+        # neighbours within 0.5 m at 40 m. Near the boat, where hulls are dense and spray comes in bursts of a few
+        # returns, a count just above the minimum is checked exactly (a k-d tree ball query on those few only).
         upper = neighbour_counts(world[reach], world[low], cfg.spray_radius)
         verdict = upper < cfg.spray_min_neighbours
-        unsure = ~verdict & (upper < _EXACT_BELOW * max(cfg.spray_min_neighbours, 1))
+        unsure = ~verdict & (upper < _EXACT_BELOW * max(cfg.spray_min_neighbours, 1)) & near[low]
         if np.any(unsure):
             tree = cKDTree(world[reach])
             low_pts = world[low][unsure]
