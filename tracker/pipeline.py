@@ -59,6 +59,10 @@ class PipelineSettings:
     fusion_gate_m: float = 3.0
     # A hull hidden behind another stays an obstacle this long; beyond it a prediction is a guess, not an obstacle.
     coast_outline_s: float = 1.0
+    # A radar-only track this close while the LiDAR is delivering is sea clutter or a ghost: any hull this near
+    # gives the LiDAR hundreds of returns (it would be a fused track). Farther out, or with the LiDAR blind, the
+    # radar's own tracks are obstacles.
+    radar_only_min_range_m: float = 15.0
     lidar_mount: Mount = field(default_factory=Mount)
 
 
@@ -161,10 +165,15 @@ class PerceptionPipeline:
         if own is not None:
             # Returns measured this cycle are the truth about a hull; an estimated outline is only added where the
             # sensors did not see the track this cycle (coasting through an occlusion) or saw it sparsely (radar).
+            lidar_sees = t - self._last_lidar_t <= self.freshness_s
             outlines = [
                 outline_points(tr.footprint())
                 for tr in tracks
-                if tr.confirmed and (0 < tr.time_since_update <= s.coast_outline_s or tr.source == "radar")
+                if tr.confirmed
+                and (
+                    (tr.source != "radar" and 0 < tr.time_since_update <= s.coast_outline_s)
+                    or (tr.source == "radar" and not (lidar_sees and _within(tr, own, s.radar_only_min_range_m)))
+                )
             ]
             if self.radar_tracker is not None and hasattr(self.radar_tracker, "shore_points"):
                 outlines.append(self.radar_tracker.shore_points())
@@ -254,6 +263,10 @@ def lidar_coverage(scan: LidarScan, s: PipelineSettings) -> SensorCoverage:
     # sensor FLU direction (cos a, -sin a, 0) is (cos a, sin a, 0) in sensor-FRD; the mount turns it into the body
     direction = s.lidar_mount.rotate_sensor_frd_to_body(np.array([np.cos(mid), np.sin(mid), 0.0]))
     return SensorCoverage(float(np.arctan2(direction[1], direction[0])), scan.sweep_extent, s.lidar_max_range_m)
+
+
+def _within(tr: Track, own: tuple[np.ndarray, float, float, float], range_m: float) -> bool:
+    return float(np.hypot(*(tr.position - own[0][:2]))) < range_m
 
 
 def _pose_now(ego: EgoSource | None, ego_ok: bool, t: float) -> tuple[np.ndarray, float, float, float] | None:

@@ -1,0 +1,54 @@
+"""Which radar tracks become obstacles: a radar-only track near the boat while the LiDAR sees is clutter."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drivers.frames import LidarScan, RadarFrame
+from tracker.pipeline import PerceptionPipeline
+from tracker.types import Track
+
+
+class FixedRadarTracks:
+    """Stands in for the radar tracker (not under test here): returns given confirmed tracks every frame."""
+
+    def __init__(self, tracks: list[Track]) -> None:
+        self.tracks = tracks
+        self.last = None
+
+    def step_frame(self, frame: RadarFrame, pose: object) -> list[Track]:
+        return self.tracks
+
+
+def radar_track(north: float, east: float) -> Track:
+    return Track(1, 0.0, np.array([north, east]), np.zeros(2), 0.0, 0.0, 2.0, 2.0, 1.0, confirmed=True, source="radar")
+
+
+def empty_scan(t: float) -> LidarScan:
+    z = np.zeros((0, 3))
+    return LidarScan(t, t, z, np.zeros(0, np.float32), np.zeros(0, np.uint8), np.zeros(0))
+
+
+def frame(t: float) -> RadarFrame:
+    return RadarFrame(t, 1, np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0))
+
+
+def run(tracks: list[Track], lidar: bool) -> np.ndarray:
+    p = PerceptionPipeline(radar_tracker_factory=lambda: FixedRadarTracks(tracks))
+    out = p.step(1.0, empty_scan(0.95) if lidar else None, [frame(0.95)], None)
+    return out.distances_cm
+
+
+def test_near_radar_only_track_is_not_an_obstacle_while_the_lidar_sees() -> None:
+    d = run([radar_track(6.0, 0.0)], lidar=True)
+    assert d[0] == 10001  # the LiDAR looked there and saw nothing: clutter, not a hull
+
+
+def test_near_radar_only_track_counts_when_the_lidar_is_blind() -> None:
+    d = run([radar_track(6.0, 0.0)], lidar=False)
+    assert d[0] == 500  # the near face of the 2 x 2 m box 6 m ahead
+
+
+def test_far_radar_only_track_is_an_obstacle() -> None:
+    d = run([radar_track(30.0, 0.0)], lidar=True)
+    assert d[0] == 2900
