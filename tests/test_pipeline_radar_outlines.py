@@ -52,3 +52,30 @@ def test_near_radar_only_track_counts_when_the_lidar_is_blind() -> None:
 def test_far_radar_only_track_is_an_obstacle() -> None:
     d = run([radar_track(30.0, 0.0)], lidar=True)
     assert d[0] == 2900
+
+
+class FixedLidarTracks:
+    """Stands in for the LiDAR tracker: a confirmed track on the same boat the radar tracks."""
+
+    def __init__(self, tracks: list[Track]) -> None:
+        self.tracks = tracks
+
+    def step(self, *args: object, **kwargs: object) -> list[Track]:
+        return self.tracks
+
+
+def test_a_boat_stays_an_obstacle_when_the_lidar_goes_silent() -> None:
+    lidar_track = Track(7, 0.0, np.array([30.0, 0.0]), np.zeros(2), 0.0, 0.0, 2.0, 2.0, 1.0, confirmed=True)
+    scan = LidarScan(
+        0.95, 0.95, np.array([[29.0, 0.0, -1.0]] * 5), np.zeros(5, np.float32), np.zeros(5, np.uint8), np.full(5, 0.95)
+    )
+    p = PerceptionPipeline(
+        lidar_tracker_factory=lambda: FixedLidarTracks([lidar_track]),
+        radar_tracker_factory=lambda: FixedRadarTracks([radar_track(30.0, 0.0)]),
+    )
+    out = p.step(1.0, scan, [frame(0.95)], None)
+    assert [tr.source for tr in out.tracks] == ["fused"]
+    # two seconds later the LiDAR is silent, the radar still sees the boat: its own track carries the obstacle
+    out = p.step(3.0, None, [frame(2.95)], None)
+    assert [tr.source for tr in out.tracks] == ["radar"]
+    assert out.distances_cm[0] == 2900

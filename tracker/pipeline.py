@@ -160,7 +160,11 @@ class PerceptionPipeline:
         if radar_fresh:
             solid.append(self._radar_solid)
 
-        tracks = fuse_tracks(self._lidar_tracks, self._radar_tracks, s.fusion_gate_m)
+        # A sensor that stopped delivering takes its tracks with it: a LiDAR track frozen at its last update would
+        # otherwise absorb the radar's live track of the same boat, and the boat would drop out of the array.
+        tracks = fuse_tracks(
+            self._lidar_tracks if lidar_fresh else [], self._radar_tracks if radar_fresh else [], s.fusion_gate_m
+        )
         own = _pose_now(ego, ego_ok, t)
         if own is not None:
             # Returns measured this cycle are the truth about a hull; an estimated outline is only added where the
