@@ -23,6 +23,10 @@ from simulator.awr1843_device import Awr1843Emulator, DevicePoints, StreamFaults
 CFG = "awr1843/xwr18xx_best_range_50m_vis3.6.cfg"
 WALK = "awr1843/xwr18xx_sdk3.6_walk_50m.dat"
 
+# Real sockets, ptys and threads in real time on a 2-core machine that may be busy: a missed deadline is retried once
+# (a deterministic failure still fails); the assertions themselves are not loosened.
+pytestmark = pytest.mark.flaky(reruns=1)
+
 
 @pytest.fixture
 def fast_profile(shared_fixtures: Path, tmp_path: Path) -> RadarProfile:

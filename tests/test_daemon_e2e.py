@@ -31,6 +31,10 @@ NEAR_FACE_M = 18.75
 # The bin holds the NEAREST of ~100 returns on the face, each with 2 cm range noise: 5-8 cm short of the face.
 NEAR_TOL_CM = 15
 
+# Real sockets, ptys and threads in real time on a 2-core machine that may be busy: a missed deadline is retried once
+# (a deterministic failure still fails); the assertions themselves are not loosened.
+pytestmark = pytest.mark.flaky(reruns=1)
+
 
 def one_box_scene() -> Scene:
     centre = (20.0 * math.cos(BEARING), 20.0 * math.sin(BEARING))

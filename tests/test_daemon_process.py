@@ -10,9 +10,15 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from daemon.demo import config_for_simulation, simulation_settings
 from simulator.run import SimulationRun
 from tests.test_daemon_e2e import one_box_scene, wait_for
+
+# Real sockets, ptys and threads in real time on a 2-core machine that may be busy: a missed deadline is retried once
+# (a deterministic failure still fails); the assertions themselves are not loosened.
+pytestmark = pytest.mark.flaky(reruns=1)
 
 
 def test_run_process_notifies_systemd_and_stops_on_sigterm(tmp_path: Path) -> None:

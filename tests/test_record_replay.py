@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from daemon.config import Config
 from daemon.demo import config_for_simulation, simulation_settings
@@ -14,6 +15,10 @@ from daemon.replay import run_replay
 from simulator.capture import write_captures
 from simulator.run import SimulationRun
 from tests.test_daemon_e2e import NEAR_FACE_M, NEAR_TOL_CM, hull_range_per_bin, one_box_scene, running, wait_for
+
+# Real sockets, ptys and threads in real time on a 2-core machine that may be busy: a missed deadline is retried once
+# (a deterministic failure still fails); the assertions themselves are not loosened.
+pytestmark = pytest.mark.flaky(reruns=1)
 
 
 def replay_config(run_dir: Path, tracks_out: Path) -> Config:

@@ -22,7 +22,7 @@ from drivers.frames import EgoPose, LidarScan, RadarFrame
 from drivers.mount import Mount
 from tracker.ego import rotation_matrices, world_to_body_2d
 from tracker.fusion import fuse_tracks
-from tracker.obstacle_map import SensorCoverage, build_obstacle_distances, outline_points
+from tracker.obstacle_map import SensorCoverage, bearing_bins, build_obstacle_distances, outline_points
 from tracker.radar.detector import SHORE_KEEP
 from tracker.types import Track
 
@@ -170,12 +170,16 @@ class PerceptionPipeline:
             # Returns measured this cycle are the truth about a hull; an estimated outline is only added where the
             # sensors did not see the track this cycle (coasting through an occlusion) or saw it sparsely (radar).
             lidar_sees = t - self._last_lidar_t <= self.freshness_s
+            swept = self._lidar_coverage.bins() if lidar_sees else np.zeros(72, dtype=bool)
             outlines = [
                 outline_points(tr.footprint())
                 for tr in tracks
                 if tr.confirmed
                 and (
-                    (tr.source != "radar" and 0 < tr.time_since_update <= s.coast_outline_s)
+                    (
+                        tr.source != "radar"
+                        and (0 < tr.time_since_update <= s.coast_outline_s or not _swept(tr, own, swept))
+                    )
                     or (tr.source == "radar" and not (lidar_sees and _within(tr, own, s.radar_only_min_range_m)))
                 )
             ]
@@ -267,6 +271,12 @@ def lidar_coverage(scan: LidarScan, s: PipelineSettings) -> SensorCoverage:
     # sensor FLU direction (cos a, -sin a, 0) is (cos a, sin a, 0) in sensor-FRD; the mount turns it into the body
     direction = s.lidar_mount.rotate_sensor_frd_to_body(np.array([np.cos(mid), np.sin(mid), 0.0]))
     return SensorCoverage(float(np.arctan2(direction[1], direction[0])), scan.sweep_extent, s.lidar_max_range_m)
+
+
+def _swept(tr: Track, own: tuple[np.ndarray, float, float, float], swept: np.ndarray) -> bool:
+    """Whether the newest LiDAR sweep covered the track's bearing (a partial sweep may not have)."""
+    body = world_to_body_2d(tr.position[None, :], own[0][:2], own[3])
+    return bool(swept[bearing_bins(body)[0]])
 
 
 def _within(tr: Track, own: tuple[np.ndarray, float, float, float], range_m: float) -> bool:
