@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import sys
 from pathlib import Path
@@ -149,10 +148,6 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except BrokenPipeError:  # `usv-tracker decode x.pcap | head`
         return 0
-
-
-def print_json(obj: object) -> None:
-    print(json.dumps(obj, separators=(",", ":")))
 
 
 if __name__ == "__main__":

@@ -7,7 +7,6 @@ it) and radians inside (converted here, once).
 
 from __future__ import annotations
 
-import math
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -224,7 +223,3 @@ def _check_tracker_tables(config: Config, source: str) -> None:
     problems = tracker_config_problems(config)
     if problems:
         raise ConfigError(problems, source)
-
-
-def radians(deg: float) -> float:
-    return math.radians(deg)

@@ -13,7 +13,7 @@ import math
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -241,15 +241,11 @@ def start_daemon(
     if sources.lidar is not None:
         readers.append(ReaderThread("lidar", sources.lidar.scans, inputs.lidar.put, stop, clock))
     if sources.radar is not None:
-        readers.append(ReaderThread("radar", _frames_of(sources.radar), inputs.radar.put, stop, clock))
+        readers.append(ReaderThread("radar", sources.radar.frames, inputs.radar.put, stop, clock))
     for r in readers:
         r.start()
     loop.status_text = lambda: _source_status(sources, link)
     return RunningDaemon(config, loop, sources, link, readers, stop, tracks_file, recorder)
-
-
-def _frames_of(radar: Any) -> Callable[[threading.Event], Iterator[RadarFrame]]:
-    return radar.frames
 
 
 def _source_status(sources: Sources, link: Any) -> str:
