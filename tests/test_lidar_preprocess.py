@@ -81,3 +81,20 @@ def test_empty_and_all_bad_input() -> None:
     assert res.points_world.shape == (0, 3) and res.keep.shape == (0,)
     res = preprocess(np.full((4, 3), np.nan), POS, 0.0, 0.0, 0.0, CFG)
     assert res.points_world.shape == (0, 3) and res.n_nonfinite == 4
+
+
+def test_pose_index_picks_each_points_pose_from_a_table() -> None:
+    # Three poses, four points: points 0 and 3 at pose 0 (heading north; all beyond the spray check), 1 at pose 2 (east), 2 at pose 1.
+    body = np.array([[10.0, 0.0, -2.0], [10.0, 0.0, -2.0], [0.0, 10.0, -2.0], [15.0, 5.0, -2.0]])
+    pos = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, -3.0, 0.0]])
+    yaw = np.array([0.0, math.pi, math.pi / 2])
+    res = preprocess(body, pos, np.zeros(3), np.zeros(3), yaw, CFG, pose_index=np.array([0, 2, 1, 0]))
+    expected = np.array([[10.0, 0.0, -2.0], [2.0, 7.0, -2.0], [1.0, -9.0, -2.0], [15.0, 5.0, -2.0]])
+    assert res.points_world == pytest.approx(expected, abs=1e-12)
+
+
+def test_a_point_whose_pose_is_unknown_is_dropped_as_nonfinite() -> None:
+    body = np.array([[10.0, 0.0, -2.0], [12.0, 0.0, -2.0]])
+    pos = np.array([[0.0, 0.0, 0.0], [np.nan, np.nan, np.nan]])
+    res = preprocess(body, pos, np.zeros(2), np.zeros(2), np.zeros(2), CFG, pose_index=np.array([0, 1]))
+    assert res.keep.tolist() == [True, False] and res.n_nonfinite == 1

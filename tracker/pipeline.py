@@ -20,7 +20,7 @@ import numpy as np
 
 from drivers.frames import EgoPose, LidarScan, RadarFrame
 from drivers.mount import Mount
-from tracker.ego import rotation_matrices, world_to_body_2d
+from tracker.ego import rotation_matrices, sample_poses, world_to_body_2d
 from tracker.fusion import fuse_tracks
 from tracker.obstacle_map import SensorCoverage, bearing_bins, build_obstacle_distances, outline_points
 from tracker.radar.detector import SHORE_KEEP
@@ -219,10 +219,10 @@ class PerceptionPipeline:
         s = self.settings
         if ego_ok:
             assert ego is not None
-            pos, roll, pitch, yaw = ego.at_many(scan.t)
-            known = np.isfinite(yaw) & np.isfinite(pos).all(axis=1)
+            (pos, roll, pitch, yaw), index = sample_poses(ego, scan.t)
+            known = (np.isfinite(yaw) & np.isfinite(pos).all(axis=1))[index]
         else:
-            pos, roll, pitch, yaw = IDENTITY
+            (pos, roll, pitch, yaw), index = IDENTITY, None
             known = np.ones(scan.n_points, dtype=bool)
         if not known.all():
             # Pose lost (autopilot silent): obstacles still come from the body frame, tracking waits.
@@ -231,7 +231,7 @@ class PerceptionPipeline:
             track_points = None
             self.skipped_no_pose += 1
         else:
-            pre = preprocess(scan.xyz, pos, roll, pitch, yaw, self.lidar_preprocess_config)
+            pre = preprocess(scan.xyz, pos, roll, pitch, yaw, self.lidar_preprocess_config, pose_index=index)
             track_points = pre.points_world
         body = scan.xyz[pre.keep]
         r0, p0 = (float(np.nanmean(roll)), float(np.nanmean(pitch))) if ego_ok and known.any() else (0.0, 0.0)

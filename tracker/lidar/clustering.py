@@ -3,11 +3,15 @@
 Two returns are neighbours when their horizontal distance is within a tolerance that grows with range, because the
 VLP-16's beams fan out: a hull at 60 m is sampled every ~2 m vertically where at 5 m it is every 0.2 m. A fixed
 tolerance either merges nearby boats or shatters distant ones. Clusters are the connected components of the
-neighbour graph.
+neighbour graph. Work is 2-D (north, east); z rides along for height.
 
-For speed, returns are first pooled into small 2-D grid cells (a vertical hull stacks all 16 rings onto the same
-horizontal spot, so a cell often holds dozens of returns); the neighbour search runs over cell centroids, which
-shifts the effective tolerance by at most one cell diagonal. Work is 2-D (north, east); z rides along for height.
+For speed, returns are pooled twice. First into small fixed grid cells (``grid_cell``): a vertical hull stacks all
+16 rings onto the same horizontal spot, so a cell often holds dozens of returns, and the cell centroids are the
+cluster's footprint for shape fitting. Then, for the neighbour search only, the cells are pooled again into
+"link cells" about a quarter of the local tolerance wide: at 60 m, where the tolerance is 2.6 m, a quay wall's
+thousands of 0.15 m cells each had ~35 neighbours within reach; 0.65 m link cells have a handful. Pooling never
+joins what the tolerance would keep apart (a link cell's diagonal is a third of the tolerance), and it shifts
+the effective tolerance by at most one link cell diagonal, as the fine grid did near the boat.
 """
 
 from __future__ import annotations
@@ -15,10 +19,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix
+from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from tracker.grouping import expand_groups, group_keys
 from tracker.lidar.config import ClusterConfig
 
 
@@ -86,16 +91,69 @@ def range_tolerance(range_m: np.ndarray, config: ClusterConfig) -> np.ndarray:
     return np.minimum(config.base_tolerance + config.tolerance_per_metre * range_m, config.max_tolerance)
 
 
+_LINK_BAND_RATIO = 1.5  # tolerance growth across one band of link cells
+_LINK_CELLS_PER_TOLERANCE = 4  # link cell side = the band's smallest tolerance / this
+
+
+def _link_bands(cfg: ClusterConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Range bands for the link cells: (band start ranges (b,) m, link cell side per band (b,) m)."""
+    tols = [cfg.base_tolerance]
+    if cfg.tolerance_per_metre > 0:
+        while tols[-1] * _LINK_BAND_RATIO < cfg.max_tolerance:
+            tols.append(tols[-1] * _LINK_BAND_RATIO)
+    tol = np.array(tols)
+    start = (tol - cfg.base_tolerance) / cfg.tolerance_per_metre if cfg.tolerance_per_metre > 0 else np.zeros(1)
+    return start, np.maximum(tol / _LINK_CELLS_PER_TOLERANCE, cfg.grid_cell)
+
+
+def link_cells(cell_xy: np.ndarray, cell_weight: np.ndarray, own: np.ndarray, cfg: ClusterConfig) -> np.ndarray:
+    """Connected-component label of each grid cell under the range-adaptive tolerance, (n_cells,) int."""
+    band_start, side = _link_bands(cfg)
+    cell_range = np.hypot(cell_xy[:, 0] - own[0], cell_xy[:, 1] - own[1])
+    band = np.searchsorted(band_start, cell_range, side="right") - 1
+    origin = cell_xy.min(axis=0)
+    ij = np.floor((cell_xy - origin) / side[band][:, None]).astype(np.int64)
+    width = int(ij.max()) + 1
+    order, starts, _, link_of_cell = group_keys((band * width + ij[:, 0]) * width + ij[:, 1])
+    w = cell_weight[order]
+    link_xy = np.add.reduceat(cell_xy[order] * w[:, None], starts, axis=0) / np.add.reduceat(w, starts)[:, None]
+    link_range = np.hypot(link_xy[:, 0] - own[0], link_xy[:, 1] - own[1])
+    link_band = band[order[starts]]
+    n_links = link_xy.shape[0]
+
+    # Each pair is found from its nearer member's band: there the search radius covers the tolerance at the pair's
+    # mean range, which is at most half a tolerance beyond the band's far edge.
+    everything = cKDTree(link_xy)
+    band_end = np.append(band_start[1:], np.inf)
+    rows, cols = [], []
+    for b in np.unique(link_band):
+        mine = np.flatnonzero(link_band == b)
+        reach = float(range_tolerance(np.array(band_end[b] + cfg.max_tolerance / 2), cfg))
+        found = cKDTree(link_xy[mine]).sparse_distance_matrix(everything, reach, output_type="ndarray")
+        i, j, d = mine[found["i"]], found["j"], found["v"]
+        ok = ((link_band[j] > b) | ((link_band[j] == b) & (j > i))) & (
+            d <= range_tolerance(0.5 * (link_range[i] + link_range[j]), cfg)
+        )
+        rows.append(i[ok])
+        cols.append(j[ok])
+    a, c = np.concatenate(rows), np.concatenate(cols)
+    graph = csr_matrix((np.ones(a.size, dtype=np.int8), (a, c)), shape=(n_links, n_links))
+    _, link_label = connected_components(graph, directed=False)
+    return link_label[link_of_cell]
+
+
 def cluster_points(
     points_world: np.ndarray, own_position: np.ndarray, config: ClusterConfig | None = None
 ) -> ClusterResult:
     """Cluster (N, 3) world NED points; ``own_position`` is the own boat's (north, east), m."""
+    # Column-wise work and np.take throughout: numpy reduces and gathers single columns of 29k points ten to a
+    # hundred times faster than the same operations along axis 0 of an (N, 2) or (N, 3) array.
     cfg = config or ClusterConfig()
     all_pts = np.asarray(points_world, dtype=float).reshape(-1, 3)
-    finite_idx = np.flatnonzero(np.isfinite(all_pts).all(axis=1))
-    pts = all_pts[finite_idx]
-    n = pts.shape[0]
+    finite_idx = np.flatnonzero(np.isfinite(all_pts[:, 0] + all_pts[:, 1] + all_pts[:, 2]))
+    n = finite_idx.size
     empty = ClusterResult(
+        [],
         [],
         np.zeros(0),
         np.zeros(0, bool),
@@ -107,66 +165,51 @@ def cluster_points(
     if n == 0:
         return empty
     own = np.asarray(own_position, dtype=float)[:2]
-    xy = pts[:, :2]
+    x, y = all_pts[finite_idx, 0], all_pts[finite_idx, 1]
 
-    # Pool points into grid cells; a cell's centroid stands in for its points in the neighbour search.
-    ij = np.floor((xy - xy.min(axis=0)) / cfg.grid_cell).astype(np.int64)
-    key = ij[:, 0] * (int(ij[:, 1].max()) + 1) + ij[:, 1]
-    _, cell_of_point, cell_count = np.unique(key, return_inverse=True, return_counts=True)
-    cell_of_point = cell_of_point.ravel()
-    n_cells = cell_count.size
-    cell_xy = np.stack(
-        [np.bincount(cell_of_point, weights=xy[:, k], minlength=n_cells) / cell_count for k in (0, 1)], axis=1
+    i = np.floor((x - x.min()) * (1.0 / cfg.grid_cell)).astype(np.int64)
+    j = np.floor((y - y.min()) * (1.0 / cfg.grid_cell)).astype(np.int64)
+    p_order, p_starts, cell_count, _ = group_keys(i * (int(j.max()) + 1) + j)
+    cell_xy = np.column_stack([np.add.reduceat(np.take(v, p_order), p_starts) for v in (x, y)]) / cell_count[:, None]
+    cell_label = link_cells(cell_xy, cell_count.astype(float), own, cfg)
+
+    # Cells grouped by cluster, then their points: every per-cluster statistic is a reduceat over that order.
+    c_order, c_starts, c_cells, _ = group_keys(cell_label)
+    sizes = np.add.reduceat(cell_count[c_order], c_starts)
+    members_all = expand_groups(p_order, p_starts, cell_count, c_order)
+    starts = np.cumsum(sizes) - sizes
+    xs, ys = np.take(x, members_all), np.take(y, members_all)
+    dn, de = xs - own[0], ys - own[1]
+    nearest = np.sqrt(np.minimum.reduceat(dn * dn + de * de, starts))
+    extent = np.hypot(
+        np.maximum.reduceat(xs, starts) - np.minimum.reduceat(xs, starts),
+        np.maximum.reduceat(ys, starts) - np.minimum.reduceat(ys, starts),
     )
-    cell_range = np.hypot(cell_xy[:, 0] - own[0], cell_xy[:, 1] - own[1])
-
-    tree = cKDTree(cell_xy)
-    search = float(range_tolerance(np.array(cell_range.max()), cfg))
-    pairs = tree.query_pairs(r=search, output_type="ndarray")
-    if pairs.size:
-        a, b = pairs[:, 0], pairs[:, 1]
-        d = np.hypot(*(cell_xy[a] - cell_xy[b]).T)
-        ok = d <= range_tolerance(0.5 * (cell_range[a] + cell_range[b]), cfg)
-        a, b = a[ok], b[ok]
-    else:
-        a = b = np.zeros(0, dtype=np.int64)
-    graph = coo_matrix((np.ones(a.size, dtype=np.int8), (a, b)), shape=(n_cells, n_cells))
-    _, cell_label = connected_components(graph, directed=False)
-    label = cell_label[cell_of_point]
-
-    # Group points by label once; per-cluster statistics come from reduceat over the sorted order.
-    order = np.argsort(label, kind="stable")
-    sorted_label = label[order]
-    starts = np.flatnonzero(np.r_[True, sorted_label[1:] != sorted_label[:-1]])
-    sizes = np.diff(np.r_[starts, n])
-    r_pts = np.hypot(xy[order, 0] - own[0], xy[order, 1] - own[1])
-    nearest = np.minimum.reduceat(r_pts, starts)
-    lo = np.minimum.reduceat(xy[order], starts, axis=0)
-    hi = np.maximum.reduceat(xy[order], starts, axis=0)
-    extent = np.hypot(*(hi - lo).T)
 
     candidates = np.flatnonzero(sizes >= cfg.min_points)
     candidates = candidates[np.argsort(nearest[candidates], kind="stable")][: cfg.max_clusters]
     if candidates.size == 0:
         return empty
-    cell_order = np.argsort(cell_label, kind="stable")
-    cell_starts = np.searchsorted(cell_label[cell_order], np.arange(cell_label.max() + 2))
     out_labels = np.full(all_pts.shape[0], -1, dtype=int)
     clusters, footprints = [], []
     for k, c in enumerate(candidates):
-        members = order[starts[c] : starts[c] + sizes[c]]
-        out_labels[finite_idx[members]] = k
-        clusters.append(pts[members])
-        label_c = sorted_label[starts[c]]
-        footprints.append(cell_xy[cell_order[cell_starts[label_c] : cell_starts[label_c + 1]]])
+        members = finite_idx[members_all[starts[c] : starts[c] + sizes[c]]]
+        out_labels[members] = k
+        clusters.append(np.take(all_pts, members, axis=0))
+        footprints.append(cell_xy[c_order[c_starts[c] : c_starts[c] + c_cells[c]]])
 
-    # Bearing spans: each point's bearing relative to its cluster's mean direction, reduced per cluster.
-    rel = xy[order] - own
-    mean_dir = np.add.reduceat(rel, starts, axis=0)
-    centre = np.arctan2(mean_dir[:, 1], mean_dir[:, 0])
-    offset = np.arctan2(rel[:, 1], rel[:, 0]) - np.repeat(centre, sizes)
-    offset = (offset + np.pi) % (2.0 * np.pi) - np.pi
-    lo_b, hi_b = np.minimum.reduceat(offset, starts), np.maximum.reduceat(offset, starts)
+    # Bearing spans: each point's bearing relative to its cluster's mean direction, reduced per cluster. Only the
+    # kept clusters' points (a quay wall is most of a scan but gets a span too: it can shadow a boat).
+    centre = np.arctan2(np.add.reduceat(de, starts), np.add.reduceat(dn, starts))
+    kept = np.zeros(sizes.size, dtype=bool)
+    kept[candidates] = True
+    sel = np.repeat(kept, sizes)
+    k_sizes = sizes[kept]
+    offset = np.arctan2(de[sel], dn[sel]) - np.repeat(centre[kept], k_sizes)
+    offset -= (2.0 * np.pi) * np.floor((offset + np.pi) * (0.5 / np.pi))
+    k_starts = np.cumsum(k_sizes) - k_sizes
+    span_lo, span_hi = np.zeros(sizes.size), np.zeros(sizes.size)
+    span_lo[kept], span_hi[kept] = np.minimum.reduceat(offset, k_starts), np.maximum.reduceat(offset, k_starts)
     return ClusterResult(
         clusters,
         footprints,
@@ -174,6 +217,6 @@ def cluster_points(
         extent[candidates] > cfg.max_extent,
         out_labels,
         centre[candidates],
-        lo_b[candidates],
-        hi_b[candidates],
+        span_lo[candidates],
+        span_hi[candidates],
     )
