@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench._common import save
 from daemon.config import Config
-from daemon.runner import pipeline_for
+from daemon.runner import freeze_startup_objects, pipeline_for
 from drivers.awr1843.parser import RadarFrameParser, encode_frame
 from drivers.frames import EgoPose
 from drivers.vlp16.decoder import ScanAssembler
@@ -94,6 +94,7 @@ def measure(scene: Scene, seconds: float) -> dict[str, object]:
         frames += parser.feed(encode_frame(k + 1, d.xyz_ti, d.doppler, d.snr_db, d.noise_db), scan.stamp)
     durations, stages = [], {}
     out = None
+    freeze_startup_objects()  # as the daemon does before its loop starts
     for k, scan in enumerate(scans):
         c0 = time.perf_counter()
         out = pipeline.step(scan.stamp + 0.01, scan, frames[k : k + 1], ego)

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from daemon.config import Config, MountConfig
-from daemon.runner import StartupError, start_daemon
+from daemon.runner import StartupError, freeze_startup_objects, start_daemon
 from drivers.mount import Mount
 from simulator.run import RADAR_PROFILE, SimulationRun, SimulationSettings
 
@@ -82,6 +82,7 @@ def run_demo(
         except StartupError as exc:
             print(f"demo: the daemon could not start: {exc}", file=sys.stderr)
             return 1
+        freeze_startup_objects()  # as `usv-tracker run` does
         loop_thread = threading.Thread(
             target=daemon.loop.run_live, args=(daemon.stop_event, seconds), name="daemon-loop", daemon=True
         )

@@ -98,3 +98,22 @@ def test_a_point_whose_pose_is_unknown_is_dropped_as_nonfinite() -> None:
     pos = np.array([[0.0, 0.0, 0.0], [np.nan, np.nan, np.nan]])
     res = preprocess(body, pos, np.zeros(2), np.zeros(2), np.zeros(2), CFG, pose_index=np.array([0, 1]))
     assert res.keep.tolist() == [True, False] and res.n_nonfinite == 1
+
+
+def test_cube_grid_counts_match_a_ball_query_and_bound_it() -> None:
+    from scipy.spatial import cKDTree
+
+    from tracker.lidar.preprocess import CubeGrid
+
+    rng = np.random.default_rng(4)
+    pts = np.concatenate([rng.uniform(0.0, 3.0, (400, 3)), rng.normal(10.0, 0.2, (50, 3))])
+    query = np.array([0, 7, 100, 399, 400, 449])
+    grid = CubeGrid(pts, 0.5)
+    exact = cKDTree(pts).query_ball_point(pts[query], r=0.5, return_length=True) - 1
+    assert grid.exact_counts(query).tolist() == exact.tolist()
+    upper = grid.upper_counts(query)
+    assert np.all(upper >= exact) and np.all(upper <= len(pts) - 1)
+    # a lone point has no neighbours either way
+    lone = CubeGrid(np.array([[0.0, 0.0, 0.0], [5.0, 5.0, 5.0]]), 0.5)
+    assert lone.exact_counts(np.array([0, 1])).tolist() == [0, 0]
+    assert lone.upper_counts(np.array([0, 1])).tolist() == [0, 0]

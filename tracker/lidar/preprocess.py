@@ -13,10 +13,9 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from tracker.ego import PoseTable
-from tracker.grouping import group_keys
+from tracker.grouping import expand_groups, group_keys
 from tracker.lidar.config import PreprocessConfig
 
 log = logging.getLogger(__name__)
@@ -37,32 +36,69 @@ _EXACT_BELOW = 10  # cube counts under 10x the minimum get an exact ball count (
 _OFFSETS = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)], dtype=np.int64)
 
 
-def neighbour_counts(points: np.ndarray, query_idx: np.ndarray, radius: float) -> np.ndarray:
-    """For each query ``points[query_idx]``, how many OTHER points lie in the 3 x 3 x 3 block of cubes of side
-    ``radius`` around its cube: a box of about 1.5 x radius either way, counted with one sort, not a tree walk.
+class CubeGrid:
+    """Points pooled into cubes of side ``radius``, for counting each query point's neighbours with sorts, not a
+    tree walk. A k-d tree ball query costs per neighbour: a wall 5 m away gives every return hundreds of neighbours
+    within 0.5 m and 29k queries took 150 ms; so did building a tree over a whole revolution for a few queries."""
 
-    A k-d tree ball query costs per neighbour: a wall 5 m away gives every return hundreds of neighbours within
-    0.5 m and 29k queries took 150 ms. Counting cube occupancy costs per cube, whatever the density.
-    """
+    def __init__(self, points: np.ndarray, radius: float) -> None:
+        self.points = points
+        self.radius = radius
+        cells = [np.floor((points[:, k] - points[:, k].min()) * (1.0 / radius)).astype(np.int64) + 1 for k in range(3)]
+        self.span = [int(c.max()) + 2 for c in cells]
+        self.cells = cells
+        keys = self._key(*cells)
+        self.order, self.starts, self.count, self.cube_of = group_keys(keys)
+        self.keys = keys[self.order[self.starts]]  # one per occupied cube, sorted
+
+    def _key(self, i: np.ndarray, j: np.ndarray, k: np.ndarray) -> np.ndarray:
+        return (i * self.span[1] + j) * self.span[2] + k
+
+    def _neighbour_cubes(self, cubes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For occupied ``cubes``: (which of them, which occupied cube) for every occupied cube of the 3x3x3 block."""
+        first = self.order[self.starts[cubes]]
+        ci, cj, ck = (np.take(c, first) for c in self.cells)
+        nk = self._key(
+            ci[:, None] + _OFFSETS[None, :, 0], cj[:, None] + _OFFSETS[None, :, 1], ck[:, None] + _OFFSETS[None, :, 2]
+        ).ravel()
+        pos = np.minimum(np.searchsorted(self.keys, nk), self.keys.size - 1)
+        hit = self.keys[pos] == nk
+        return np.repeat(np.arange(cubes.size), _OFFSETS.shape[0])[hit], pos[hit]
+
+    def upper_counts(self, query_idx: np.ndarray) -> np.ndarray:
+        """For each query ``points[query_idx]``, how many OTHER points lie in the 3 x 3 x 3 block of cubes around
+        its cube: a box of about 1.5 x radius either way, so an upper bound of the count within ``radius``."""
+        if query_idx.size == 0:
+            return np.zeros(0, dtype=np.int64)
+        # Work per occupied query cube, not per query point: dense surfaces put dozens of returns in one cube.
+        wanted = np.zeros(self.keys.size, dtype=bool)
+        wanted[self.cube_of[query_idx]] = True
+        q = np.flatnonzero(wanted)
+        which, cube = self._neighbour_cubes(q)
+        total = np.zeros(self.keys.size, dtype=np.int64)
+        total[q] = np.bincount(which, weights=self.count[cube], minlength=q.size).astype(np.int64)
+        return total[self.cube_of[query_idx]] - 1
+
+    def exact_counts(self, query_idx: np.ndarray) -> np.ndarray:
+        """For each query, how many OTHER points lie within ``radius`` (3-D). Meant for few queries with few
+        neighbours: it measures every point of the 27 cubes around each query."""
+        if query_idx.size == 0:
+            return np.zeros(0, dtype=np.int64)
+        which, cube = self._neighbour_cubes(self.cube_of[query_idx])
+        # every (query, candidate point) pair: the candidate cubes' members, query by query
+        members = expand_groups(self.order, self.starts, self.count, cube)
+        owner = np.repeat(which, self.count[cube])
+        d = np.take(self.points, members, axis=0) - np.take(self.points, query_idx[owner], axis=0)
+        near = np.einsum("ij,ij->i", d, d) <= self.radius * self.radius
+        return np.bincount(owner[near], minlength=query_idx.size) - 1
+
+
+def neighbour_counts(points: np.ndarray, query_idx: np.ndarray, radius: float) -> np.ndarray:
+    """:meth:`CubeGrid.upper_counts` in one call."""
     query_idx = np.asarray(query_idx, dtype=np.intp)
     if points.shape[0] == 0 or query_idx.size == 0:
         return np.zeros(query_idx.size, dtype=np.int64)
-    cells = [np.floor((points[:, k] - points[:, k].min()) * (1.0 / radius)).astype(np.int64) + 1 for k in range(3)]
-    span = [int(c.max()) + 2 for c in cells]
-    keys = (cells[0] * span[1] + cells[1]) * span[2] + cells[2]
-    order, starts, count, cube_of = group_keys(keys)
-    uniq = keys[order[starts]]
-    # Work per occupied query cube, not per query point: dense surfaces put dozens of returns in one cube.
-    wanted = np.zeros(uniq.size, dtype=bool)
-    wanted[cube_of[query_idx]] = True
-    q = np.flatnonzero(wanted)
-    qi, qj, qk = (np.take(c, order[starts[q]]) for c in cells)
-    cube_total = np.zeros(uniq.size, dtype=np.int64)
-    for di, dj, dk in _OFFSETS:
-        nk = ((qi + di) * span[1] + (qj + dj)) * span[2] + (qk + dk)
-        pos = np.minimum(np.searchsorted(uniq, nk), uniq.size - 1)
-        cube_total[q] += np.where(uniq[pos] == nk, count[pos], 0)
-    return cube_total[cube_of[query_idx]] - 1
+    return CubeGrid(points, radius).upper_counts(query_idx)
 
 
 def preprocess(
@@ -126,15 +162,13 @@ def preprocess(
         # The cube block (about 1.5 x spray_radius either way) holds the ball of spray_radius, so its count is an
         # upper bound. Far out that generosity is right: rings are 2 deg apart, so a hull's low edge has few
         # neighbours within 0.5 m at 40 m. Near the boat, where hulls are dense and spray comes in bursts of a few
-        # returns, a count just above the minimum is checked exactly (a k-d tree ball query on those few only).
-        upper = neighbour_counts(reach_pts, low_in_reach, cfg.spray_radius)
+        # returns, a count just above the minimum is checked exactly (distances to the few points around those few).
+        grid = CubeGrid(reach_pts, cfg.spray_radius)
+        upper = grid.upper_counts(low_in_reach)
         verdict = upper < cfg.spray_min_neighbours
         unsure = ~verdict & (upper < _EXACT_BELOW * max(cfg.spray_min_neighbours, 1)) & near[low]
         if np.any(unsure):
-            tree = cKDTree(reach_pts)
-            low_pts = np.take(reach_pts, low_in_reach[unsure], axis=0)
-            exact = tree.query_ball_point(low_pts, r=cfg.spray_radius, return_length=True) - 1
-            verdict[unsure] = exact < cfg.spray_min_neighbours
+            verdict[unsure] = grid.exact_counts(low_in_reach[unsure]) < cfg.spray_min_neighbours
         spray[np.flatnonzero(low)] = verdict
     n_spray = int(np.count_nonzero(spray))
 
