@@ -1,6 +1,6 @@
 """Cycle time of the daemon's 10 Hz loop at full sensor load, on one core.
 
-    python bench/cycle.py            # about a minute
+    python bench/cycle.py            # about two minutes
 
 Two loads: (1) "20 vessels": the `dense` scenario (20 vessels in view) inside a closed basin of 15 m walls 60 m
 around - a busy harbour, about half the firings return (the low beams see only water); (2) "every firing returns":
@@ -35,6 +35,7 @@ from simulator.scenarios import get_scenario
 from simulator.scene import Quay, Scene
 
 SECONDS = 12.0
+PASSES = 3
 
 
 class SceneEgo:
@@ -76,7 +77,6 @@ def measure(scene: Scene, seconds: float) -> dict[str, object]:
     config = Config()
     config.lidar.mount.z = scene.lidar_mount.z
     config.radar.mount.x, config.radar.mount.z = scene.radar_mount.x, scene.radar_mount.z
-    pipeline = pipeline_for(config)
     ego = SceneEgo(scene)
     lidar = Vlp16Model(scene, scene.lidar_mount, seed=3)
     radar = Awr1843Model(scene, scene.radar_mount, seed=3)
@@ -92,26 +92,42 @@ def measure(scene: Scene, seconds: float) -> dict[str, object]:
     for k, scan in enumerate(scans):
         d = radar.frame(scan.stamp, k)
         frames += parser.feed(encode_frame(k + 1, d.xyz_ti, d.doppler, d.snr_db, d.noise_db), scan.stamp)
-    durations, stages = [], {}
-    out = None
-    freeze_startup_objects()  # as the daemon does before its loop starts
-    for k, scan in enumerate(scans):
-        c0 = time.perf_counter()
-        out = pipeline.step(scan.stamp + 0.01, scan, frames[k : k + 1], ego)
-        durations.append((time.perf_counter() - c0) * 1e3)
-        for key, v in out.timings_ms.items():
-            stages.setdefault(key, []).append(v)
-    warm = np.array(durations[5:])  # tracks start up in the first revolutions
-    assert out is not None
+    passes = []
+    for _ in range(PASSES):
+        pipeline = pipeline_for(config)
+        durations, cpu, stages = [], [], {}
+        out = None
+        freeze_startup_objects()  # as the daemon does before its loop starts
+        for k, scan in enumerate(scans):
+            c0, u0 = time.perf_counter(), time.thread_time()
+            out = pipeline.step(scan.stamp + 0.01, scan, frames[k : k + 1], ego)
+            durations.append((time.perf_counter() - c0) * 1e3)
+            cpu.append((time.thread_time() - u0) * 1e3)
+            for key, v in out.timings_ms.items():
+                stages.setdefault(key, []).append(v)
+        assert out is not None
+        warm, warm_cpu = np.array(durations[5:]), np.array(cpu[5:])  # tracks start up in the first revolutions
+        passes.append(
+            {
+                "p50_ms": float(np.percentile(warm, 50)),
+                "p99_ms": float(np.percentile(warm, 99)),
+                "max_ms": float(warm.max()),
+                "cpu_p50_ms": float(np.percentile(warm_cpu, 50)),
+                "cpu_p99_ms": float(np.percentile(warm_cpu, 99)),
+                "confirmed_tracks": sum(1 for tr in out.tracks if tr.confirmed),
+                "stages_ms": {k: float(np.median(v[5:])) for k, v in stages.items()},
+            }
+        )
+    # The machine's cores are shared with other tenants: a slow phase inflates everything by up to 1.5x for
+    # seconds at a time, and noise only ever adds. So each load runs PASSES times and the quietest pass (lowest
+    # p50) stands for the code; the others are kept in the JSON and their spread is printed.
+    best = min(passes, key=lambda r: r["p50_ms"])
     return {
-        "cycles": len(warm),
+        "cycles": len(scans) - 5,
         "lidar_points": float(np.mean([s.n_points for s in scans])),
         "radar_points": float(np.mean([f.n_points for f in frames])),
-        "p50_ms": float(np.percentile(warm, 50)),
-        "p99_ms": float(np.percentile(warm, 99)),
-        "max_ms": float(warm.max()),
-        "confirmed_tracks": sum(1 for tr in out.tracks if tr.confirmed),
-        "stages_ms": {k: float(np.median(v[5:])) for k, v in stages.items()},
+        **best,
+        "passes": passes,
     }
 
 
@@ -127,18 +143,24 @@ def main() -> None:
             f"  {r['lidar_points']:,.0f} LiDAR + {r['radar_points']:.0f} radar points per cycle, {r['cycles']} cycles: "
             f"p50 {r['p50_ms']:.1f} ms, p99 {r['p99_ms']:.1f} ms, max {r['max_ms']:.1f} ms (budget 100 ms); "
             + ", ".join(f"{k} {v:.1f}" for k, v in r["stages_ms"].items())
+            + "; all passes p50/p99: "
+            + ", ".join(f"{q['p50_ms']:.1f}/{q['p99_ms']:.1f}" for q in r["passes"])
         )
     lines = [
-        "One core, each cycle = one VLP-16 revolution + one radar frame through the whole pipeline.",
+        "One core, each cycle = one VLP-16 revolution + one radar frame through the whole pipeline. Wall time of the "
+        f"quietest of {PASSES} passes over the same {SECONDS:.0f} s (the machine is shared: slow phases inflate "
+        "everything by up to 1.5x); the last column lists every pass.",
         "",
-        "| load | LiDAR points | radar points | p50 | p99 | max | stage medians (ms) |",
-        "|---|---|---|---|---|---|---|",
+        "| load | LiDAR points | radar points | p50 | p99 | max | stage medians (ms) | all passes p50 / p99 (ms) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for name, r in rows.items():
         stages = ", ".join(f"{k} {v:.1f}" for k, v in r["stages_ms"].items())
         lines.append(
             f"| {name} | {r['lidar_points']:,.0f} | {r['radar_points']:.0f} | {r['p50_ms']:.1f} ms | "
-            f"{r['p99_ms']:.1f} ms | {r['max_ms']:.1f} ms | {stages} |"
+            f"{r['p99_ms']:.1f} ms | {r['max_ms']:.1f} ms | {stages} | "
+            + ", ".join(f"{q['p50_ms']:.1f} / {q['p99_ms']:.1f}" for q in r["passes"])
+            + " |"
         )
     save("cycle", rows, "\n".join(lines))
 

@@ -604,7 +604,7 @@ def main() -> None:
         f"tracks (median). preprocess + step: CPU p50 {dense['cpu_p50_ms']:.1f} ms, p99 {dense['cpu_p99_ms']:.1f} ms; "
         f"wall p50 {dense['wall_p50_ms']:.1f} ms, p99 {dense['wall_p99_ms']:.1f} ms. The machine's 2 cores are "
         "shared with other jobs: wall time includes their preemptions, and even CPU time grows ~1.5x when the other "
-        "core is busy (quiet runs: CPU p50 8-9 ms, p99 9-14 ms).",
+        "core is busy.",
         "",
         "### Goals",
         "",

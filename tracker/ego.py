@@ -1,7 +1,8 @@
 """Body FRD -> world NED for points taken while the boat moves.
 
 A VLP-16 sweep lasts 100 ms; at 3 m/s and 10 deg/s yaw rate the boat moves 0.3 m and turns 1 deg within one
-revolution, which is 0.9 m of smear at 50 m. So each point is placed with the pose at its own time.
+revolution, which is 0.9 m of smear at 50 m. So each point is placed with the pose at its own time (to within
+half a millisecond: see sample_poses).
 """
 
 from __future__ import annotations
