@@ -26,6 +26,11 @@ def test_bin_centres_and_edges() -> None:
     near = nearest_per_bin(pts)
     np.testing.assert_allclose(near[[0, 1, 71, 18]], [10.0, 11.0, 12.0, 13.0], atol=1e-9)
     assert np.isinf(near[[2, 17, 19, 36]]).all()
+    # astern from either side is bin 36; a NaN return is skipped, not binned
+    astern = np.vstack([polar(179.0, 20.0), polar(-178.0, 19.0), polar(-182.6, 18.0), [[np.nan, 1.0]]])
+    near = nearest_per_bin(astern)
+    np.testing.assert_allclose(near[[36, 35]], [19.0, 18.0], atol=1e-9)
+    assert np.isfinite(near).sum() == 2
 
 
 def test_values_obstacle_clear_unknown() -> None:

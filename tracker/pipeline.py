@@ -233,7 +233,7 @@ class PerceptionPipeline:
         else:
             pre = preprocess(scan.xyz, pos, roll, pitch, yaw, self.lidar_preprocess_config, pose_index=index)
             track_points = pre.points_world
-        body = scan.xyz[pre.keep]
+        body = np.compress(pre.keep, scan.xyz, axis=0)
         r0, p0 = (float(np.nanmean(roll)), float(np.nanmean(pitch))) if ego_ok and known.any() else (0.0, 0.0)
         above = level_z(body, r0, p0) < s.water_z_m - s.min_height_above_water_m
         if self.lidar_tracker is not None and track_points is not None:
@@ -242,7 +242,7 @@ class PerceptionPipeline:
             self._lidar_tracks = self.lidar_tracker.step(
                 track_points, scan.stamp, own_pos, own_yaw, point_times=scan.t[pre.keep]
             )
-        return body[above][:, :2], int(above.sum())
+        return np.compress(above, body[:, :2], axis=0), int(above.sum())
 
     # ---- radar ----------------------------------------------------------------------------------------------
     def _radar(self, frame: RadarFrame, ego: EgoSource | None, ego_ok: bool) -> np.ndarray:

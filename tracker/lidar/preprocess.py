@@ -158,7 +158,7 @@ def preprocess(
         )
         reach_idx = np.flatnonzero(reach)
         reach_pts = np.take(world, reach_idx, axis=0)
-        low_in_reach = np.searchsorted(reach_idx, np.flatnonzero(low))  # low is a subset of reach
+        low_in_reach = (np.cumsum(reach) - 1)[low]  # low is a subset of reach: each one's place among it
         # The cube block (about 1.5 x spray_radius either way) holds the ball of spray_radius, so its count is an
         # upper bound. Far out that generosity is right: rings are 2 deg apart, so a hull's low edge has few
         # neighbours within 0.5 m at 40 m. Near the boat, where hulls are dense and spray comes in bursts of a few
