@@ -57,5 +57,5 @@ def test_run_process_notifies_systemd_and_stops_on_sigterm(tmp_path: Path) -> No
             notify.close()
         _, err = proc.communicate()
     assert rc == 0, err
-    assert took < 1.5, f"stopping took {took:.2f} s"
+    assert took < 1.0, f"stopping took {took:.2f} s"  # the 1 s, process exit included (about 0.4 s here)
     assert "SIGTERM received: stopping" in err and "stopped" in err
