@@ -235,9 +235,28 @@ class AssociationConfig:
 
 
 @dataclass
+class StructureConfig:
+    """Structure memory (ours, not in the paper; tracker.lidar.structure): world cells seen under a cluster too big
+    to be a vessel (ClusterConfig.max_extent) are remembered, and a later cluster lying mostly on them - a piece of
+    the same quay wall cut off by a shadow - is structure too: an obstacle, not a track."""
+
+    memory_s: float = 120.0  # s a cell stays structure after it was last seen so; 0 turns the memory off
+    cell_m: float = 0.5  # m; a cluster's return counts when it lies within one cell of a remembered one
+    half_size_m: float = 150.0  # m; the grid follows the own boat and covers the VLP-16's 100 m range
+    min_fraction: float = 0.5  # share of a cluster's footprint on remembered cells that makes it structure
+
+    def __post_init__(self) -> None:
+        _positive(self, "memory_s", allow_zero=True)
+        _positive(self, "cell_m", "half_size_m")
+        if not 0.0 < self.min_fraction <= 1.0:
+            raise ConfigError(f"StructureConfig.min_fraction: must be within (0, 1], got {self.min_fraction!r}")
+
+
+@dataclass
 class LidarTrackerConfig:
     preprocess: PreprocessConfig = field(default_factory=PreprocessConfig)
     cluster: ClusterConfig = field(default_factory=ClusterConfig)
+    structure: StructureConfig = field(default_factory=StructureConfig)
     shape: ShapeConfig = field(default_factory=ShapeConfig)
     ekf: EkfConfig = field(default_factory=EkfConfig)
     association: AssociationConfig = field(default_factory=AssociationConfig)

@@ -41,6 +41,7 @@ from tracker.lidar.shape_fit import (
     fit_shape,
     guard_heading,
 )
+from tracker.lidar.structure import StructureMemory
 from tracker.lifecycle import IdSource, Lifecycle, TrackLife
 from tracker.types import Detection, ShapeKind, Track
 
@@ -70,6 +71,8 @@ class LidarTracker:
         self.stats = {"scans": 0, "out_of_order": 0, "degenerate_clusters": 0}
         self._cluster_result: ClusterResult | None = None
         self._detection_clusters: list[list[int]] = []  # cluster indices behind each detection
+        self.structure = StructureMemory(self.config.structure)
+        self.last_structure = np.zeros(0, dtype=bool)  # per cluster of the last scan: structure, not a vessel
 
     # -- detection ---------------------------------------------------------------------------------------------
 
@@ -81,7 +84,7 @@ class LidarTracker:
         ``points_world`` (N, 3) world NED; ``own_position`` the own boat's (north, east) (a 3rd value is ignored).
         ``point_times`` (N,) s, optional: each point's firing time; a detection's ``t`` is then the mean time its
         cluster was swept, else ``t``. Also sets :attr:`last_clusters` (every cluster, structure included) for the
-        obstacle map. Does not touch the tracks.
+        obstacle map, and :attr:`last_structure`. Does not touch the tracks; remembers where structure was seen.
         """
         own = np.asarray(own_position, dtype=float)[:2]
         result = cluster_points(points_world, own, self.config.cluster)
@@ -90,7 +93,8 @@ class LidarTracker:
         self.last_cluster_track = [None] * len(result.clusters)
         self._detection_clusters = []
         swept = self._sweep_times(result, point_times, t)
-        vessels = np.flatnonzero(~result.oversized)
+        self.last_structure = self._structure(result, t, own)
+        vessels = np.flatnonzero(~self.last_structure)
         footprints = [result.footprints[k] for k in vessels]
         shape = self.config.shape
         # The whole scan's fits as stacked arrays where the fitter has a batch form (same results, less overhead).
@@ -109,6 +113,20 @@ class LidarTracker:
                 self._detection_clusters.append([k])
         self.last_detections = detections
         return detections
+
+    def _structure(self, result: ClusterResult, t: float, own: np.ndarray) -> np.ndarray:
+        """(k,) bool: clusters that are structure - too big for a vessel, or lying mostly where structure was seen
+        (a piece of a quay wall cut off by a shadow; tracker.lidar.structure)."""
+        cfg = self.config.structure
+        big = np.asarray(result.oversized, dtype=bool).copy()
+        if cfg.memory_s <= 0 or big.size == 0:
+            return big
+        self.structure.follow(own)
+        if big.any():
+            self.structure.remember(t, np.concatenate([result.footprints[k] for k in np.flatnonzero(big)]))
+        for k in np.flatnonzero(~big):  # one check per cluster (at most max_clusters)
+            big[k] = self.structure.known_fraction(t, result.footprints[k]) >= cfg.min_fraction
+        return big
 
     @staticmethod
     def _sweep_times(result: ClusterResult, point_times: np.ndarray | None, t: float) -> np.ndarray:

@@ -1,0 +1,64 @@
+"""Structure memory: a piece of a quay wall cut off by a shadow stays structure; boats near it stay vessels."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tracker.lidar import LidarTracker, LidarTrackerConfig
+from tracker.lidar.config import StructureConfig
+from tracker.lidar.structure import StructureMemory
+
+OWN = np.zeros(2)
+
+
+def wall(north_from: float, north_to: float, east: float = 16.0) -> np.ndarray:
+    """A vertical quay face (world NED): a return every 0.2 m along it at four heights."""
+    north = np.arange(north_from, north_to, 0.2)
+    return np.concatenate(
+        [np.column_stack([north, np.full(north.size, east), np.full(north.size, z)]) for z in (-0.3, -0.8, -1.3, -1.8)]
+    )
+
+
+def boat(north: float, east: float, length: float = 8.0) -> np.ndarray:
+    """The face of a hull broadside to the sensor, 0.5 m off the wall's side of it (world NED)."""
+    n = np.arange(north - length / 2, north + length / 2, 0.1)
+    return np.concatenate([np.column_stack([n, np.full(n.size, east), np.full(n.size, z)]) for z in (-0.4, -0.9)])
+
+
+def detections_near(tracker: LidarTracker, points: np.ndarray, t: float, north: float, east: float) -> int:
+    dets = tracker.detect(points, t, OWN)
+    return sum(1 for d in dets if abs(d.center[0] - north) < 12.0 and abs(d.center[1] - east) < 3.0)
+
+
+@pytest.mark.parametrize("memory_s, piece_is_vessel", [(120.0, False), (0.0, True)])
+def test_wall_piece_after_seeing_the_whole_wall(memory_s: float, piece_is_vessel: bool) -> None:
+    tracker = LidarTracker(LidarTrackerConfig(structure=StructureConfig(memory_s=memory_s)))
+    # Scan 1: the whole 80 m wall (longer than max_extent 60 m: structure) and a boat 3 m off it.
+    first = np.concatenate([wall(-40.0, 40.0), boat(10.0, 12.0)])
+    dets = tracker.detect(first, 0.0, OWN)
+    assert len(dets) == 1 and abs(dets[0].center[1] - 12.0) < 0.5  # the boat only
+    assert tracker.last_structure.tolist() == [False, True]  # boat nearest, then the wall
+    # Scan 2, 5 s later: a shadow leaves an 18 m piece of the wall, vessel-sized; the boat is still there.
+    second = np.concatenate([wall(2.0, 20.0), boat(10.0, 12.0)])
+    assert detections_near(tracker, second, 5.0, 11.0, 16.0) == (1 if piece_is_vessel else 0)
+    assert detections_near(tracker, second, 5.0, 10.0, 12.0) == 1  # the boat 3 m off the wall is a vessel
+    structure = tracker.last_structure
+    assert structure.sum() == (0 if piece_is_vessel else 1)
+
+
+def test_memory_expires_and_follows_the_boat() -> None:
+    mem = StructureMemory(StructureConfig(memory_s=60.0, cell_m=0.5, half_size_m=100.0))
+    mem.follow(np.array([0.0, 0.0]))
+    face = np.column_stack([np.arange(10.0, 30.0, 0.2), np.full(100, 16.0)])
+    mem.remember(0.0, face)
+    assert mem.known_fraction(10.0, face) == 1.0
+    assert mem.known_fraction(10.0, face + np.array([0.0, 0.6])) == 1.0  # within a cell of it
+    assert mem.known_fraction(10.0, face + np.array([0.0, 3.0])) == 0.0  # a boat 3 m off it
+    assert mem.known_fraction(61.0, face) == 0.0  # not seen as structure for over memory_s
+    # The boat moves 70 m north: the grid recentres and keeps what lies within it.
+    mem.follow(np.array([70.0, 0.0]))
+    assert mem.origin is not None and mem.origin.tolist() == [-30.0, -100.0]  # was (-100, -100)
+    assert mem.known_fraction(10.0, face) == 1.0
+    mem.follow(np.array([400.0, 0.0]))  # far away: nothing of it is left
+    assert mem.known_fraction(10.0, face) == 0.0

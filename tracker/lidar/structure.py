@@ -1,0 +1,80 @@
+"""Where the LiDAR has seen structure: quay walls and shore remembered in the world frame (ours, not in paper 000).
+
+A quay wall is structure while the sensor sees it whole: its cluster is longer than any vessel
+(``ClusterConfig.max_extent``). But boats moored along it and the own boat's passage cut it into pieces by their
+shadows, and a 15-50 m piece of wall is the size of a vessel: tracked, it becomes a "vessel" with a speed made of
+its changing ends. Paper 001 answers the same problem for radar with a static map; here the memory is simpler,
+because the LiDAR tells structure apart by size whenever it sees it whole: every world cell covered by a
+structure-sized cluster is remembered for ``memory_s``, and a later cluster lying mostly on remembered cells is
+structure too. Its returns still reach the obstacle map; it just gets no track.
+
+The cost of the rule: a vessel larger than ``max_extent`` that moves leaves structure behind it for ``memory_s``;
+a small boat following in its track within that time is not tracked (its returns remain obstacles).
+
+Frames: world NED (north, east), metres; the grid follows the own boat.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tracker.lidar.config import StructureConfig
+
+_NEIGHBOURS = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=np.int64)
+
+
+class StructureMemory:
+    """A square grid of world cells centred near the own boat; each holds when it last lay under structure."""
+
+    def __init__(self, config: StructureConfig | None = None) -> None:
+        self.cfg = config or StructureConfig()
+        self.cells = int(np.ceil(2 * self.cfg.half_size_m / self.cfg.cell_m))
+        self.last_seen = np.full((self.cells, self.cells), -np.inf)
+        self.origin: np.ndarray | None = None  # world (north, east) of cell (0, 0)'s corner
+
+    def reset(self) -> None:
+        self.last_seen.fill(-np.inf)
+        self.origin = None
+
+    def follow(self, own_ne: np.ndarray) -> None:
+        """Keep the grid centred within a quarter of its size of the own boat, moving what it remembers along."""
+        own = np.asarray(own_ne, dtype=float)[:2]
+        half = self.cells * self.cfg.cell_m / 2
+        if self.origin is None:
+            self.origin = np.floor((own - half) / self.cfg.cell_m) * self.cfg.cell_m
+            return
+        if np.all(np.abs(own - (self.origin + half)) <= half / 2):
+            return
+        new_origin = np.floor((own - half) / self.cfg.cell_m) * self.cfg.cell_m
+        shift = np.rint((new_origin - self.origin) / self.cfg.cell_m).astype(int)
+        moved = np.full_like(self.last_seen, -np.inf)
+        n = self.cells
+        src = [slice(max(s, 0), n + min(s, 0)) for s in shift]
+        dst = [slice(max(-s, 0), n + min(-s, 0)) for s in shift]
+        if all(sl.stop > sl.start for sl in src):
+            moved[dst[0], dst[1]] = self.last_seen[src[0], src[1]]
+        self.last_seen = moved
+        self.origin = new_origin
+
+    def _index(self, points_ne: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        assert self.origin is not None
+        ij = np.floor((np.asarray(points_ne, dtype=float)[:, :2] - self.origin) / self.cfg.cell_m).astype(np.int64)
+        inside = np.all((ij >= 0) & (ij < self.cells), axis=1)
+        return ij[:, 0], ij[:, 1], inside
+
+    def remember(self, t: float, points_ne: np.ndarray) -> None:
+        """Mark the cells under structure returns (or footprint cells) seen at time ``t``."""
+        if self.origin is None or len(points_ne) == 0:
+            return
+        i, j, inside = self._index(points_ne)
+        self.last_seen[i[inside], j[inside]] = t
+
+    def known_fraction(self, t: float, points_ne: np.ndarray) -> float:
+        """Share of the points lying on, or next to, a cell seen under structure within ``memory_s`` of ``t``."""
+        if self.origin is None or len(points_ne) == 0:
+            return 0.0
+        i, j, _ = self._index(points_ne)
+        ni = np.clip(i[:, None] + _NEIGHBOURS[None, :, 0], 0, self.cells - 1)
+        nj = np.clip(j[:, None] + _NEIGHBOURS[None, :, 1], 0, self.cells - 1)
+        recent = self.last_seen[ni, nj] >= t - self.cfg.memory_s
+        return float(np.mean(np.any(recent, axis=1)))
