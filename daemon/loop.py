@@ -92,6 +92,7 @@ class DaemonLoop:
         self.sent = 0
         self.withheld = 0
         self._publishing: bool | None = None
+        self._waiting_for_first_data = False  # no data since start-up, within STARTUP_GRACE_S so far
         self._sensor_state: dict[str, bool] = {}
         self._status: int | None = None
         self._first_tick: float | None = None
@@ -122,6 +123,9 @@ class DaemonLoop:
         self._check_sensors(out)
         if has_data != self._publishing:
             self._on_data_state_change(has_data)
+        elif not has_data and self._waiting_for_first_data and not self._in_grace(out.t):
+            self._waiting_for_first_data = False
+            self._report_no_data()
         if has_data:
             if self.publisher is not None:
                 self.publisher.send_obstacle_distance(
@@ -146,9 +150,7 @@ class DaemonLoop:
         A sensor not heard from yet is not "down" during the first STARTUP_GRACE_S: a radar takes a second or two to
         deliver after its cfg is accepted.
         """
-        if self._first_tick is None:
-            self._first_tick = out.t
-        in_grace = out.t - self._first_tick < STARTUP_GRACE_S
+        in_grace = self._in_grace(out.t)
         fresh = {}
         if self.s.lidar_expected:
             fresh["LiDAR"] = out.lidar_fresh
@@ -179,19 +181,34 @@ class DaemonLoop:
             self._status = status
             self._set_status(status)
 
+    def _in_grace(self, t: float) -> bool:
+        if self._first_tick is None:
+            self._first_tick = t
+        return t - self._first_tick < STARTUP_GRACE_S
+
     def _on_data_state_change(self, has_data: bool) -> None:
         first = self._publishing is None
         self._publishing = has_data
         if has_data:
-            if not first:
+            if self._waiting_for_first_data:
+                self._waiting_for_first_data = False
+                log.info("first sensor data: sending OBSTACLE_DISTANCE")
+            elif not first:
                 log.info("sensor data is back: sending OBSTACLE_DISTANCE again")
                 self._statustext(MAV_SEVERITY_INFO, "usv-tracker: sensor data back")
+        elif first:
+            # Sensors take a moment after start-up (a radar a second or two after its cfg); not an error yet.
+            self._waiting_for_first_data = True
+            log.info("waiting for sensor data: OBSTACLE_DISTANCE starts with it")
         else:
-            log.error(
-                "no sensor has delivered for %.1f s: OBSTACLE_DISTANCE withheld so the autopilot reports No Data",
-                self.s.no_data_timeout_s,
-            )
-            self._statustext(MAV_SEVERITY_WARNING, "usv-tracker: no sensor data, obstacle output stopped")
+            self._report_no_data()
+
+    def _report_no_data(self) -> None:
+        log.error(
+            "no sensor has delivered for %.1f s: OBSTACLE_DISTANCE withheld so the autopilot reports No Data",
+            self.s.no_data_timeout_s,
+        )
+        self._statustext(MAV_SEVERITY_WARNING, "usv-tracker: no sensor data, obstacle output stopped")
 
     def _statustext(self, severity: int, text: str) -> None:
         if self.publisher is not None:

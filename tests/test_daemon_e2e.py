@@ -7,6 +7,7 @@ bearing 30 deg (starboard bow). Its near face is 20 - 1.25 = 18.75 m from the Li
 
 from __future__ import annotations
 
+import logging
 import math
 import subprocess
 import sys
@@ -167,6 +168,27 @@ def test_silent_sensors_stop_the_output_and_it_comes_back() -> None:
             assert wait_for(lambda: [h for h in ap.heartbeats() if h.src_component == 196][-1].system_status == 4)
             d = np.asarray(ap.obstacle_distances()[-1].distances)
             assert abs(int(d[6]) - NEAR_FACE_M * 100) <= NEAR_TOL_CM
+
+
+def test_no_data_at_start_is_waiting_first_and_an_error_after_the_grace(caplog: pytest.LogCaptureFixture) -> None:
+    # A crew starting the daemon before the sensors deliver must not read an error at every start.
+    settings = simulation_settings("one_box", radar=False)
+    with SimulationRun(settings, scene=one_box_scene()) as sim:
+        sim.lidar_paused.set()
+        config = config_for_simulation(sim)
+        with caplog.at_level(logging.INFO, logger="daemon.loop"), running(sim, config):
+            ap = sim.autopilot
+            assert ap is not None
+            time.sleep(1.5)  # within the 3 s start-up grace
+            assert "waiting for sensor data" in caplog.text
+            assert "no sensor has delivered" not in caplog.text
+            assert not any("no sensor data" in s.text for s in ap.statustexts())
+            # still nothing after the grace: now it is an error, and the autopilot is told
+            assert wait_for(lambda: any("no sensor data" in s.text for s in ap.statustexts()), timeout=4.0)
+            assert "no sensor has delivered" in caplog.text
+            assert ap.obstacle_distances() == []
+            sim.lidar_paused.clear()
+            assert wait_for(lambda: len(ap.obstacle_distances()) >= 5, timeout=3.0)
 
 
 def test_autopilot_absent_at_start_connects_later() -> None:
