@@ -30,6 +30,8 @@ MAV_DISTANCE_SENSOR_LASER = 0
 MAV_STATE_ACTIVE = 4
 MAV_STATE_CRITICAL = 5  # degraded: one of the expected sensors is down
 MAV_STATE_EMERGENCY = 6  # no sensor at all: no obstacle output
+PHASE_GAIN = 0.2  # share of the LiDAR phase error corrected per tick (run_live)
+PHASE_MAX_STEP_S = 0.005  # s, the most one tick moves the next
 STARTUP_GRACE_S = 3.0  # a sensor not heard from yet is only reported silent after this
 MAV_SEVERITY_WARNING = 4
 MAV_SEVERITY_INFO = 6
@@ -254,19 +256,50 @@ class DaemonLoop:
     def run_live(self, stop: threading.Event, duration_s: float | None = None) -> None:
         period = 1.0 / self.s.rate_hz
         start = self.clock()
-        next_deadline = start + period
+        schedule = TickSchedule(period, start + period)
         while not stop.is_set():
             now = self.clock()
             if duration_s is not None and now - start >= duration_s:
                 break
+            age = now - self.inputs.lidar.stats.last_put if self.s.lidar_expected else math.inf
+            shift = lidar_phase_shift(age, period)
             self.tick(now)
             self.maybe_log_health(now)
-            now = self.clock()
-            if now > next_deadline + period:
-                # More than a whole period late (e.g. the machine was suspended): re-phase instead of bursting.
-                next_deadline = now
-            stop.wait(max(0.0, next_deadline - now))
-            next_deadline += period
+            stop.wait(schedule.after_tick(self.clock(), shift))
+
+
+class TickSchedule:
+    """Deadlines of a fixed-rate loop: one every ``period`` s, each movable by a small phase shift."""
+
+    def __init__(self, period: float, first_deadline: float) -> None:
+        self.period = period
+        self.next_deadline = first_deadline
+
+    def after_tick(self, now: float, shift: float = 0.0) -> float:
+        """A tick finished at ``now``: seconds to wait for the next one."""
+        if now > self.next_deadline + self.period:
+            # More than a whole period late (e.g. the machine was suspended): re-phase instead of bursting.
+            self.next_deadline = now
+        self.next_deadline += shift
+        wait = max(0.0, self.next_deadline - now)
+        self.next_deadline += self.period
+        return wait
+
+
+def lidar_phase_shift(age: float, period: float) -> float:
+    """How far (s) to move the next tick so that ticks fall half a period after the LiDAR's revolutions arrive;
+    ``age``: time since the newest revolution arrived, at this tick.
+
+    Both run at 10 Hz on different clocks. A tick that falls right where revolutions arrive sees none, then two,
+    and the older is dropped (the loop takes the newest): up to every other revolution for as long as the phases
+    stay together, minutes with a real sensor's clock drift. Halfway between arrivals, a revolution may come up to
+    half a period early or late and still meet exactly one tick. The rate stays fixed; the phase follows the sensor
+    slowly (PHASE_GAIN of the error per tick, at most PHASE_MAX_STEP_S), so a single late revolution does not shake
+    it.
+    """
+    if not 0.0 <= age < period:
+        return 0.0  # none this period (or no LiDAR): nothing to lock to
+    return float(np.clip(-PHASE_GAIN * (age - period / 2), -PHASE_MAX_STEP_S, PHASE_MAX_STEP_S))
 
 
 def tick_record(out: PerceptionOutput, sent: bool) -> dict[str, Any]:
