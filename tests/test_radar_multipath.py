@@ -117,3 +117,13 @@ def test_a_real_boat_at_twice_the_range_of_another_is_kept_per_cluster() -> None
     assert len(out.detections) == 2  # 3 of 8 is under multipath_cluster_ghost_share: the far boat is real
     paper = RadarDetector(replace(cfg, multipath_per_cluster=False))
     assert len(paper.detect(xyz, dop, snr, 0.0, np.zeros(2), 0.0, np.zeros(2)).detections) == 1  # 5 left < 6
+
+
+def test_a_larger_boat_at_twice_the_range_is_not_a_ghost_of_a_smaller_one() -> None:
+    # Both slow (the Doppler test cannot tell): a 0.6 m high boat at 17 m (SNR 30 dB) and a 3 m high one at 34.5 m on
+    # the same bearing, only 6 dB weaker. A double bounce would be 12 dB weaker or more.
+    r, az = np.array([17.0, 34.5, 34.2]), np.radians([-24.0, -24.5, -23.0])
+    dop, snr = np.array([-0.4, -0.45, -0.8]), np.array([30.0, 24.0, 16.0])
+    strict = replace(SETTINGS, min_snr_drop_db=10.0)
+    assert multipath_ghosts(r, az, dop, snr, strict).tolist() == [False, False, True]  # 14 dB down: a ghost
+    assert multipath_ghosts(r, az, dop, snr, SETTINGS).tolist() == [False, True, True]  # any weaker: both

@@ -96,6 +96,10 @@ class RadarTrackerConfig:
     multipath_range_tolerance_m: float = 0.75  # not in the paper; ~5 range bins of the sec. 3.1 configuration
     multipath_range_tolerance_rel: float = 0.03
     multipath_doppler_tolerance_mps: float = 0.5  # a k-bounce ghost also has k x the raw Doppler; <0 disables
+    # Not in the paper: a k-bounce ghost is weaker than its source by at least the extra round trip's path loss
+    # (40 log10 2 = 12 dB at k = 2) and the extra reflections; a real boat at twice the range of a smaller one is
+    # not (a 3 m high hull at 35 m returns within ~6 dB of a 0.6 m one at 17 m). 0 = any weaker return qualifies.
+    multipath_min_snr_drop_db: float = 10.0
     # Not in the paper (it drops ghost returns before clustering). With both boats at rest the Doppler test cannot tell
     # a ghost from a real boat at twice the range of another within the search angle: in the simulated paper scene
     # a third of the far boat's returns were called ghosts of the near one. Clustered with everything, a cluster is
@@ -249,6 +253,7 @@ class RadarTrackerConfig:
             "shore_update_interval_s",
             "multipath_range_tolerance_m",
             "multipath_range_tolerance_rel",
+            "multipath_min_snr_drop_db",
             "jerk_std",
             "accel_std",
             "maneuver_nis",

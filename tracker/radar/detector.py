@@ -133,6 +133,7 @@ class RadarDetector:
             range_tolerance_m=config.multipath_range_tolerance_m,
             range_tolerance_rel=config.multipath_range_tolerance_rel,
             doppler_tolerance=config.multipath_doppler_tolerance_mps,
+            min_snr_drop_db=config.multipath_min_snr_drop_db,
         )
         self.profile = config.profile_settings()
         self.ego_profile = config.ego_profile_settings()
