@@ -69,12 +69,15 @@ class StructureMemory:
         i, j, inside = self._index(points_ne)
         self.last_seen[i[inside], j[inside]] = t
 
-    def known_fraction(self, t: float, points_ne: np.ndarray) -> float:
-        """Share of the points lying on, or next to, a cell seen under structure within ``memory_s`` of ``t``."""
+    def known(self, t: float, points_ne: np.ndarray) -> np.ndarray:
+        """(n,) bool: the point lies on, or next to, a cell seen under structure within ``memory_s`` of ``t``."""
         if self.origin is None or len(points_ne) == 0:
-            return 0.0
+            return np.zeros(len(points_ne), dtype=bool)
         i, j, _ = self._index(points_ne)
         ni = np.clip(i[:, None] + _NEIGHBOURS[None, :, 0], 0, self.cells - 1)
         nj = np.clip(j[:, None] + _NEIGHBOURS[None, :, 1], 0, self.cells - 1)
-        recent = self.last_seen[ni, nj] >= t - self.cfg.memory_s
-        return float(np.mean(np.any(recent, axis=1)))
+        return np.any(self.last_seen[ni, nj] >= t - self.cfg.memory_s, axis=1)
+
+    def known_fraction(self, t: float, points_ne: np.ndarray) -> float:
+        """Share of the points that are :meth:`known`."""
+        return float(np.mean(self.known(t, points_ne))) if len(points_ne) else 0.0

@@ -124,8 +124,12 @@ class LidarTracker:
         self.structure.follow(own)
         if big.any():
             self.structure.remember(t, np.concatenate([result.footprints[k] for k in np.flatnonzero(big)]))
-        for k in np.flatnonzero(~big):  # one check per cluster (at most max_clusters)
-            big[k] = self.structure.known_fraction(t, result.footprints[k]) >= cfg.min_fraction
+        small = np.flatnonzero(~big)
+        if small.size:  # every cluster's footprint in one lookup, the share per cluster by reduceat
+            sizes = np.array([len(result.footprints[k]) for k in small])
+            known = self.structure.known(t, np.concatenate([result.footprints[k] for k in small]))
+            share = np.add.reduceat(known.astype(float), np.cumsum(sizes) - sizes) / np.maximum(sizes, 1)
+            big[small] = (sizes > 0) & (share >= cfg.min_fraction)
         return big
 
     @staticmethod
