@@ -127,7 +127,7 @@ class DaemonLoop:
             self._on_data_state_change(has_data)
         elif not has_data and self._waiting_for_first_data and not self._in_grace(out.t):
             self._waiting_for_first_data = False
-            self._report_no_data()
+            self._report_no_data(f"since start-up ({STARTUP_GRACE_S:.0f} s)")
         if has_data:
             if self.publisher is not None:
                 self.publisher.send_obstacle_distance(
@@ -203,13 +203,10 @@ class DaemonLoop:
             self._waiting_for_first_data = True
             log.info("waiting for sensor data: OBSTACLE_DISTANCE starts with it")
         else:
-            self._report_no_data()
+            self._report_no_data(f"for {self.s.no_data_timeout_s:.1f} s")
 
-    def _report_no_data(self) -> None:
-        log.error(
-            "no sensor has delivered for %.1f s: OBSTACLE_DISTANCE withheld so the autopilot reports No Data",
-            self.s.no_data_timeout_s,
-        )
+    def _report_no_data(self, how_long: str) -> None:
+        log.error("no sensor has delivered %s: OBSTACLE_DISTANCE withheld so the autopilot reports No Data", how_long)
         self._statustext(MAV_SEVERITY_WARNING, "usv-tracker: no sensor data, obstacle output stopped")
 
     def _statustext(self, severity: int, text: str) -> None:
@@ -257,12 +254,13 @@ class DaemonLoop:
         period = 1.0 / self.s.rate_hz
         start = self.clock()
         schedule = TickSchedule(period, start + period)
+        lock = LidarPhaseLock(period)
         while not stop.is_set():
             now = self.clock()
             if duration_s is not None and now - start >= duration_s:
                 break
-            age = now - self.inputs.lidar.stats.last_put if self.s.lidar_expected else math.inf
-            shift = lidar_phase_shift(age, period)
+            lidar = self.inputs.lidar.stats
+            shift = lock.shift(now, lidar.last_put, lidar.received) if self.s.lidar_expected else 0.0
             self.tick(now)
             self.maybe_log_health(now)
             stop.wait(schedule.after_tick(self.clock(), shift))
@@ -284,6 +282,30 @@ class TickSchedule:
         wait = max(0.0, self.next_deadline - now)
         self.next_deadline += self.period
         return wait
+
+
+class LidarPhaseLock:
+    """Locks the loop's phase to the LiDAR's (lidar_phase_shift), but only while the LiDAR delivers at the loop's
+    own rate: at 1200 rpm, or with the loop set below 10 Hz, every tick would see a revolution "just arrived" and be
+    pushed later each time, slowing the loop down."""
+
+    def __init__(self, period: float) -> None:
+        self.period = period
+        self.interval: float | None = None  # s between revolutions, smoothed
+        self._last: tuple[float, int] | None = None  # (arrival time, count) when last seen changing
+
+    def shift(self, now: float, last_put: float, received: int) -> float:
+        """The shift for the next tick, from the newest arrival time and the count of revolutions so far."""
+        if not math.isfinite(last_put):
+            return 0.0
+        if self._last is not None and received > self._last[1]:
+            step = (last_put - self._last[0]) / (received - self._last[1])
+            self.interval = step if self.interval is None else 0.8 * self.interval + 0.2 * step
+        if self._last is None or received != self._last[1]:
+            self._last = (last_put, received)
+        if self.interval is None or abs(self.interval - self.period) > 0.1 * self.period:
+            return 0.0
+        return lidar_phase_shift(now - last_put, self.period)
 
 
 def lidar_phase_shift(age: float, period: float) -> float:

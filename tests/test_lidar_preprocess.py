@@ -117,3 +117,11 @@ def test_cube_grid_counts_match_a_ball_query_and_bound_it() -> None:
     lone = CubeGrid(np.array([[0.0, 0.0, 0.0], [5.0, 5.0, 5.0]]), 0.5)
     assert lone.exact_counts(np.array([0, 1])).tolist() == [0, 0]
     assert lone.upper_counts(np.array([0, 1])).tolist() == [0, 0]
+
+
+def test_empty_scan_and_a_bad_pose_index() -> None:
+    res = preprocess(np.zeros((0, 3)), np.zeros((0, 3)), 0.0, 0.0, 0.0, CFG)
+    assert res.points_world.shape == (0, 3) and res.keep.shape == (0,)
+    body = np.array([[10.0, 0.0, -2.0], [12.0, 0.0, -2.0]])
+    with pytest.raises(ValueError, match="pose index"):
+        preprocess(body, np.zeros((2, 3)), np.zeros(2), np.zeros(2), np.zeros(2), CFG, pose_index=np.array([0, 2]))

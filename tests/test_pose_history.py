@@ -211,3 +211,16 @@ def test_sampled_poses_place_a_turning_boats_returns_within_a_centimetre() -> No
     t[5] = np.nan
     (_, _, _, yaw_each), index = sample_poses(h, t)
     assert index is None and np.isnan(yaw_each[5]) and np.isfinite(np.delete(yaw_each, 5)).all()
+
+
+def test_a_scan_with_a_wild_timestamp_gets_a_pose_per_point() -> None:
+    # One point 600 s off (a bad packet time): no 600,000 pose samples, each point its own pose (the wild one none).
+    from tracker.ego import sample_poses
+
+    h = PoseHistory()
+    for k in range(30):
+        h.add(pose(0.01 * k, pos=(0.1 * k, 0.0, 0.0), vel=(10.0, 0.0, 0.0)))
+    t = np.array([0.10, 0.15, 600.0])
+    (pos, _, _, yaw), index = sample_poses(h, t)
+    assert index is None and pos.shape == (3, 3)
+    assert pos[:2, 0] == pytest.approx([1.0, 1.5]) and np.isnan(yaw[2])

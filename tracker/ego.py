@@ -77,6 +77,8 @@ class PoseTable:
         """Poses given as one for all, one per point (K = N, no ``index``), or K with a per-point ``index``."""
         pos = np.asarray(position, dtype=float).reshape(-1, 3)
         att = [np.asarray(a, dtype=float).reshape(-1) for a in (roll, pitch, yaw)]
+        if n == 0:  # an empty scan: no point takes any pose
+            return cls(np.zeros((1, 3)), np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(0, dtype=np.intp))
         k = max(pos.shape[0], *(a.size for a in att))
         pos = np.broadcast_to(pos, (k, 3))
         att = [np.broadcast_to(a, (k,)) for a in att]
@@ -84,7 +86,10 @@ class PoseTable:
             if k not in (1, n):
                 raise ValueError(f"{k} poses for {n} points and no index saying which point takes which")
             index = np.zeros(n, dtype=np.intp) if k == 1 else np.arange(n)
-        return cls(pos, att[0], att[1], att[2], np.asarray(index, dtype=np.intp))
+        index = np.asarray(index, dtype=np.intp)
+        if index.shape != (n,) or (n and (index.min() < 0 or index.max() >= k)):
+            raise ValueError(f"pose index: need {n} entries within [0, {k}), got shape {index.shape}")
+        return cls(pos, att[0], att[1], att[2], index)
 
     def finite_per_point(self) -> np.ndarray:
         """(N,) bool: the point's pose is known."""
@@ -121,6 +126,7 @@ class PoseSource(Protocol):
 
 
 POSE_SAMPLE_S = 0.001  # s between the ego poses a revolution's points are placed with
+MAX_SAMPLED_SPAN_S = 1.0  # s; a scan whose times spread wider (a bad timestamp) gets a pose per point instead
 
 
 def sample_poses(
@@ -134,7 +140,7 @@ def sample_poses(
     time missing every point gets its own pose (index None), so a point without a time gets no pose.
     """
     t = np.asarray(t, dtype=float).ravel()
-    if t.size == 0 or not np.isfinite(t).all():
+    if t.size == 0 or not np.isfinite(t).all() or float(t.max() - t.min()) > MAX_SAMPLED_SPAN_S:
         return ego.at_many(t), None
     t0, t1 = float(t.min()), float(t.max())
     knots = t0 + step * np.arange(int((t1 - t0) / step) + 2)

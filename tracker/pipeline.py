@@ -220,7 +220,9 @@ class PerceptionPipeline:
         if ego_ok:
             assert ego is not None
             (pos, roll, pitch, yaw), index = sample_poses(ego, scan.t)
-            known = (np.isfinite(yaw) & np.isfinite(pos).all(axis=1))[index]
+            known = np.isfinite(yaw) & np.isfinite(pos).all(axis=1)  # per pose sample, or per point
+            if index is not None:
+                known = known[index]
         else:
             (pos, roll, pitch, yaw), index = IDENTITY, None
             known = np.ones(scan.n_points, dtype=bool)

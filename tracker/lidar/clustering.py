@@ -12,8 +12,9 @@ cluster's footprint for shape fitting. Then, for the neighbour search only, the 
 thousands of 0.15 m cells each had ~35 neighbours within reach; 0.65 m link cells have a handful, and a
 single search with the largest reach finds every candidate pair once (tried: per-band searches with their own
 reach found more pairs, twice, at three times the cost). Pooling never
-joins what the tolerance would keep apart (a link cell's diagonal is a third of the tolerance), and it shifts
-the effective tolerance by at most one link cell diagonal, as the fine grid did near the boat.
+joins what the tolerance would keep apart (a link cell's diagonal is a third of the tolerance); comparing link
+cell centroids shifts the effective tolerance by up to one link cell diagonal, as the fine grid did near the boat,
+mostly downwards: two hulls at 60 m (tolerance 2.6 m) now stay apart from a gap of about 2.3 m.
 """
 
 from __future__ import annotations

@@ -242,12 +242,17 @@ class StructureConfig:
 
     memory_s: float = 120.0  # s a cell stays structure after it was last seen so; 0 turns the memory off
     cell_m: float = 0.5  # m; a cluster's return counts when it lies within one cell of a remembered one
-    half_size_m: float = 150.0  # m; the grid follows the own boat and covers the VLP-16's 100 m range
+    half_size_m: float = 150.0  # m; half the side of the grid, which follows the own boat
+    range_m: float = 100.0  # m kept on the grid around the own boat: the VLP-16's range
     min_fraction: float = 0.5  # share of a cluster's footprint on remembered cells that makes it structure
 
     def __post_init__(self) -> None:
         _positive(self, "memory_s", allow_zero=True)
-        _positive(self, "cell_m", "half_size_m")
+        _positive(self, "cell_m", "half_size_m", "range_m")
+        if self.half_size_m < self.range_m + 10 * self.cell_m:
+            raise ConfigError(
+                f"StructureConfig.half_size_m: {self.half_size_m} leaves no room to move around range_m {self.range_m}"
+            )
         if not 0.0 < self.min_fraction <= 1.0:
             raise ConfigError(f"StructureConfig.min_fraction: must be within (0, 1], got {self.min_fraction!r}")
 

@@ -42,6 +42,8 @@ class CubeGrid:
     within 0.5 m and 29k queries took 150 ms; so did building a tree over a whole revolution for a few queries."""
 
     def __init__(self, points: np.ndarray, radius: float) -> None:
+        if len(points) == 0:
+            raise ValueError("CubeGrid needs at least one point")
         self.points = points
         self.radius = radius
         cells = [np.floor((points[:, k] - points[:, k].min()) * (1.0 / radius)).astype(np.int64) + 1 for k in range(3)]

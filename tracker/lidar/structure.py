@@ -37,13 +37,14 @@ class StructureMemory:
         self.origin = None
 
     def follow(self, own_ne: np.ndarray) -> None:
-        """Keep the grid centred within a quarter of its size of the own boat, moving what it remembers along."""
+        """Keep every point within ``range_m`` of the own boat on the grid: recentre (moving what it remembers
+        along) once the boat is more than ``half_size_m - range_m`` from the grid's centre."""
         own = np.asarray(own_ne, dtype=float)[:2]
         half = self.cells * self.cfg.cell_m / 2
         if self.origin is None:
             self.origin = np.floor((own - half) / self.cfg.cell_m) * self.cfg.cell_m
             return
-        if np.all(np.abs(own - (self.origin + half)) <= half / 2):
+        if np.all(np.abs(own - (self.origin + half)) <= half - self.cfg.range_m - self.cfg.cell_m):
             return
         new_origin = np.floor((own - half) / self.cfg.cell_m) * self.cfg.cell_m
         shift = np.rint((new_origin - self.origin) / self.cfg.cell_m).astype(int)
@@ -74,9 +75,10 @@ class StructureMemory:
         if self.origin is None or len(points_ne) == 0:
             return np.zeros(len(points_ne), dtype=bool)
         i, j, _ = self._index(points_ne)
-        ni = np.clip(i[:, None] + _NEIGHBOURS[None, :, 0], 0, self.cells - 1)
-        nj = np.clip(j[:, None] + _NEIGHBOURS[None, :, 1], 0, self.cells - 1)
-        return np.any(self.last_seen[ni, nj] >= t - self.cfg.memory_s, axis=1)
+        ni, nj = i[:, None] + _NEIGHBOURS[None, :, 0], j[:, None] + _NEIGHBOURS[None, :, 1]
+        on_grid = (ni >= 0) & (ni < self.cells) & (nj >= 0) & (nj < self.cells)
+        recent = self.last_seen[np.clip(ni, 0, self.cells - 1), np.clip(nj, 0, self.cells - 1)] >= t - self.cfg.memory_s
+        return np.any(recent & on_grid, axis=1)  # off the grid nothing is known
 
     def known_fraction(self, t: float, points_ne: np.ndarray) -> float:
         """Share of the points that are :meth:`known`."""
