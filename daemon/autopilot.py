@@ -26,6 +26,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from daemon.ais import AisVessel
 from daemon.autopilot_port import MavlinkPort
 from daemon.autopilot_pose import PoseAssembler
 from daemon.autopilot_rates import IntervalRequester
@@ -336,6 +337,31 @@ class AutopilotLink:
             )
             sent += ok
         return sent
+
+    def send_ais_vessel(self, v: AisVessel) -> bool:
+        """AIS_VESSEL for the ground station's map (daemon.ais); False on a dead link."""
+        return self._send(
+            "ais_vessel",
+            lambda mav: mav.ais_vessel_send(
+                v.mmsi,
+                v.lat_e7,
+                v.lon_e7,
+                v.cog_cdeg,
+                v.heading_cdeg,
+                v.velocity_cms,
+                v.turn_rate,
+                v.navigational_status,
+                v.vessel_type,
+                v.dimension_bow,
+                v.dimension_stern,
+                v.dimension_port,
+                v.dimension_starboard,
+                b"",
+                v.name,
+                v.tslc,
+                v.flags,
+            ),
+        )
 
     def send_statustext(self, severity: int, text: str) -> int:
         """STATUSTEXT, split into 50-character chunks (MAVLink 2 id/chunk_seq). Returns chunks sent."""

@@ -7,6 +7,7 @@ it) and radians inside (converted here, once).
 
 from __future__ import annotations
 
+import math
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -158,6 +159,11 @@ class OutputConfig:
     tracks_out: str = ""  # JSON lines, one per tick
     record_dir: str = ""  # raw captures of every source, for replay at the desk
     health_interval_s: float = 5.0
+    # Confirmed tracks as AIS_VESSEL for the ground station's map, every ais_interval_s (0 = off: it costs radio
+    # bandwidth, ~60 bytes per vessel, and ArduPilot's forwarding to the GCS link is to be checked per setup).
+    ais_interval_s: float = 0.0
+    ais_max_tracks: int = 10  # the nearest ones
+    ais_mmsi_base: int = 900_000_000  # MMSI = base + track id; "9" + MID "00" is allocated to no station
 
     def validate(self) -> list[str]:
         out = []
@@ -169,6 +175,12 @@ class OutputConfig:
             out.append("max_distance_m: must be below 655 m (OBSTACLE_DISTANCE carries uint16 centimetres)")
         if self.no_data_timeout_s <= 0:
             out.append("no_data_timeout_s: must be > 0")
+        if not (math.isfinite(self.ais_interval_s) and self.ais_interval_s >= 0):
+            out.append(f"ais_interval_s: {self.ais_interval_s} must be >= 0 (0 = no AIS_VESSEL)")
+        if self.ais_max_tracks < 1:
+            out.append(f"ais_max_tracks: {self.ais_max_tracks} must be >= 1")
+        if not 0 <= self.ais_mmsi_base <= 999_000_000:
+            out.append(f"ais_mmsi_base: {self.ais_mmsi_base} must leave room for track ids below 10^9")
         return out
 
 

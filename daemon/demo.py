@@ -77,6 +77,7 @@ def run_demo(
     with SimulationRun(simulation_settings(scenario)) as sim:
         config = config_for_simulation(sim)
         config.output.tracks_out = str(out_dir / "tracks.jsonl")
+        config.output.ais_interval_s = 1.0  # the tracks on the ground station's map (off by default on a boat)
         try:
             daemon = start_daemon(config)
         except StartupError as exc:
@@ -137,6 +138,12 @@ def run_demo(
         print(
             f"  loop: {stats.cycles} cycles, p50 {p50:.1f} ms, p99 {p99:.1f} ms, deadline misses {stats.deadline_misses}"
         )
+        ais = ap.ais_vessels()
+        if ais:
+            print(
+                f"  ground station: {len(ais)} AIS_VESSEL messages for {len({v.mmsi for v in ais})} tracked vessels"
+                f" (last: {ais[-1].name} at {ais[-1].lat_deg:.6f} N {ais[-1].lon_deg:.6f} E)"
+            )
         if received:
             d = np.asarray(received[-1].distances, dtype=float)
             obstacles = d[(d > 0) & (d <= config.output.max_distance_m * 100)]

@@ -18,6 +18,7 @@ from typing import IO, Any, Protocol
 
 import numpy as np
 
+from daemon.ais import MMSI_BASE, ais_vessel
 from daemon.buffers import BoundedQueue, LatestSlot
 from daemon.health import CycleStats, RateCounter
 from daemon.sdnotify import SystemdNotifier
@@ -58,6 +59,9 @@ class LoopSettings:
     health_interval_s: float = 5.0
     lidar_expected: bool = True
     radar_expected: bool = True
+    ais_interval_s: float = 0.0  # AIS_VESSEL per confirmed track this often; 0 = never (daemon.ais)
+    ais_max_tracks: int = 10
+    ais_mmsi_base: int = MMSI_BASE
 
 
 @dataclass
@@ -93,6 +97,8 @@ class DaemonLoop:
         self.stats = CycleStats(period_s=1.0 / settings.rate_hz)
         self.sent = 0
         self.withheld = 0
+        self.ais_sent = 0
+        self._last_ais = -math.inf
         self._publishing: bool | None = None
         self._waiting_for_first_data = False  # no data since start-up, within STARTUP_GRACE_S so far
         self._sensor_state: dict[str, bool] = {}
@@ -138,6 +144,7 @@ class DaemonLoop:
                     self._time_usec(),
                 )
             self.sent += 1
+            self._maybe_send_ais(out)
             self.notifier.watchdog()
         else:
             self.withheld += 1
@@ -145,6 +152,31 @@ class DaemonLoop:
             self.notifier.watchdog()
         if self.tracks_out is not None:
             self.tracks_out.write(json.dumps(tick_record(out, sent=has_data), separators=(",", ":")) + "\n")
+
+    def _maybe_send_ais(self, out: PerceptionOutput) -> None:
+        """The nearest confirmed tracks as AIS_VESSEL, every ais_interval_s, once the world has a lat/lon anchor."""
+        s = self.s
+        if s.ais_interval_s <= 0 or self.publisher is None or out.t - self._last_ais < s.ais_interval_s:
+            return
+        to_geodetic = getattr(self.publisher, "world_to_geodetic", None)
+        send = getattr(self.publisher, "send_ais_vessel", None)
+        if to_geodetic is None or send is None:
+            return
+        self._last_ais = out.t
+        tracks = [tr for tr in out.tracks if tr.confirmed]
+        if not tracks:
+            return
+        own = self.poses.at(out.t) if self.poses is not None else None
+        if own is not None:
+            tracks.sort(key=lambda tr: float(np.hypot(*(tr.position - np.asarray(own.position)[:2]))))
+        tracks = tracks[: s.ais_max_tracks]
+        ned = np.array([[tr.position[0], tr.position[1], 0.0] for tr in tracks])
+        geo = to_geodetic(ned)
+        if geo is None:  # no autopilot fix yet, or no ego pose at all: no place on the map
+            return
+        lat, lon, _ = geo
+        for tr, la, lo in zip(tracks, np.atleast_1d(lat), np.atleast_1d(lon), strict=True):
+            self.ais_sent += bool(send(ais_vessel(tr, float(la), float(lo), s.ais_mmsi_base)))
 
     def _check_sensors(self, out: PerceptionOutput) -> None:
         """Per-sensor up/down transitions: a log line and a STATUSTEXT each, and the heartbeat's system_status.

@@ -108,6 +108,23 @@ class ReceivedStatusText:
 
 
 @dataclass(frozen=True)
+class ReceivedAisVessel:
+    host_time: float
+    src_system: int
+    src_component: int
+    mmsi: int
+    lat_deg: float
+    lon_deg: float
+    cog_deg: float | None  # None: not valid
+    heading_deg: float | None
+    velocity_mps: float | None
+    length_m: int | None  # bow + stern, None when the dimensions are not valid
+    beam_m: int | None
+    name: str
+    flags: int
+
+
+@dataclass(frozen=True)
 class IntervalRequest:
     host_time: float
     src_system: int
@@ -225,6 +242,7 @@ class SimAutopilot:
         self._obstacles_3d: list[ReceivedObstacle3D] = []
         self._heartbeats: list[ReceivedHeartbeat] = []
         self._statustexts: list[ReceivedStatusText] = []
+        self._ais_vessels: list[ReceivedAisVessel] = []
         self._interval_requests: list[IntervalRequest] = []
         self._timesync_requests = 0
         self._timesync_answers: list[tuple[float, int, int]] = []  # (host time, tc1, ts1) answers to OUR requests
@@ -313,6 +331,10 @@ class SimAutopilot:
     def statustexts(self) -> list[ReceivedStatusText]:
         with self._lock:
             return list(self._statustexts)
+
+    def ais_vessels(self) -> list[ReceivedAisVessel]:
+        with self._lock:
+            return list(self._ais_vessels)
 
     def interval_requests(self) -> list[IntervalRequest]:
         with self._lock:
@@ -513,10 +535,38 @@ class SimAutopilot:
             st = ReceivedStatusText(now, *src, msg.severity, msg.text, msg.id, msg.chunk_seq)
             with self._lock:
                 self._statustexts.append(st)
+        elif mtype == "AIS_VESSEL":
+            self._on_ais_vessel(msg, src, now)
         elif mtype == "TIMESYNC":
             self._on_timesync(msg, now)
         elif mtype == "COMMAND_LONG":
             self._on_command_long(msg, src, now)
+
+    def _on_ais_vessel(self, msg: Any, src: tuple[int, int], now: float) -> None:
+        flags = int(msg.flags)
+
+        def valid(flag: int, value: float) -> float | None:
+            return value if flags & flag else None
+
+        dims = flags & mavlink.AIS_FLAGS_VALID_DIMENSIONS
+        rec = ReceivedAisVessel(
+            now,
+            *src,
+            int(msg.MMSI),
+            msg.lat * 1e-7,
+            msg.lon * 1e-7,
+            valid(mavlink.AIS_FLAGS_VALID_COG, msg.COG / 100.0),
+            None if msg.heading == 65535 else msg.heading / 100.0,
+            valid(mavlink.AIS_FLAGS_VALID_VELOCITY, msg.velocity / 100.0),
+            int(msg.dimension_bow + msg.dimension_stern) if dims else None,
+            int(msg.dimension_port + msg.dimension_starboard) if dims else None,
+            bytes(msg.name).split(b"\0", 1)[0].decode("ascii", "replace")
+            if isinstance(msg.name, bytes)
+            else str(msg.name),
+            flags,
+        )
+        with self._lock:
+            self._ais_vessels.append(rec)
 
     def _on_timesync(self, msg: Any, now: float) -> None:
         if msg.tc1 == 0:

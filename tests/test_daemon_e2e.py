@@ -93,6 +93,31 @@ def test_obstacle_distance_reaches_autopilot_at_10_hz_with_the_vessel_in_its_bin
         assert ap.proximity_health() == "Good"
 
 
+def test_tracked_box_reaches_the_ground_station_as_an_ais_vessel() -> None:
+    with SimulationRun(simulation_settings("one_box", radar=False), scene=one_box_scene()) as sim:
+        config = config_for_simulation(sim)
+        config.output.ais_interval_s = 0.5
+        with running(sim, config):
+            ap = sim.autopilot
+            assert ap is not None
+            assert wait_for(lambda: len(ap.ais_vessels()) >= 3, timeout=10.0)
+            vessels = ap.ais_vessels()
+            times = [v.host_time for v in vessels[-3:]]
+            assert 0.8 <= times[-1] - times[0] <= 1.4  # one per 0.5 s (a single confirmed track)
+            v = vessels[-1]
+            assert (v.src_system, v.src_component) == (1, 196)
+            assert 900_000_000 < v.mmsi < 901_000_000 and v.name.startswith("USV-TRK ")
+            # where the box lies on the simulated autopilot's own map (its EKF origin at 59.41 N 10.49 E)
+            lat, lon, _ = ap.plane.to_geodetic(np.array([20.0 * math.cos(BEARING), 20.0 * math.sin(BEARING), 0.0]))
+            north_err = (v.lat_deg - float(lat)) * 111_320.0
+            east_err = (v.lon_deg - float(lon)) * 111_320.0 * math.cos(math.radians(float(lat)))
+            # a hull seen from one side has its centre biased towards the sensor (README, known limitations)
+            assert math.hypot(north_err, east_err) < 1.5, (north_err, east_err)
+            assert v.velocity_mps is not None and v.velocity_mps < 0.3  # the box lies still
+            assert v.cog_deg is None  # too slow for a course
+            assert v.length_m is not None and v.beam_m is not None and 4 <= v.length_m <= 8 and v.beam_m >= 1
+
+
 def test_radar_only_leaves_uncovered_bearings_unknown() -> None:
     settings = simulation_settings("one_box")
     settings.lidar = False
