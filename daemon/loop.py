@@ -33,6 +33,7 @@ MAV_STATE_CRITICAL = 5  # degraded: one of the expected sensors is down
 MAV_STATE_EMERGENCY = 6  # no sensor at all: no obstacle output
 PHASE_GAIN = 0.2  # share of the LiDAR phase error corrected per tick (run_live)
 PHASE_MAX_STEP_S = 0.005  # s, the most one tick moves the next
+MAX_FAILED_TICKS = 20  # cycles failing in a row (2 s) before the loop gives up and lets systemd restart it
 STARTUP_GRACE_S = 3.0  # a sensor not heard from yet is only reported silent after this
 MAV_SEVERITY_WARNING = 4
 MAV_SEVERITY_INFO = 6
@@ -98,6 +99,8 @@ class DaemonLoop:
         self.sent = 0
         self.withheld = 0
         self.ais_sent = 0
+        self.failed_ticks = 0
+        self._failed_in_a_row = 0
         self._last_ais = -math.inf
         self._publishing: bool | None = None
         self._waiting_for_first_data = False  # no data since start-up, within STARTUP_GRACE_S so far
@@ -163,7 +166,7 @@ class DaemonLoop:
         if to_geodetic is None or send is None:
             return
         self._last_ais = out.t
-        tracks = [tr for tr in out.tracks if tr.confirmed]
+        tracks = [tr for tr in out.tracks if tr.confirmed and np.all(np.isfinite(tr.position))]
         if not tracks:
             return
         own = self.poses.at(out.t) if self.poses is not None else None
@@ -176,7 +179,8 @@ class DaemonLoop:
             return
         lat, lon, _ = geo
         for tr, la, lo in zip(tracks, np.atleast_1d(lat), np.atleast_1d(lon), strict=True):
-            self.ais_sent += bool(send(ais_vessel(tr, float(la), float(lo), s.ais_mmsi_base)))
+            if math.isfinite(la) and math.isfinite(lo):
+                self.ais_sent += bool(send(ais_vessel(tr, float(la), float(lo), s.ais_mmsi_base)))
 
     def _check_sensors(self, out: PerceptionOutput) -> None:
         """Per-sensor up/down transitions: a log line and a STATUSTEXT each, and the heartbeat's system_status.
@@ -267,6 +271,8 @@ class DaemonLoop:
             f"cycle p50 {p50:.1f} ms p99 {p99:.1f} ms misses {self.stats.deadline_misses} tracks {n_tracks} "
             "(stage p50 " + " ".join(f"{k} {v:.1f}" for k, v in self.stats.stage_p50().items()) + " ms)"
         )
+        if self.failed_ticks:
+            line += f" failed cycles {self.failed_ticks}"
         if self.status_text is not None:
             line += " " + self.status_text()
         return line
@@ -293,9 +299,29 @@ class DaemonLoop:
                 break
             lidar = self.inputs.lidar.stats
             shift = lock.shift(now, lidar.last_put, lidar.received) if self.s.lidar_expected else 0.0
-            self.tick(now)
+            self.guarded_tick(now)
             self.maybe_log_health(now)
             stop.wait(schedule.after_tick(self.clock(), shift))
+
+    def guarded_tick(self, t: float) -> PerceptionOutput | None:
+        """A tick that survives a failing cycle: logged with its traceback, tracks restarted, the next tick runs.
+
+        A bug met by one odd frame must not leave the autopilot without obstacles until systemd's watchdog restarts
+        the whole daemon (5 s and more). Only MAX_FAILED_TICKS failures in a row end the loop: then something is
+        broken for good, and the exception goes up so that the service fails and is restarted.
+        """
+        try:
+            out = self.tick(t)
+        except Exception:
+            self.failed_ticks += 1
+            self._failed_in_a_row += 1
+            log.exception("cycle failed (%d so far): tracks restarted", self.failed_ticks)
+            if self._failed_in_a_row >= MAX_FAILED_TICKS:
+                raise
+            self.pipeline.reset_tracks()
+            return None
+        self._failed_in_a_row = 0
+        return out
 
 
 class TickSchedule:

@@ -216,6 +216,47 @@ def test_no_data_at_start_is_waiting_first_and_an_error_after_the_grace(caplog: 
             assert wait_for(lambda: len(ap.obstacle_distances()) >= 5, timeout=3.0)
 
 
+def test_a_failing_cycle_is_survived_and_a_broken_loop_gives_up() -> None:
+    with SimulationRun(simulation_settings("one_box", radar=False), scene=one_box_scene()) as sim:
+        daemon = start_daemon(config_for_simulation(sim))
+        real_step = daemon.loop.pipeline.step
+        calls = {"n": 0, "fail": {15}}
+
+        def step(*args, **kwargs):  # type: ignore[no-untyped-def]
+            calls["n"] += 1
+            if calls["n"] in calls["fail"]:
+                raise FloatingPointError("injected: a tracker meets a frame it cannot handle")
+            return real_step(*args, **kwargs)
+
+        daemon.loop.pipeline.step = step  # type: ignore[method-assign]
+        errors: list[BaseException] = []
+
+        def run() -> None:
+            try:
+                daemon.loop.run_live(daemon.stop_event)
+            except BaseException as exc:
+                errors.append(exc)
+
+        thread = threading.Thread(target=run, daemon=True)
+        thread.start()
+        try:
+            ap = sim.autopilot
+            assert ap is not None
+            assert wait_for(lambda: calls["n"] >= 30, timeout=6.0)
+            assert thread.is_alive() and daemon.loop.failed_ticks == 1
+            times = [m.host_time for m in ap.obstacle_distances()]
+            assert len(times) >= 20 and max(np.diff(times)) < 0.35  # one tick lost, no gap an autopilot would see
+            # broken for good: 20 failures in a row end the loop with the error, for systemd to restart the daemon
+            calls["fail"] = set(range(calls["n"] + 1, calls["n"] + 1000))
+            thread.join(timeout=5.0)
+            assert not thread.is_alive() and isinstance(errors[0], FloatingPointError)
+            assert daemon.loop.failed_ticks >= 21
+        finally:
+            daemon.stop_event.set()
+            thread.join(timeout=2.0)
+            daemon.stop()
+
+
 def test_autopilot_absent_at_start_connects_later() -> None:
     settings = simulation_settings("one_box", radar=False)
     settings.autopilot = False

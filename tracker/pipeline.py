@@ -119,6 +119,11 @@ class PerceptionPipeline:
         self._radar_tracks: list[Track] = []
         self.skipped_no_pose = 0
 
+    def reset_tracks(self) -> None:
+        """Start the trackers afresh (tracks, maps), keeping the world frame: after a failed cycle, whose partial
+        updates may have left a tracker inconsistent."""
+        self._reset_world()
+
     def _reset_world(self) -> None:
         """The world frame changed: tracks and maps in the old frame are meaningless in the new one."""
         if self.lidar_tracker_factory:
