@@ -13,12 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from daemon.config import AIS_MMSI_BASE as MMSI_BASE
 from daemon.mavlink_env import mavlink
 from tracker.types import Track
 
-# "9" followed by the MID "00": the ITU allocates no station there, so a tracked boat cannot take the MMSI of a real
-# one on the ground station's map.
-MMSI_BASE = 900_000_000
 _UNKNOWN_ANGLE = 65535  # cdeg
 _UNKNOWN_TURN = 127  # INT8_MAX
 

@@ -23,6 +23,9 @@ else:  # Ubuntu 22.04 / Jetson ships Python 3.10
     import tomli as tomllib
 
 DEFAULT_CONFIG_PATH = Path("/etc/usv-tracker/usv-tracker.toml")
+# "9" followed by the MID "00": the ITU allocates no station there, so a tracked boat sent as AIS_VESSEL cannot take
+# the MMSI of a real one on the ground station's map.
+AIS_MMSI_BASE = 900_000_000
 
 
 @dataclass
@@ -163,7 +166,7 @@ class OutputConfig:
     # bandwidth, ~60 bytes per vessel, and ArduPilot's forwarding to the GCS link is to be checked per setup).
     ais_interval_s: float = 0.0
     ais_max_tracks: int = 10  # the nearest ones
-    ais_mmsi_base: int = 900_000_000  # MMSI = base + track id; "9" + MID "00" is allocated to no station
+    ais_mmsi_base: int = AIS_MMSI_BASE  # MMSI = base + track id
 
     def validate(self) -> list[str]:
         out = []

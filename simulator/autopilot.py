@@ -560,9 +560,7 @@ class SimAutopilot:
             valid(mavlink.AIS_FLAGS_VALID_VELOCITY, msg.velocity / 100.0),
             int(msg.dimension_bow + msg.dimension_stern) if dims else None,
             int(msg.dimension_port + msg.dimension_starboard) if dims else None,
-            bytes(msg.name).split(b"\0", 1)[0].decode("ascii", "replace")
-            if isinstance(msg.name, bytes)
-            else str(msg.name),
+            str(msg.name),  # pymavlink decodes char arrays to str, NULs stripped
             flags,
         )
         with self._lock:

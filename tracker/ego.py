@@ -35,12 +35,9 @@ def body_to_world(
     xyz_body: np.ndarray, position_ned: np.ndarray, roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray
 ) -> np.ndarray:
     """Points (N, 3) in body FRD -> world NED, with one pose per point (arrays of N) or one pose for all."""
-    roll, pitch, yaw = (np.broadcast_to(np.asarray(a, float), (xyz_body.shape[0],)) for a in (roll, pitch, yaw))
-    if np.all(roll == roll[0]) and np.all(pitch == pitch[0]) and np.all(yaw == yaw[0]):
-        r = rotation_matrices(roll[:1], pitch[:1], yaw[:1])[0]
-        return xyz_body @ r.T + position_ned
-    r = rotation_matrices(roll, pitch, yaw)
-    return np.einsum("nij,nj->ni", r, xyz_body) + position_ned
+    xyz = np.asarray(xyz_body, dtype=float).reshape(-1, 3)
+    n = xyz.shape[0]
+    return PoseTable.of(position_ned, roll, pitch, yaw, n).body_to_world(xyz, np.arange(n))[0]
 
 
 def world_to_body_2d(points_ne: np.ndarray, position_ne: np.ndarray, yaw: float) -> np.ndarray:
@@ -140,9 +137,10 @@ def sample_poses(
     time missing every point gets its own pose (index None), so a point without a time gets no pose.
     """
     t = np.asarray(t, dtype=float).ravel()
-    if t.size == 0 or not np.isfinite(t).all() or float(t.max() - t.min()) > MAX_SAMPLED_SPAN_S:
-        return ego.at_many(t), None
-    t0, t1 = float(t.min()), float(t.max())
-    knots = t0 + step * np.arange(int((t1 - t0) / step) + 2)
-    index = np.clip(np.rint((t - t0) * (1.0 / step)).astype(np.intp), 0, knots.size - 1)
-    return ego.at_many(knots), index
+    if t.size and np.isfinite(t).all():
+        t0, t1 = float(t.min()), float(t.max())
+        if t1 - t0 <= MAX_SAMPLED_SPAN_S:
+            knots = t0 + step * np.arange(int((t1 - t0) / step) + 2)
+            index = np.clip(np.rint((t - t0) * (1.0 / step)).astype(np.intp), 0, knots.size - 1)
+            return ego.at_many(knots), index
+    return ego.at_many(t), None

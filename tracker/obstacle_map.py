@@ -38,10 +38,16 @@ class SensorCoverage:
         return np.abs(off) <= self.width / 2 + 1e-9
 
 
+def _bins(fwd: np.ndarray, stbd: np.ndarray) -> np.ndarray:
+    """Bin of each bearing atan2(starboard, forward), clockwise from the bow, as int16 (0..71)."""
+    b = np.rint(np.arctan2(stbd, fwd) / BIN_WIDTH_RAD).astype(np.int16)
+    b[b < 0] += N_BINS
+    return b
+
+
 def bearing_bins(points_fwd_stbd: np.ndarray) -> np.ndarray:
     """Bin index of each (forward, starboard) point: bearing = atan2(starboard, forward), clockwise from the bow."""
-    bearing = np.arctan2(points_fwd_stbd[:, 1], points_fwd_stbd[:, 0])
-    return np.rint(bearing / BIN_WIDTH_RAD).astype(np.int64) % N_BINS
+    return _bins(points_fwd_stbd[:, 0], points_fwd_stbd[:, 1]).astype(np.int64)
 
 
 def nearest_per_bin(points_fwd_stbd: np.ndarray) -> np.ndarray:
@@ -57,8 +63,7 @@ def nearest_per_bin(points_fwd_stbd: np.ndarray) -> np.ndarray:
         return out
     # Minimum per bin by a stable sort of 16-bit bin numbers (a radix sort) and reduceat: 4x faster than
     # np.minimum.at on a revolution's 29k returns.
-    b = np.rint(np.arctan2(stbd, fwd) / BIN_WIDTH_RAD).astype(np.int16)  # as bearing_bins, to the last bit
-    b[b < 0] += N_BINS
+    b = _bins(fwd, stbd)
     order = np.argsort(b, kind="stable")
     sorted_bins = b[order]
     starts = np.flatnonzero(np.r_[True, sorted_bins[1:] != sorted_bins[:-1]])

@@ -95,14 +95,6 @@ class CubeGrid:
         return np.bincount(owner[near], minlength=query_idx.size) - 1
 
 
-def neighbour_counts(points: np.ndarray, query_idx: np.ndarray, radius: float) -> np.ndarray:
-    """:meth:`CubeGrid.upper_counts` in one call."""
-    query_idx = np.asarray(query_idx, dtype=np.intp)
-    if points.shape[0] == 0 or query_idx.size == 0:
-        return np.zeros(query_idx.size, dtype=np.int64)
-    return CubeGrid(points, radius).upper_counts(query_idx)
-
-
 def preprocess(
     xyz_body: np.ndarray,
     position_ned: np.ndarray,

@@ -472,12 +472,9 @@ def fit_ellipses(clouds: list[np.ndarray]) -> list[ShapeFit | DegenerateClusterE
         batch.append((i, xy, origin))
     if not batch:
         return out
-    k, nmax = len(batch), max(xy.shape[1] for _, xy, _ in batch)
-    pad = np.zeros((k, 2, nmax))
-    ones = np.zeros((k, nmax))
-    for j, (_, xy, _) in enumerate(batch):
-        pad[j, :, : xy.shape[1]] = xy
-        ones[j, : xy.shape[1]] = 1.0
+    pad, mask = _pad([xy for _, xy, _ in batch])
+    k, nmax = mask.shape
+    ones = mask.astype(float)
     n = ones.sum(axis=1)
     sxx = np.einsum("kn,kn->k", pad[:, 0], pad[:, 0]) / n
     syy = np.einsum("kn,kn->k", pad[:, 1], pad[:, 1]) / n
@@ -529,9 +526,8 @@ def fit_ellipses(clouds: list[np.ndarray]) -> list[ShapeFit | DegenerateClusterE
     px, py = pad[:, 0] - cx[:, None], pad[:, 1] - cy[:, None]
     u = ct[:, None] * px + st[:, None] * py
     v = ct[:, None] * py - st[:, None] * px
-    inside = ones > 0.0
-    lo_u, hi_u = np.where(inside, u, np.inf).min(axis=1), np.where(inside, u, -np.inf).max(axis=1)
-    lo_v, hi_v = np.where(inside, v, np.inf).min(axis=1), np.where(inside, v, -np.inf).max(axis=1)
+    lo_u, hi_u = np.where(mask, u, np.inf).min(axis=1), np.where(mask, u, -np.inf).max(axis=1)
+    lo_v, hi_v = np.where(mask, v, np.inf).min(axis=1), np.where(mask, v, -np.inf).max(axis=1)
     mean_v = (v * ones).sum(axis=1) / n
     length = hi_u - lo_u
     mid_u = 0.5 * (lo_u + hi_u)
