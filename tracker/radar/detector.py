@@ -31,7 +31,12 @@ from tracker.radar.dbscan import dbscan
 from tracker.radar.multipath import MultipathSettings, multipath_ghosts
 from tracker.radar.shore_lines import ShoreLines
 from tracker.radar.static_map import StaticMap
-from tracker.radar.velocity_profile import VelocityEstimate, VelocityStatus, fit_velocity_profile
+from tracker.radar.velocity_profile import (
+    ProfileFitSettings,
+    VelocityEstimate,
+    VelocityStatus,
+    fit_velocity_profile,
+)
 from tracker.types import Detection, ShapeKind
 
 log = logging.getLogger(__name__)
@@ -50,9 +55,18 @@ class RadarCluster:
     snr: np.ndarray  # (n,) dB
     los: np.ndarray  # (n, 2) unit line of sight radar -> return, world
     range_m: np.ndarray  # (n,) horizontal range from the radar
-    velocity: VelocityEstimate
     index: np.ndarray  # (n,) int, rows of DetectorOutput.points
+    profile: ProfileFitSettings  # the velocity-profile fit, made on first use of ``velocity``
+    rng: np.random.Generator
     shore: int = SHORE_KEEP  # SHORE_KEEP, SHORE_ON or SHORE_BEHIND
+    _velocity: VelocityEstimate | None = None
+
+    @property
+    def velocity(self) -> VelocityEstimate:
+        """Eq. 3-6, fitted when first asked for: shore clusters (~40 % near a quay) never need one."""
+        if self._velocity is None:
+            self._velocity = fit_velocity_profile(self.los, self.doppler_world, self.profile, self.rng)
+        return self._velocity
 
     @property
     def n_points(self) -> int:
@@ -336,8 +350,9 @@ class RadarDetector:
             snr=snr[idx],
             los=los[idx],
             range_m=rng[idx],
-            velocity=fit_velocity_profile(los[idx], dop_world[idx], self.profile, self.rng),
             index=idx,
+            profile=self.profile,
+            rng=self.rng,
         )
 
     def cluster_of(self, out: DetectorOutput, idx: np.ndarray) -> RadarCluster:
@@ -361,17 +376,17 @@ class RadarDetector:
         def cat(name: str) -> np.ndarray:
             return np.concatenate([getattr(p, name) for p in parts])
 
-        los, dop_world = cat("los"), cat("doppler_world")
         return RadarCluster(
             points=cat("points"),
             points_body=cat("points_body"),
             doppler=cat("doppler"),
-            doppler_world=dop_world,
+            doppler_world=cat("doppler_world"),
             snr=cat("snr"),
-            los=los,
+            los=cat("los"),
             range_m=cat("range_m"),
-            velocity=fit_velocity_profile(los, dop_world, self.profile, self.rng),
             index=cat("index"),
+            profile=self.profile,
+            rng=self.rng,
         )
 
     def update_map(self, out: DetectorOutput, exclude: np.ndarray | None = None) -> None:

@@ -43,7 +43,7 @@ class MotionDiscriminator:
         self.counter = 0  # D
         self.state = MotionState.WAIT  # every track starts in "wait" (sec. 2.3-3)
         self.last_iou = math.nan
-        self._hulls: deque[tuple[float, np.ndarray]] = deque()
+        self._hulls: deque[list] = deque()  # [t, point group, its padded hull once built]
         self._groups: deque[tuple[float, np.ndarray]] = deque()  # recent point groups, for the accumulated hull
 
     def level_of(self, counter: int) -> MotionState:
@@ -84,20 +84,30 @@ class MotionDiscriminator:
         while self._groups and self._groups[0][0] <= t - self.cfg.motion_group_window_s:
             self._groups.popleft()
         group = np.concatenate([g for _, g in self._groups]) if len(self._groups) > 1 else pts
-        hull = padded_hull(group, self.cfg.hull_point_pad_m)
-        if len(hull) == 0:
+        if not np.isfinite(group).all(axis=1).any():
             return self.state
+        # Hulls are built only when compared: a vetoed comparison needs neither, and a boat that keeps moving is
+        # vetoed every frame. A stored entry is [t, group, hull or None].
+        entry: list = [t, group, None]
         base = self.cfg.motion_hull_baseline_s
         ref = None
         while self._hulls and self._hulls[0][0] < t and t - self._hulls[0][0] >= base:
             ref = self._hulls.popleft()  # the newest qualifying hull wins; older ones are never needed again
         if ref is not None:
-            iou = convex_iou(ref[1], hull)
-            self.step_iou(0.0 if doppler_moving and self.cfg.motion_doppler_veto else iou)
-            self.last_iou = iou
+            if doppler_moving and self.cfg.motion_doppler_veto:
+                self.step_iou(0.0)
+                self.last_iou = math.nan  # not computed: the Doppler decided
+            else:
+                iou = convex_iou(self._hull(ref), self._hull(entry))
+                self.step_iou(iou)
             self._hulls.appendleft(ref)  # it may still be the reference next time
-        self._hulls.append((t, hull))
+        self._hulls.append(entry)
         return self.state
+
+    def _hull(self, entry: list) -> np.ndarray:
+        if entry[2] is None:
+            entry[2] = padded_hull(entry[1], self.cfg.hull_point_pad_m)
+        return entry[2]
 
     def velocity(self, filter_velocity: np.ndarray) -> np.ndarray:
         """What to publish: NaN in "wait", zero when static, the filter's otherwise."""
