@@ -85,6 +85,24 @@ def undetermined(n: int, reason: str) -> VelocityEstimate:
     )
 
 
+def normal_eig(u: np.ndarray) -> tuple[float, float, np.ndarray]:
+    """Eigen-decomposition of N = u^T u (2 x 2, symmetric) in closed form: (small, large, unit eigenvector of the
+    large). The same numbers as ``np.linalg.eigh`` at a tenth of its call overhead, which dominates on 5-point
+    clusters fitted a hundred times a second."""
+    x, y = u[:, 0], u[:, 1]
+    a, b, c = float(x @ x), float(x @ y), float(y @ y)
+    mean, half = 0.5 * (a + c), 0.5 * (a - c)
+    d = math.hypot(half, b)
+    lam_big = mean + d
+    if d == 0.0:
+        vec = np.array([0.0, 1.0])  # isotropic: any direction; eigh's second column
+    elif half >= 0:
+        vec = np.array([lam_big - c, b]) / math.hypot(lam_big - c, b)
+    else:
+        vec = np.array([b, lam_big - a]) / math.hypot(b, lam_big - a)
+    return max(mean - d, 0.0), lam_big, vec
+
+
 def ransac_iterations(outlier_rate: float, confidence: float, sample_size: int, max_iterations: int) -> int:
     """Samples needed so that one is outlier-free with probability ``confidence``."""
     good = (1.0 - outlier_rate) ** sample_size
@@ -116,8 +134,8 @@ def fit_velocity_profile(
     if n < max(settings.min_points, 1):
         return undetermined(n_all, f"{n} Doppler points, need {settings.min_points}")
     u, z = los[idx], v_r[idx]
-    lam, vec = np.linalg.eigh(u.T @ u)  # ascending: vec[:, 0] across the line of sight, vec[:, 1] along it
-    weak_std = settings.noise_std / math.sqrt(lam[0]) if lam[0] > 1e-12 else math.inf
+    lam_small = normal_eig(u)[0]  # across the line of sight
+    weak_std = settings.noise_std / math.sqrt(lam_small) if lam_small > 1e-12 else math.inf
     if weak_std > settings.max_tangential_std:
         return _fit_radial(u, z, idx, n_all, settings, rng, "azimuth spread too small for the tangential component")
     best = _ransac_2d(u, z, settings, rng)
@@ -138,15 +156,15 @@ def fit_velocity_profile(
     v = np.linalg.lstsq(u[inl], z[inl], rcond=None)[0]
     res = u[inl] @ v - z[inl]
     var = max(float(res @ res) / (m - 2) if m > 2 else 0.0, settings.noise_std**2)
-    lam, vec = np.linalg.eigh(u[inl].T @ u[inl])
+    lam_small, lam_big, big = normal_eig(u[inl])
     inliers = np.zeros(n_all, bool)
     inliers[idx[inl]] = True
-    along = _orient(vec[:, 1], u[inl])
+    along = _orient(big, u[inl])
     across = np.array([-along[1], along[0]])
-    if lam[0] <= 1e-12 or math.sqrt(var / lam[0]) > settings.max_tangential_std:
+    if lam_small <= 1e-12 or math.sqrt(var / lam_small) > settings.max_tangential_std:
         s = float(along @ v)
-        return _radial_estimate(s, var / lam[1], along, inliers, math.sqrt(var), settings, "tangential std too large")
-    cov = (vec / lam) @ vec.T * var
+        return _radial_estimate(s, var / lam_big, along, inliers, math.sqrt(var), settings, "tangential std too large")
+    cov = var * (along[:, None] * along / lam_big + across[:, None] * across / lam_small)
     speed = float(np.hypot(*v))
     heading_ok = False
     if speed > 0:
@@ -187,12 +205,17 @@ def _ransac_2d(u: np.ndarray, z: np.ndarray, s: ProfileFitSettings, rng: np.rand
     i, j, det = i[ok], j[ok], det[ok]
     vx = (z[i] * u[j, 1] - z[j] * u[i, 1]) / det
     vy = (u[i, 0] * z[j] - u[j, 0] * z[i]) / det
-    res = np.abs(np.outer(vx, u[:, 0]) + np.outer(vy, u[:, 1]) - z)  # (hypotheses, points)
+    res = np.abs(vx[:, None] * u[None, :, 0] + vy[:, None] * u[None, :, 1] - z[None, :])  # (hypotheses, points)
     inl = res <= s.inlier_threshold
+    return inl[_best_hypothesis(inl, res, s.inlier_threshold)]
+
+
+def _best_hypothesis(inl: np.ndarray, res: np.ndarray, threshold: float) -> int:
+    """Row with the most inliers, then the smallest inlier squared error, then the first: one argmax, as the
+    inlier error of a row (< count x threshold^2) never outweighs one more inlier."""
     count = inl.sum(axis=1)
-    sse = np.where(inl, res**2, 0.0).sum(axis=1)
-    best = np.lexsort((sse, -count))[0]  # most inliers, then smallest inlier error
-    return inl[best]
+    sse = (res * res * inl).sum(axis=1)
+    return int(np.argmax(count * (res.shape[1] * threshold * threshold + 1.0) - sse))
 
 
 def _fit_radial(
@@ -220,11 +243,9 @@ def _fit_radial(
     if cand.size > max(k, s.max_iterations):
         cand = rng.choice(cand, size=k, replace=False)
     hyp = z[cand] / a[cand]
-    res = np.abs(np.outer(hyp, a) - z)
+    res = np.abs(hyp[:, None] * a[None, :] - z[None, :])
     inl_all = res <= s.inlier_threshold
-    count = inl_all.sum(axis=1)
-    sse = np.where(inl_all, res**2, 0.0).sum(axis=1)
-    inl = inl_all[np.lexsort((sse, -count))[0]]
+    inl = inl_all[_best_hypothesis(inl_all, res, s.inlier_threshold)]
     m = int(inl.sum())
     need = max(2, math.ceil(s.min_inlier_fraction * n))
     if m < need:
@@ -248,7 +269,7 @@ def _radial_estimate(
     reason: str,
 ) -> VelocityEstimate:
     across = np.array([-along[1], along[0]])
-    cov = var * np.outer(along, along) + s.undetermined_var * np.outer(across, across)
+    cov = var * along[:, None] * along + s.undetermined_var * across[:, None] * across
     return VelocityEstimate(
         status=VelocityStatus.RADIAL_ONLY,
         velocity=speed * along,
