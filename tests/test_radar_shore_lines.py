@@ -69,6 +69,21 @@ def test_between_full_searches_returns_near_known_line_returns_are_marked() -> N
     assert not sl.near(probe, 1.0).any()
 
 
+def test_a_search_due_with_the_map_extraction_waits_one_frame() -> None:
+    # The static map extracts its shore every 0.3 s too; the two searches in one frame made the slowest frames.
+    rng = np.random.default_rng(5)
+    sl = lines(interval_s=0.3)
+    assert not sl.mark(0.0, np.array([[5.0, 0.0]])).any()  # first search: nothing there yet
+    wall = wall_points(25.0, -15.0, 15.0, 40, 0.1, rng)
+    sl.add(0.2, wall)
+    probe = wall[:3]
+    assert not sl.mark(0.3, probe, defer=True).any()  # due, deferred: the old (empty) search still answers
+    assert sl.mark(0.4, probe, defer=True).all()  # deferred once already this interval: searches now
+    every_frame = lines(interval_s=0.0)
+    every_frame.add(0.2, wall)
+    assert every_frame.mark(0.3, probe, defer=True).all()  # searching every frame: never put off
+
+
 def test_detector_removes_a_wall_before_the_static_map_has_it() -> None:
     # A wall seen for 0.4 s: too little evidence for the map, already a line (20 returns a frame along 30 m).
     def first_frames(window_s: float) -> list[set[int]]:

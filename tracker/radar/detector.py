@@ -256,8 +256,14 @@ class RadarDetector:
             static = ~ghost
         on_line = np.zeros(len(xyz), bool)
         line_static = static.copy()
+        map_extracted = False
+        if c.shore_filter_enabled:
+            # 6a. the shore as known before this frame (used in 6b, after clustering)
+            self.static_map.advance_time(t)
+            self.static_map.follow(pos)
+            map_extracted = self.static_map.update_shore(t, pos, c.roi_max_range_m)
         if c.shore_filter_enabled and c.shore_line_window_s > 0:
-            on_line[static] = self.shore_lines.mark(t, world[static], sensor_ne)
+            on_line[static] = self.shore_lines.mark(t, world[static], sensor_ne, defer=map_extracted)
         if c.static_map_min_neighbours > 0 and static.any():
             # Sea clutter is static-looking but scattered: over minutes it would fill the water near the boat with
             # "occupied" cells. A wall or a hull gives returns with neighbours in the same frame; lone ones are left out.
@@ -284,11 +290,7 @@ class RadarDetector:
                 continue
             clusters.append(self._make_cluster(idx, world, xyz, dop, dop_world, snr_a, los, rng))
 
-        # 6. shore filter, with the shore as known before this frame
-        if c.shore_filter_enabled:
-            self.static_map.advance_time(t)
-            self.static_map.follow(pos)
-            self.static_map.update_shore(t, pos, c.roi_max_range_m)
+        # 6b. shore filter, with the shore as known before this frame
         if c.shore_filter_enabled and clusters:
             verdict = self.static_map.shore_verdict(sensor_ne, [cl.points for cl in clusters])
             line_share = np.array([on_line[cl.index].mean() for cl in clusters])

@@ -46,19 +46,25 @@ class ShoreLines:
         self._frames: deque[tuple[float, np.ndarray]] = deque()
         self._t_lines = -np.inf
         self._line_tree: cKDTree | None = None  # returns found on lines at the last full search
+        self._deferred = False  # the search due now was put off by a frame already
 
     def reset(self) -> None:
         self._frames.clear()
         self._t_lines = -np.inf
         self._line_tree = None
+        self._deferred = False
 
     def add(self, t: float, static_ne: np.ndarray) -> None:
         """Remember a frame's static returns (k, 2) world N/E (the tracker leaves out those of moving tracks)."""
         self._frames.append((t, np.asarray(static_ne, float).reshape(-1, 2)))
 
-    def mark(self, t: float, static_ne: np.ndarray, sensor_ne: np.ndarray | None = None) -> np.ndarray:
+    def mark(
+        self, t: float, static_ne: np.ndarray, sensor_ne: np.ndarray | None = None, defer: bool = False
+    ) -> np.ndarray:
         """(k,) bool: which of this frame's static returns (k, 2) lie on a shore line, with the remembered frames.
-        ``sensor_ne``: the radar's position now (for the range-dependent thickness)."""
+        ``sensor_ne``: the radar's position now (for the range-dependent thickness). ``defer``: a full search due
+        now waits one frame, once (the static map extracted its shore this frame; the two together made the
+        slowest frames)."""
         pts = np.asarray(static_ne, float).reshape(-1, 2)
         if sensor_ne is not None:
             self.sensor_ne = np.asarray(sensor_ne, float).reshape(2)
@@ -69,7 +75,10 @@ class ShoreLines:
         on = np.zeros(pts.shape[0], bool)
         if pts.shape[0] == 0:
             return on
-        if 0 <= t - self._t_lines < self.interval_s:
+        due = not 0 <= t - self._t_lines < self.interval_s
+        wait = due and defer and self.interval_s > 0 and not self._deferred
+        self._deferred = wait
+        if not due or wait:
             # Between full searches: a return within the link distance of a known line return is on the line.
             if self._line_tree is not None:
                 dist, _ = self._line_tree.query(pts, k=1, distance_upper_bound=self.link_m)

@@ -148,8 +148,9 @@ class StaticMap:
 
     # --- shore -------------------------------------------------------------------------------------------------------
 
-    def update_shore(self, t: float, position_ne: np.ndarray, max_range_m: float) -> None:
-        """Extract shore structures within ``max_range_m`` of the boat.
+    def update_shore(self, t: float, position_ne: np.ndarray, max_range_m: float) -> bool:
+        """Extract shore structures within ``max_range_m`` of the boat; True if an extraction ran (it runs every
+        ``shore_update_interval_s``).
 
         Cost follows the number of occupied cells, not the map's area (a harbour window is 800 x 800 cells): the
         occupied cells are OR-ed into blocks of the link radius, blocks are grown by one and labelled (ndimage), so
@@ -158,7 +159,7 @@ class StaticMap:
         """
         self.advance_time(t)
         if self.origin is None or t - self._t_shore < self.cfg.shore_update_interval_s:
-            return
+            return False
         self._clear_shore()
         self._t_shore = t
         scale = self._scale(t)
@@ -188,7 +189,7 @@ class StaticMap:
         boat = self.cells(np.asarray(position_ne, float).reshape(1, 2))[0] - np.asarray(self.origin)
         rc = rc[np.all(np.abs(rc - boat) <= math.ceil(max_range_m / self.res) + 1, axis=1)]
         if rc.size == 0:
-            return
+            return True
         block = max(1, round(self.cfg.shore_link_radius_m / self.res))
         coarse = rc // block
         lo = coarse.min(axis=0) - 1
@@ -210,7 +211,7 @@ class StaticMap:
         big[np.flatnonzero(seen)] = extent >= self.cfg.shore_min_extent_m
         shore = rc[big[lab]] + np.asarray(self.origin)  # world cell indices
         if shore.size == 0:
-            return
+            return True
         self._shore_rc = shore
         self._shore_keys = np.sort(_keys(shore))
         self._tree = cKDTree((shore + 0.5) * self.res)
@@ -218,6 +219,7 @@ class StaticMap:
         steps = np.array([[1, 0], [-1, 0], [0, 1], [0, -1]])
         inner = np.all([self._contains(shore + d) for d in steps], axis=0)
         self._edge_rc = shore[~inner]
+        return True
 
     def _contains(self, cells_rc: np.ndarray) -> np.ndarray:
         keys = _keys(cells_rc)
