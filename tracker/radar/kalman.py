@@ -42,9 +42,8 @@ def process_noise(dt: float, cfg: RadarTrackerConfig) -> np.ndarray:
     q = np.zeros((DIM_X, DIM_X))
     if cfg.motion_model == "cv":
         block = cfg.accel_std**2 * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
-        for axis in range(2):
-            idx = [axis, 2 + axis]
-            q[np.ix_(idx, idx)] = block
+        q[0::2, 0::2][:2, :2] = block  # rows/columns (px, vx)
+        q[1::2, 1::2][:2, :2] = block  # (py, vy)
     else:
         j2 = cfg.jerk_std**2
         block = j2 * np.array(
@@ -54,10 +53,9 @@ def process_noise(dt: float, cfg: RadarTrackerConfig) -> np.ndarray:
                 [dt**3 / 6, dt**2 / 2, dt],
             ]
         )
-        for axis in range(2):
-            idx = [axis, 2 + axis, 4 + axis]
-            q[np.ix_(idx, idx)] = block
-    q[SIZE, SIZE] = np.eye(2) * cfg.size_std_rate**2 * dt
+        q[0:6:2, 0:6:2] = block  # (px, vx, ax)
+        q[1:6:2, 1:6:2] = block  # (py, vy, ay)
+    q[6, 6] = q[7, 7] = cfg.size_std_rate**2 * dt
     return q
 
 
@@ -122,7 +120,10 @@ def new_filter(
 def predict(kf: KalmanFilter, dt: float, cfg: RadarTrackerConfig) -> None:
     if dt <= 0:
         return
-    kf.predict(F=transition(dt, cfg), Q=process_noise(dt, cfg))
+    # filterpy's KalmanFilter.predict, without its per-call copies of the prior (nothing here reads them).
+    f = transition(dt, cfg)
+    kf.x = f @ kf.x
+    kf.P = f @ kf.P @ f.T + process_noise(dt, cfg)
     kf.last_dt = dt  # for the manoeuvre rule in fused_update
     kf.x[SIZE, 0] = np.maximum(kf.x[SIZE, 0], cfg.min_box_size_m)
 
@@ -170,9 +171,6 @@ def fused_update(
             g[POS, :] = dt * np.eye(2)
             g[VEL, :] = np.eye(2)
             kf.P = kf.P + cfg.maneuver_velocity_std_mps**2 * (g @ g.T)
-    rows = [0, 1, 6, 7]
-    z = [centre[0], centre[1], size[0], size[1]]
-    r_diag = [sp, sp, cfg.size_std_m**2, cfg.size_std_m**2]
     # A turning hull's returns carry yaw rate x lever arm (1 m/s and more on a sharp turn, all one way when only one
     # side is seen): during a manoeuvre the Doppler velocity is left out and the positions turn the track.
     with_v = (
@@ -180,18 +178,37 @@ def fused_update(
         and not (maneuver and cfg.maneuver_skip_doppler)
         and doppler_consistent(kf, vel, distance, cfg)  # type: ignore[arg-type]
     )
-    m = 6 if with_v else 4
-    h = np.zeros((m, DIM_X))
-    h[np.arange(4), rows] = 1.0
+    rows = _Z_POS_SIZE_VEL if with_v else _Z_POS_SIZE
+    m = rows.size
+    z = np.empty(m)
+    z[:2], z[2:4] = centre, size
     r = np.zeros((m, m))
-    r[:4, :4] = np.diag(r_diag)
+    r[0, 0] = r[1, 1] = sp
+    r[2, 2] = r[3, 3] = cfg.size_std_m**2
     if with_v:
         assert vel is not None
-        h[4, 2] = h[5, 3] = 1.0
-        z += [vel.velocity[0], vel.velocity[1]]
+        z[4:] = vel.velocity
         r[4:, 4:] = velocity_noise(vel, distance, cfg)
-    kf.update(np.asarray(z, float).reshape(-1, 1), R=r, H=h)
+    _update_selected(kf, rows, z, r)
     kf.x[SIZE, 0] = np.maximum(kf.x[SIZE, 0], cfg.min_box_size_m)
+
+
+# Measured states: centre (px, py), size (l, w), and with a Doppler velocity (vx, vy). H only picks states.
+_Z_POS_SIZE = np.array([0, 1, 6, 7])
+_Z_POS_SIZE_VEL = np.array([0, 1, 6, 7, 2, 3])
+
+
+def _update_selected(kf: KalmanFilter, rows: np.ndarray, z: np.ndarray, r: np.ndarray) -> None:
+    """filterpy's Joseph-form KalmanFilter.update for an H that picks the states ``rows``: the products with H
+    become indexing, and its per-call bookkeeping (copies, likelihood) is skipped. Same numbers."""
+    x, p = kf.x[:, 0], kf.P
+    pht = p[:, rows]
+    s = pht[rows] + r
+    k = np.linalg.solve(s, pht.T).T
+    kf.x = (x + k @ (z - x[rows])).reshape(-1, 1)
+    i_kh = np.eye(DIM_X)
+    i_kh[:, rows] -= k
+    kf.P = i_kh @ p @ i_kh.T + k @ r @ k.T
 
 
 def box_of(kf: KalmanFilter) -> np.ndarray:

@@ -33,6 +33,7 @@ LEVELS = (
     MotionState.DYNAMIC,
     MotionState.ABSOLUTELY_DYNAMIC,
 )
+_RANK = {level: k for k, level in enumerate(LEVELS)}
 
 
 class MotionDiscriminator:
@@ -64,10 +65,10 @@ class MotionDiscriminator:
         self.last_iou = float(iou)
         moved = not iou > self.cfg.motion_iou_threshold  # NaN counts as "moved": no overlap to speak of
         lim = self.cfg.motion_counter_limit
-        self.counter = int(np.clip(self.counter + (1 if moved else -1), -lim, lim))
-        target = LEVELS.index(self.level_of(self.counter))
-        here = LEVELS.index(self.state)
-        self.state = LEVELS[int(np.clip(target, here - 1, here + 1))]  # adjacent levels only
+        self.counter = min(max(self.counter + (1 if moved else -1), -lim), lim)
+        target = _RANK[self.level_of(self.counter)]
+        here = _RANK[self.state]
+        self.state = LEVELS[min(max(target, here - 1), here + 1)]  # adjacent levels only
         return self.state
 
     def observe(self, t: float, points_ne: np.ndarray, doppler_moving: bool = False) -> MotionState:
