@@ -36,14 +36,15 @@ def gated_assignment(cost: np.ndarray, gate: float) -> Assignment:
     # pair for a forbidden one; rows and columns with no allowed entry at all are left out of the problem.
     rows = np.flatnonzero(allowed.any(axis=1))
     cols = np.flatnonzero(allowed.any(axis=0))
-    sub_allowed = allowed[np.ix_(rows, cols)]
-    sub = np.where(sub_allowed, cost[np.ix_(rows, cols)], 0.0)
+    sub_allowed = allowed[rows][:, cols]
+    sub = np.where(sub_allowed, cost[rows][:, cols], 0.0)
     big = 1.0 + 2.0 * np.abs(sub).sum() * max(len(rows), len(cols))
     sub = np.where(sub_allowed, sub, big)
     r, c = linear_sum_assignment(sub)
     keep = sub_allowed[r, c]
     matches = np.stack([rows[r[keep]], cols[c[keep]]], axis=1).astype(int)
     matches = matches[np.argsort(matches[:, 0], kind="stable")]
-    unmatched_rows = np.setdiff1d(np.arange(n_rows), matches[:, 0])
-    unmatched_cols = np.setdiff1d(np.arange(n_cols), matches[:, 1])
-    return Assignment(matches, unmatched_rows, unmatched_cols)
+    free_rows, free_cols = np.ones(n_rows, bool), np.ones(n_cols, bool)
+    free_rows[matches[:, 0]] = False
+    free_cols[matches[:, 1]] = False
+    return Assignment(matches, np.flatnonzero(free_rows), np.flatnonzero(free_cols))
