@@ -14,9 +14,9 @@ from __future__ import annotations
 from collections import deque
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
-
-from tracker.radar.dbscan import component_labels
 
 
 class ShoreLines:
@@ -91,8 +91,11 @@ class ShoreLines:
             self._line_tree = None
             return on
         pairs = cKDTree(allp).query_pairs(self.link_m, output_type="ndarray")
-        _, comp = np.unique(component_labels(n, pairs[:, 0], pairs[:, 1]), return_inverse=True)
-        comp = comp.reshape(-1)
+        # Half a second of wall returns links into thousands of pairs; at that size scipy's compiled connected
+        # components beat the pointer jumping of dbscan.component_labels (made for a frame's few hundred), and its
+        # labels come numbered 0..k-1 already.
+        graph = coo_matrix((np.ones(len(pairs), np.int8), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        comp = connected_components(graph, directed=False)[1]
         count = np.bincount(comp)
         # Principal axes of every component at once from its first and second moments.
         w = count.astype(float)
