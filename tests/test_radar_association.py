@@ -119,6 +119,24 @@ def test_loose_returns_keep_a_track_on_a_boat_below_the_cluster_size() -> None:
     assert confirmed(dropped[-1]) == []  # coasted out after max_unseen_time_s
 
 
+def test_a_far_track_lives_on_one_return_a_frame_a_near_one_does_not() -> None:
+    def frames_at(north: float) -> list[tuple[np.ndarray, np.ndarray]]:
+        rng = np.random.default_rng(4)
+        # 8 returns a frame for 1 s, then one a frame (a 3 m boat at 75 m gives about that).
+        return [
+            (box_points(np.array([north, 3.0]), (1.0, 1.0), 8 if k < 10 else 1, rng), np.zeros(2)) for k in range(30)
+        ]
+
+    _, far = run(BASE, frames_at(70.0))
+    assert [len(confirmed(o)) for o in far[10:]] == [1] * 20
+    assert confirmed(far[-1])[0].time_since_update == 0.0
+    np.testing.assert_allclose(confirmed(far[-1])[0].position, [70.0, 3.0], atol=1.0)
+    _, near = run(BASE, frames_at(25.0))  # inside update_single_return_range_m (40 m): clutter-dense water
+    assert confirmed(near[-1]) == []
+    _, never = run(replace(BASE, update_single_return_range_m=float("inf")), frames_at(70.0))
+    assert confirmed(never[-1]) == []
+
+
 def test_far_sparse_boat_is_born_from_pooled_frames() -> None:
     rng = np.random.default_rng(3)
     frames = [(box_points(np.array([40.0, -5.0]), (1.5, 1.5), 2, rng), np.zeros(2)) for _ in range(30)]

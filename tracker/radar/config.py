@@ -159,6 +159,10 @@ class RadarTrackerConfig:
     # Not in the paper: a track that gets no cluster takes this many loose returns (in no cluster) within
     # merge_gap_m of its predicted box as its measurement. 0 disables.
     update_min_points: int = 2
+    # Not in the paper: beyond this range from the radar a track takes a single loose return (with agreeing
+    # Doppler). A 3 m boat at 75 m gives about one return a frame; sea clutter that far out is sparse, while near
+    # the radar it is dense and a single return there is as likely clutter as boat. inf: never.
+    update_single_return_range_m: float = 40.0
     merge_doppler_tolerance_mps: float = 0.8  # = velocity_cluster_threshold_mps: what the Doppler split would tell
     # Not in the paper: tracks born from pieces of one hull before either was established are duplicates when their
     # boxes overlap this much or their centres are this close while moving alike; the younger is dropped.
@@ -235,6 +239,7 @@ class RadarTrackerConfig:
             "shore_link_radius_m",
             "merge_gap_m",
             "birth_pool_min_range_m",
+            "update_single_return_range_m",
             "recovery_gate_m",
             "static_evidence_pool_m",
             "static_recent_s",

@@ -382,7 +382,8 @@ class RadarTracker:
 
     def _gather_loose(self, out: DetectorOutput, lost: list[int]) -> dict[int, RadarCluster]:
         """Confirmed tracks (and tentative ones born sparse) without a cluster this frame take the loose returns within ``merge_gap_m`` of their predicted box
-        (each return to the nearest such track), if there are ``update_min_points`` of them and their Doppler agrees.
+        (each return to the nearest such track), if there are ``update_min_points`` of them (one beyond
+        ``update_single_return_range_m``) and their Doppler agrees.
         A far boat gives 2-3 returns a frame: too few to start a track, enough to keep one on it."""
         cfg = self.cfg
         # Tentative tracks only when born from pooled returns: one born from sea clutter would live on clutter.
@@ -396,9 +397,12 @@ class RadarTracker:
         owner = np.argmin(gaps, axis=0)
         near = gaps[owner, np.arange(idx.size)] <= cfg.merge_gap_m
         found: dict[int, RadarCluster] = {}
+        far = np.linalg.norm((boxes[:, :2] + boxes[:, 2:]) / 2 - out.sensor_ne, axis=1) >= (
+            cfg.update_single_return_range_m
+        )
         for k in np.unique(owner[near]):  # one iteration per track that found returns
             mine = idx[near & (owner == k)]
-            if mine.size < cfg.update_min_points:
+            if mine.size < (1 if far[k] else cfg.update_min_points):
                 continue
             cl = self.detector.cluster_of(out, mine)
             if self._doppler_agrees(cand[int(k)], cl):
