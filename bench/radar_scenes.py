@@ -35,7 +35,10 @@ DAEMON_OVERRIDES: dict[str, Any] = {
     "cluster_min_points": 3,  # paper: 20; a 3-5 m boat gives 3-10 returns a frame
     "velocity_cluster_min_points": 3,  # paper: 20
     "cluster_radius_m": 2.0,  # paper: 1.2; a sparse hull split into 2-3 clusters at 1.2 m
-    "motion_model": "cv",  # constant velocity, white acceleration 2 m/s^2: follows 1 rad/s turns
+    # Coordinated turn: constant velocity plus a turn-rate state that also explains the turning hull's Doppler
+    # spread; the turns are the model's, so the straight-line acceleration noise can be low (cv needed 2 m/s^2).
+    "motion_model": "ct",
+    "accel_std": 0.7,
     "max_unseen_time_s": 1.0,  # coast 1 s: a lost track on a stale course is a false track for MOTA
 }
 

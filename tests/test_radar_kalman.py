@@ -91,3 +91,58 @@ def test_doppler_is_fused_without_a_manoeuvre_with_its_model_floor() -> None:
     assert r[0, 0] == pytest.approx((1e-4 + 0.3**2) / w)
     kalman.fused_update(kf, np.array([20.0, 0.0]), np.ones(2), 20.0, v, CV)
     assert 0.05 < kf.x[2, 0] < 0.4  # pulled toward the radial 0.4 m/s, not all the way
+
+
+CT = RadarTrackerConfig(motion_model="ct", accel_std=0.7)
+
+
+def test_coordinated_turn_prediction_follows_the_circle_with_its_jacobian() -> None:
+    x = np.array([0.0, 0.0, 3.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.2])  # 3 m/s north, turning toward east at 1.2 rad/s
+    y, j = kalman.ct_transition(x, 2 * np.pi / 1.2)  # one full turn: back at the start, same velocity
+    np.testing.assert_allclose(y[:4], x[:4], atol=1e-9)
+    y, _ = kalman.ct_transition(x, np.pi / 1.2)  # half a turn: 2 r = 5 m east, heading south
+    np.testing.assert_allclose(y[:4], [0.0, 5.0, -3.0, 0.0], atol=1e-9)
+    for w in (1.2, 1e-7):  # the Jacobian, also on the small-angle branch
+        x[kalman.TURN] = w
+        _, j = kalman.ct_transition(x, 0.1)
+        num = np.zeros_like(j)
+        for i in range(x.size):
+            e = np.zeros(x.size)
+            e[i] = 1e-6
+            num[:, i] = (kalman.ct_transition(x + e, 0.1)[0] - kalman.ct_transition(x - e, 0.1)[0]) / 2e-6
+        np.testing.assert_allclose(j, num, atol=1e-6)
+
+
+def test_turn_rate_state_follows_a_tight_turn_that_cv_lags() -> None:
+    """3 m/s on a 2.5 m radius, positions only: the ct filter learns the rate and stays on the hull."""
+    w, r, dt = 1.2, 2.5, 0.1
+    err = {}
+    for cfg in (CV, CT):
+        kf = kalman.new_filter(np.array([20.0, 0.0]), np.ones(2), 20.0, None, cfg)
+        for k in range(1, 21):  # 2 s straight north
+            kalman.predict(kf, dt, cfg)
+            kalman.fused_update(kf, np.array([20.0 + 0.3 * k, 0.0]), np.ones(2), 20.0, None, cfg)
+        lag = []
+        for k in range(1, 16):  # 1.5 s of turn toward east, centre 2.5 m east of the turn's start
+            th = w * dt * k
+            kalman.predict(kf, dt, cfg)
+            lag.append(np.hypot(*(kf.x[kalman.POS, 0] - [26.0 + r * np.sin(th), r * (1 - np.cos(th))])))
+            kalman.fused_update(
+                kf, np.array([26.0 + r * np.sin(th), r * (1 - np.cos(th))]), np.ones(2), 20.0, None, cfg
+            )
+        err[cfg.motion_model] = np.mean(lag[5:])
+    assert kalman.turn_rate(kf)[0] == pytest.approx(w, abs=0.3)
+    assert err["ct"] < 0.6 * err["cv"]
+
+
+def test_doppler_turn_row_explains_a_turning_hulls_velocity_profile() -> None:
+    """A hull turning at omega reads v + M omega in its profile fit; with the row for omega that is no contradiction."""
+    kf = kalman.new_filter(np.array([20.0, 0.0]), np.ones(2), 20.0, None, CT)
+    kf.x[kalman.VEL, 0] = [0.0, 3.0]
+    kf.x[kalman.TURN, 0] = 1.2
+    kf.P[kalman.VEL, kalman.VEL] = np.eye(2) * 0.01
+    kf.P[kalman.TURN, kalman.TURN] = 0.01
+    gain = np.array([2.0, 0.0])  # returns 2 m across the line of sight from the centre: 2.4 m/s more radial
+    v = radial(2.4, np.array([1.0, 0.0]))
+    assert kalman.doppler_consistent(kf, v, 20.0, CT, gain)
+    assert not kalman.doppler_consistent(kf, v, 20.0, CT)  # read as the centre's velocity it contradicts the track

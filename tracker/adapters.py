@@ -22,7 +22,8 @@ DAEMON_RADAR_DEFAULTS: dict[str, Any] = {
     "cluster_min_points": 3,
     "velocity_cluster_min_points": 3,
     "cluster_radius_m": 2.0,
-    "motion_model": "cv",
+    "motion_model": "ct",
+    "accel_std": 0.7,
     "max_unseen_time_s": 1.0,
 }
 

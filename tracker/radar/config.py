@@ -119,6 +119,16 @@ class RadarTrackerConfig:
     size_std_m: float = 1.0  # measured l, w of sparse clusters are poor
     init_velocity_std_mps: float = 3.0
     init_accel_std_mps2: float = 0.3
+    # "ct": the "cv" model plus a turn-rate state (EKF, coordinated turn). Not in the paper. A boat on a tight turn
+    # (3 m/s on 2.5 m: 1.2 rad/s) turns its velocity 7 deg per frame; a straight-line model lags it and the hull's
+    # rotation makes its returns' Doppler differ by yaw rate x lever arm (the track knows the rate to undo it).
+    turn_rate_std: float = 1.5  # rad/s/sqrt(s), random walk of the turn rate: ~0.5 rad/s per 0.1 s frame
+    init_turn_rate_std: float = 0.5  # rad/s at birth
+    max_turn_rate: float = 2.0  # rad/s, clamp: small boats do not turn faster
+    # With "ct": the Doppler velocity's measurement row reads the turn rate too (the fit over a turning hull's
+    # returns gives v + M omega, RadarTracker._turn_gain), and the merge test expects each return's rotation Doppler
+    # (RadarTracker._rotation_doppler). Not in the paper.
+    turn_doppler_compensation: bool = True
 
     # --- Fusion measurement (eq. 7, gamma sec. 3.2) --------------------------------------------------------------
     doppler_measurement_enabled: bool = True  # ablation switch ("Remove Velocity Measurement", Table 4)
@@ -261,6 +271,9 @@ class RadarTrackerConfig:
             "multipath_min_snr_drop_db",
             "jerk_std",
             "accel_std",
+            "turn_rate_std",
+            "init_turn_rate_std",
+            "max_turn_rate",
             "maneuver_nis",
             "maneuver_velocity_std_mps",
             "doppler_model_std_mps",
@@ -285,8 +298,8 @@ class RadarTrackerConfig:
                 raise ValueError(f"RadarTrackerConfig.{name} must be >= 1")
         if self.static_submaps_across < 1 or self.static_submaps_across % 2 == 0:
             raise ValueError("RadarTrackerConfig.static_submaps_across must be odd (the boat's sub-map in the middle)")
-        if self.motion_model not in ("ca", "cv"):
-            raise ValueError(f"RadarTrackerConfig.motion_model must be 'ca' or 'cv', not {self.motion_model!r}")
+        if self.motion_model not in ("ca", "cv", "ct"):
+            raise ValueError(f"RadarTrackerConfig.motion_model must be 'ca', 'cv' or 'ct', not {self.motion_model!r}")
         if self.roi_min_range_m >= self.roi_max_range_m:
             raise ValueError("RadarTrackerConfig: roi_min_range_m must be below roi_max_range_m")
         if self.roi_min_z_m >= self.roi_max_z_m:

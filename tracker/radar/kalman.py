@@ -9,6 +9,10 @@ spread a cluster gives the velocity profile, worsens with range). Here that weig
 information: R_v = C_doppler / (gamma * min(1, d_ref / d)). The Doppler covariance already carries what the cluster
 cannot determine (a huge variance across the line of sight), so a radial-only velocity corrects only the radial
 component of the state.
+
+Not in the paper: motion_model "ct" appends a turn rate omega (state TURN) and predicts a coordinated turn (EKF). A
+turning hull's returns carry omega x lever arm, so the profile fit over them reads v + M omega (M from the returns'
+offsets, RadarTracker._turn_gain); the velocity measurement gets that row for omega instead of being read as v.
 """
 
 from __future__ import annotations
@@ -21,6 +25,18 @@ from tracker.radar.velocity_profile import VelocityEstimate, VelocityStatus
 
 DIM_X = 8
 POS, VEL, ACC, SIZE = slice(0, 2), slice(2, 4), slice(4, 6), slice(6, 8)
+TURN = 8  # the "ct" model's ninth state: turn rate (rad/s, + clockwise seen from above, i.e. north toward east)
+
+
+def dim_x(cfg: RadarTrackerConfig) -> int:
+    return DIM_X + 1 if cfg.motion_model == "ct" else DIM_X
+
+
+def turn_rate(kf: KalmanFilter) -> tuple[float, float]:
+    """(turn rate rad/s, its variance) of a "ct" filter; (0, 0) for the other models."""
+    if kf.dim_x <= TURN:
+        return 0.0, 0.0
+    return float(kf.x[TURN, 0]), float(kf.P[TURN, TURN])
 
 
 def transition(dt: float, cfg: RadarTrackerConfig | None = None) -> np.ndarray:
@@ -35,12 +51,45 @@ def transition(dt: float, cfg: RadarTrackerConfig | None = None) -> np.ndarray:
     return f
 
 
+def ct_transition(x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Coordinated turn over dt: the predicted state and the Jacobian of the prediction (EKF).
+
+    The velocity turns by omega dt at constant speed and the position follows the arc; omega (state TURN) is a random
+    walk. omega x r = (-omega r_e, omega r_n) in N/E, as the simulator's rigid-body velocity."""
+    x = np.asarray(x, float).reshape(-1)
+    vn, ve, w = x[2], x[3], x[TURN]
+    th = w * dt
+    s, c = np.sin(th), np.cos(th)
+    if abs(th) > 1e-4:
+        a, b = s / w, (1.0 - c) / w  # position gain along and across the velocity
+        da = (dt * c * w - s) / (w * w)
+        db = (dt * s * w - (1.0 - c)) / (w * w)
+    else:  # series about omega = 0
+        a, b = dt - w * w * dt**3 / 6, w * dt * dt / 2
+        da, db = -w * dt**3 / 3, dt * dt / 2
+    out = x.copy()
+    out[0] += a * vn - b * ve
+    out[1] += b * vn + a * ve
+    out[2] = c * vn - s * ve
+    out[3] = s * vn + c * ve
+    j = np.eye(x.size)
+    j[0, 2], j[0, 3], j[1, 2], j[1, 3] = a, -b, b, a
+    j[2, 2], j[2, 3], j[3, 2], j[3, 3] = c, -s, s, c
+    j[0, TURN] = da * vn - db * ve
+    j[1, TURN] = db * vn + da * ve
+    j[2, TURN] = dt * (-s * vn - c * ve)
+    j[3, TURN] = dt * (c * vn - s * ve)
+    return out, j
+
+
 def process_noise(dt: float, cfg: RadarTrackerConfig) -> np.ndarray:
     """Per axis: discrete white-jerk noise on (position, velocity, acceleration) for the constant-acceleration model,
     or discrete white-acceleration noise on (position, velocity) for the constant-velocity one (the acceleration
-    state then stays at zero); plus a random walk of the size."""
-    q = np.zeros((DIM_X, DIM_X))
-    if cfg.motion_model == "cv":
+    state then stays at zero; "ct" the same, plus a random walk of the turn rate); plus a random walk of the size."""
+    q = np.zeros((dim_x(cfg), dim_x(cfg)))
+    if cfg.motion_model == "ct":
+        q[TURN, TURN] = cfg.turn_rate_std**2 * dt
+    if cfg.motion_model in ("cv", "ct"):
         block = cfg.accel_std**2 * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
         q[0::2, 0::2][:2, :2] = block  # rows/columns (px, vx)
         q[1::2, 1::2][:2, :2] = block  # (py, vy)
@@ -94,13 +143,16 @@ def uses_doppler(cfg: RadarTrackerConfig, vel: VelocityEstimate | None) -> bool:
 def new_filter(
     centre: np.ndarray, size: np.ndarray, distance: float, vel: VelocityEstimate | None, cfg: RadarTrackerConfig
 ) -> KalmanFilter:
-    kf = KalmanFilter(dim_x=DIM_X, dim_z=4)
-    x = np.zeros(DIM_X)
-    p = np.zeros((DIM_X, DIM_X))
+    n = dim_x(cfg)
+    kf = KalmanFilter(dim_x=n, dim_z=4)
+    x = np.zeros(n)
+    p = np.zeros((n, n))
+    if n > TURN:
+        p[TURN, TURN] = cfg.init_turn_rate_std**2
     x[POS] = centre
     x[SIZE] = size
     p[POS, POS] = np.eye(2) * position_std(cfg, distance) ** 2
-    p[ACC, ACC] = np.eye(2) * (0.0 if cfg.motion_model == "cv" else cfg.init_accel_std_mps2**2)
+    p[ACC, ACC] = np.eye(2) * (cfg.init_accel_std_mps2**2 if cfg.motion_model == "ca" else 0.0)
     p[SIZE, SIZE] = np.eye(2) * cfg.size_std_m**2
     prior_info = np.eye(2) / cfg.init_velocity_std_mps**2
     if uses_doppler(cfg, vel):
@@ -120,28 +172,52 @@ def new_filter(
 def predict(kf: KalmanFilter, dt: float, cfg: RadarTrackerConfig) -> None:
     if dt <= 0:
         return
-    # filterpy's KalmanFilter.predict, without its per-call copies of the prior (nothing here reads them).
-    f = transition(dt, cfg)
-    kf.x = f @ kf.x
-    kf.P = f @ kf.P @ f.T + process_noise(dt, cfg)
+    if cfg.motion_model == "ct":
+        x, j = ct_transition(kf.x, dt)
+        p = j @ kf.P @ j.T + process_noise(dt, cfg)
+        x[TURN] = np.clip(x[TURN], -cfg.max_turn_rate, cfg.max_turn_rate)
+        kf.x = x.reshape(-1, 1)
+        kf.P = (p + p.T) / 2
+    else:
+        # filterpy's KalmanFilter.predict, without its per-call copies of the prior (nothing here reads them).
+        f = transition(dt, cfg)
+        kf.x = f @ kf.x
+        kf.P = f @ kf.P @ f.T + process_noise(dt, cfg)
     kf.last_dt = dt  # for the manoeuvre rule in fused_update
     kf.x[SIZE, 0] = np.maximum(kf.x[SIZE, 0], cfg.min_box_size_m)
 
 
-def doppler_consistent(kf: KalmanFilter, vel: VelocityEstimate, distance: float, cfg: RadarTrackerConfig) -> bool:
+def doppler_consistent(
+    kf: KalmanFilter,
+    vel: VelocityEstimate,
+    distance: float,
+    cfg: RadarTrackerConfig,
+    turn_gain: np.ndarray | None = None,
+) -> bool:
     """Chi-square gate on the velocity innovation alone.
 
     A Doppler velocity that contradicts a well-established track (two boats merged in one cluster, a multipath
     echo) would otherwise be explained through the component the track knows least: a radial error of 1 m/s on a
     line of sight 4 deg off north becomes ~14 m/s east. Such a measurement is left out; position still updates.
     """
-    y = vel.velocity - kf.x[VEL, 0]
-    s = kf.P[VEL, VEL] + velocity_noise(vel, distance, cfg)
+    h = velocity_rows(kf, turn_gain)
+    y = vel.velocity - h @ kf.x[:, 0]
+    s = h @ kf.P @ h.T + velocity_noise(vel, distance, cfg)
     try:
         d2 = float(y @ np.linalg.solve(s, y))
     except np.linalg.LinAlgError:
         return False
     return d2 <= cfg.doppler_gate_chi2
+
+
+def velocity_rows(kf: KalmanFilter, turn_gain: np.ndarray | None = None) -> np.ndarray:
+    """(2, n) rows of the Doppler velocity measurement: the velocity, plus turn_gain x the turn rate (see
+    RadarTracker._turn_gain) when the filter has a turn-rate state."""
+    h = np.zeros((2, kf.dim_x))
+    h[0, 2] = h[1, 3] = 1.0
+    if turn_gain is not None and kf.dim_x > TURN:
+        h[:, TURN] = turn_gain
+    return h
 
 
 def fused_update(
@@ -151,6 +227,7 @@ def fused_update(
     distance: float,
     vel: VelocityEstimate | None,
     cfg: RadarTrackerConfig,
+    turn_gain: np.ndarray | None = None,
 ) -> None:
     """Eq. 7: position and size, plus the distance-weighted Doppler velocity when the cluster determines one and it
     agrees with the track (see doppler_consistent)."""
@@ -167,7 +244,7 @@ def fused_update(
             # As if the velocity had taken a random step of maneuver_velocity_std_mps at the start of the last
             # prediction: position and velocity variance and their coupling grow, so this very update can turn it.
             dt = float(getattr(kf, "last_dt", 0.1))
-            g = np.zeros((DIM_X, 2))
+            g = np.zeros((kf.dim_x, 2))
             g[POS, :] = dt * np.eye(2)
             g[VEL, :] = np.eye(2)
             kf.P = kf.P + cfg.maneuver_velocity_std_mps**2 * (g @ g.T)
@@ -176,7 +253,7 @@ def fused_update(
     with_v = (
         uses_doppler(cfg, vel)
         and not (maneuver and cfg.maneuver_skip_doppler)
-        and doppler_consistent(kf, vel, distance, cfg)  # type: ignore[arg-type]
+        and doppler_consistent(kf, vel, distance, cfg, turn_gain)  # type: ignore[arg-type]
     )
     rows = _Z_POS_SIZE_VEL if with_v else _Z_POS_SIZE
     m = rows.size
@@ -189,8 +266,17 @@ def fused_update(
         assert vel is not None
         z[4:] = vel.velocity
         r[4:, 4:] = velocity_noise(vel, distance, cfg)
-    _update_selected(kf, rows, z, r)
+    if with_v and turn_gain is not None and kf.dim_x > TURN:
+        # The velocity rows also read the turn rate (velocity_rows): H no longer only picks states.
+        h = np.zeros((m, kf.dim_x))
+        h[np.arange(4), rows[:4]] = 1.0
+        h[4:] = velocity_rows(kf, turn_gain)
+        _update(kf, h, z, r)
+    else:
+        _update_selected(kf, rows, z, r)
     kf.x[SIZE, 0] = np.maximum(kf.x[SIZE, 0], cfg.min_box_size_m)
+    if kf.dim_x > TURN:
+        kf.x[TURN, 0] = np.clip(kf.x[TURN, 0], -cfg.max_turn_rate, cfg.max_turn_rate)
 
 
 # Measured states: centre (px, py), size (l, w), and with a Doppler velocity (vx, vy). H only picks states.
@@ -206,8 +292,19 @@ def _update_selected(kf: KalmanFilter, rows: np.ndarray, z: np.ndarray, r: np.nd
     s = pht[rows] + r
     k = np.linalg.solve(s, pht.T).T
     kf.x = (x + k @ (z - x[rows])).reshape(-1, 1)
-    i_kh = np.eye(DIM_X)
+    i_kh = np.eye(kf.dim_x)
     i_kh[:, rows] -= k
+    kf.P = i_kh @ p @ i_kh.T + k @ r @ k.T
+
+
+def _update(kf: KalmanFilter, h: np.ndarray, z: np.ndarray, r: np.ndarray) -> None:
+    """filterpy's Joseph-form KalmanFilter.update for any H, without its per-call bookkeeping."""
+    x, p = kf.x[:, 0], kf.P
+    pht = p @ h.T
+    s = h @ pht + r
+    k = np.linalg.solve(s, pht.T).T
+    kf.x = (x + k @ (z - h @ x)).reshape(-1, 1)
+    i_kh = np.eye(kf.dim_x) - k @ h
     kf.P = i_kh @ p @ i_kh.T + k @ r @ k.T
 
 

@@ -202,7 +202,7 @@ class RadarTracker:
             det = cl.to_detection(t, out.sensor_ne, cfg.min_box_size_m)
             size = np.array([det.length, det.width])
             centre = self._centre(tr, cl, det.center, out.sensor_ne)
-            kalman.fused_update(tr.kf, centre, size, det.range_m, cl.velocity, cfg)
+            kalman.fused_update(tr.kf, centre, size, det.range_m, cl.velocity, cfg, self._turn_gain(tr, cl))
             self._remember_shape(tr, cl, t)
             tr.life.hit(t)
             tr.points = cl.points
@@ -300,6 +300,37 @@ class RadarTracker:
             return box_centre
         shape = np.concatenate([g for _, g in tr.shape] + [cl.points - tr.kf.x[kalman.POS, 0]])
         return visible_side_centre(cl.points, sensor_ne, shape, cfg.visible_depth_gain, cfg.visible_width_gain)
+
+    def _rotation_doppler(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray:
+        """(n,) Doppler each return owes to the hull's rotation about the track's centre at the track's turn rate:
+        u_i . (omega x (p_i - c)). Zero without a turn-rate state."""
+        w, _ = kalman.turn_rate(tr.kf)
+        if w == 0.0:
+            return np.zeros(cl.n_points)
+        r = cl.points - tr.kf.x[kalman.POS, 0]
+        return w * (cl.los[:, 1] * r[:, 0] - cl.los[:, 0] * r[:, 1])
+
+    def _turn_gain(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray | None:
+        """(2,) how the cluster's fitted Doppler velocity moves per rad/s of the hull's turn rate, or None.
+
+        A hull turning at omega gives return i the Doppler u_i . (v + omega x r_i), not u_i . v: the profile fit over
+        the inliers then reads v + M omega, with M the same fit applied to u_i . (z x r_i). Across the line of sight
+        M is about the range (a turn looks like tangential speed), along it the cross-range offset of the returns.
+        With a turn-rate state ("ct", not in the paper) this is the measurement's row for omega (kalman)."""
+        v = cl.velocity
+        if not self.cfg.turn_doppler_compensation or tr.kf.dim_x <= kalman.TURN:
+            return None
+        if v.status is VelocityStatus.UNDETERMINED:
+            return None
+        inl = v.inliers
+        u = cl.los[inl]
+        r = cl.points[inl] - tr.kf.x[kalman.POS, 0]
+        g = u[:, 1] * r[:, 0] - u[:, 0] * r[:, 1]
+        if v.status is VelocityStatus.FULL:
+            return np.linalg.lstsq(u, g, rcond=None)[0]
+        e = v.radial_direction
+        a = u @ e
+        return e * float(a @ g) / max(float(a @ a), 1e-9)
 
     def _remember_shape(self, tr: RadarTrackState, cl: RadarCluster, t: float) -> None:
         if not self.cfg.visible_side_enabled:
@@ -414,8 +445,9 @@ class RadarTracker:
         d = cl.doppler_world[np.isfinite(cl.doppler_world)]
         if d.size == 0:
             return True
-        los = cl.los[np.isfinite(cl.doppler_world)]
-        expect = los @ self.tracks[ti].kf.x[kalman.VEL, 0]
+        ok = np.isfinite(cl.doppler_world)
+        tr = self.tracks[ti]
+        expect = cl.los[ok] @ tr.kf.x[kalman.VEL, 0] + self._rotation_doppler(tr, cl)[ok]
         return bool(abs(float(np.median(d - expect))) <= self.cfg.merge_doppler_tolerance_mps)
 
     def _prune_duplicates(self) -> None:
