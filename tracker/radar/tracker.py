@@ -327,6 +327,12 @@ class RadarTracker:
         r = cl.points[inl] - tr.kf.x[kalman.POS, 0]
         g = u[:, 1] * r[:, 0] - u[:, 0] * r[:, 1]
         if v.status is VelocityStatus.FULL:
+            # Least squares u m = g through the 2 x 2 normal equations (FULL: they are well conditioned).
+            a, b, c = float(u[:, 0] @ u[:, 0]), float(u[:, 0] @ u[:, 1]), float(u[:, 1] @ u[:, 1])
+            p, q = float(u[:, 0] @ g), float(u[:, 1] @ g)
+            det = a * c - b * b
+            if det > 1e-12:
+                return np.array([(c * p - b * q) / det, (a * q - b * p) / det])
             return np.linalg.lstsq(u, g, rcond=None)[0]
         e = v.radial_direction
         a = u @ e
