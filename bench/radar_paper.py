@@ -165,6 +165,12 @@ def main() -> None:
         sweep.append(
             (f"min points {k}, radius 1.2 m (paper)", metrics([(s, None) for s in run_all(sweep_recs, cfg)[0]]))
         )
+    sweep.append(
+        (
+            "ours with constant velocity instead of the turn model (cv, 2 m/s^2)",
+            metrics([(s, None) for s in run_all(sweep_recs, replace(ours, motion_model="cv", accel_std=2.0))[0]]),
+        )
+    )
     cfg = replace(
         ours, motion_model=RadarTrackerConfig().motion_model, max_unseen_time_s=RadarTrackerConfig().max_unseen_time_s
     )
