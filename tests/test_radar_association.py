@@ -148,3 +148,31 @@ def test_far_sparse_boat_is_born_from_pooled_frames() -> None:
     assert all(o == [] for o in single)
     _, near_only = run(replace(cfg, birth_pool_min_range_m=50.0), frames)
     assert all(o == [] for o in near_only)
+
+
+def test_a_hull_piece_whose_doppler_a_plausible_turn_rate_explains_joins_its_track() -> None:
+    # A track turning at 0.5 +- 0.3 rad/s (it has seen only part of the turn) and a piece of its hull 1.5 m across
+    # the line of sight whose returns carry 1.2 rad/s x 1.5 m = 1.8 m/s of rotation Doppler.
+    from tracker.radar import kalman
+    from tracker.radar.detector import RadarCluster
+
+    cfg = replace(BASE, motion_model="ct", accel_std=0.7)
+    tracker, _ = run(cfg, [(box_points(np.array([20.0, 0.0]), (1.0, 1.0), 8, np.random.default_rng(6)), np.zeros(2))])
+    kf = tracker.tracks[0].kf
+    kf.x[:4, 0] = [20.0, 0.0, 0.0, 0.0]
+    kf.x[kalman.TURN, 0] = 0.5
+    kf.P[kalman.TURN, kalman.TURN] = 0.3**2
+    pts = np.array([[20.0, 1.4], [20.2, 1.5], [19.8, 1.6]])
+    los = pts / np.linalg.norm(pts, axis=1)[:, None]
+    r = pts - [20.0, 0.0]  # from the track centre
+    rot = 1.2 * (los[:, 1] * r[:, 0] - los[:, 0] * r[:, 1])  # u . (omega x r)
+    piece = tracker.detector.cluster_of(tracker.last, np.arange(3))
+    piece = RadarCluster(
+        points=pts, points_body=np.column_stack([pts, np.zeros(3)]), doppler=rot, doppler_world=rot,
+        snr=np.zeros(3), los=los, range_m=np.linalg.norm(pts, axis=1), index=np.arange(3),
+        profile=piece.profile, rng=piece.rng,
+    )  # fmt: skip
+    assert abs(rot.mean()) > 1.5  # far outside merge_doppler_tolerance_mps for a straight-running track
+    assert tracker._doppler_agrees(0, piece)
+    tracker.cfg = replace(cfg, merge_turn_rate_sigmas=0.0)  # the track's own 0.5 rad/s only: 1.05 m/s left over
+    assert not tracker._doppler_agrees(0, piece)

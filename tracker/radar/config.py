@@ -129,6 +129,9 @@ class RadarTrackerConfig:
     # returns gives v + M omega, RadarTracker._turn_gain), and the merge test expects each return's rotation Doppler
     # (RadarTracker._rotation_doppler). Not in the paper.
     turn_doppler_compensation: bool = True
+    # Not in the paper: with "ct", a cluster's Doppler agrees with a track if some turn rate within this many of the
+    # track's standard deviations explains it (RadarTracker._doppler_agrees). 0: the track's own rate only.
+    merge_turn_rate_sigmas: float = 3.0
 
     # --- Fusion measurement (eq. 7, gamma sec. 3.2) --------------------------------------------------------------
     doppler_measurement_enabled: bool = True  # ablation switch ("Remove Velocity Measurement", Table 4)
@@ -274,6 +277,7 @@ class RadarTrackerConfig:
             "turn_rate_std",
             "init_turn_rate_std",
             "max_turn_rate",
+            "merge_turn_rate_sigmas",
             "maneuver_nis",
             "maneuver_velocity_std_mps",
             "doppler_model_std_mps",
