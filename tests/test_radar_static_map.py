@@ -134,3 +134,18 @@ def test_evidence_decays_and_backward_time_clears() -> None:
     assert m.evidence_at(p, 40.0)[0] == pytest.approx(1.0 + (1.0 + np.exp(-1.0)) * np.exp(-14.0))
     m.add_points(p, 5.0)  # replay restarted
     assert m.evidence_at(p, 5.0)[0] == 0.0  # map was cleared (origin reset, nothing counted before follow)
+
+
+def test_shore_horizon_is_reused_only_for_the_same_radar_position_and_shore() -> None:
+    det, _ = quay_frames(CFG, 60)
+    m = det.static_map
+    here, there = np.array([1.8, 0.0]), np.array([1.8, 12.0])
+    h_here = m.shore_horizon(here)
+    assert np.isfinite(h_here).any()
+    b = m._bearing_bin(np.array([[1.0, 0.0]]))[0]  # due north: the wall at 20 m, 18.2 m from here
+    assert h_here[b] == pytest.approx(18.2, abs=0.5)
+    h_there = m.shore_horizon(there)
+    assert not np.array_equal(h_here, h_there)  # moved 12 m east: the wall is seen at other bearings and ranges
+    np.testing.assert_array_equal(m.shore_horizon(here), h_here)
+    m.update_shore(100.0, np.zeros(2), 100.0)  # 100 s later every hit has decayed: no shore, no horizon
+    assert np.isinf(m.shore_horizon(here)).all()

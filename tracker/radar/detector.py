@@ -118,9 +118,20 @@ class DetectorOutput:
     ego_source: str  # "autopilot", "doppler" or "none"
     ego_estimate: VelocityEstimate | None  # the Doppler ego fit, when one was made
     clusters: list[RadarCluster] = field(default_factory=list)  # all, shore verdict included
-    detections: list[Detection] = field(default_factory=list)  # kept clusters only, same order as kept_clusters
     kept_clusters: list[RadarCluster] = field(default_factory=list)
     counts: dict[str, int] = field(default_factory=dict)
+    min_box_size_m: float = 0.5
+    _detections: list[Detection] | None = None
+
+    @property
+    def detections(self) -> list[Detection]:
+        """The kept clusters as Detections, same order as ``kept_clusters``; built on first use (the tracker works
+        on the clusters)."""
+        if self._detections is None:
+            self._detections = [
+                cl.to_detection(self.t, self.sensor_ne, self.min_box_size_m) for cl in self.kept_clusters
+            ]
+        return self._detections
 
 
 def _rot(yaw: float) -> np.ndarray:
@@ -326,8 +337,8 @@ class RadarDetector:
             ego_estimate=ego_est,
             clusters=clusters,
             kept_clusters=kept,
-            detections=[cl.to_detection(t, sensor_ne, c.min_box_size_m) for cl in kept],
             counts=counts,
+            min_box_size_m=c.min_box_size_m,
         )
         if update_map:
             self.update_map(out)

@@ -71,6 +71,7 @@ class StaticMap:
         self._edge_rc = np.empty((0, 2), np.int64)  # their contour
         self._tree: cKDTree | None = None  # shore cell centres, for "within the margin" tests
         self._t_shore = -math.inf
+        self._horizon: tuple[tuple[float, float], np.ndarray] | None = None  # (sensor N/E, shore_horizon there)
 
     def cells(self, points_ne: np.ndarray) -> np.ndarray:
         """(n, 2) world cell indices (row = north, col = east)."""
@@ -260,13 +261,18 @@ class StaticMap:
         A bin also takes its neighbours' minimum, so a wall with a missing cell or two still hides what is behind
         it. Shore cells within shore_margin_m of the radar are ignored: the own boat may lie alongside the quay.
         """
+        key = (float(sensor_ne[0]), float(sensor_ne[1]))
+        if self._horizon is not None and self._horizon[0] == key:
+            return self._horizon[1]  # same shore, radar not moved (a moored boat): same horizon
         n_bins = round(2 * math.pi / self.cfg.shore_horizon_bin_rad)
         horizon = np.full(n_bins, np.inf)
         rel = self.shore_cells() - np.asarray(sensor_ne, float).reshape(2)
         rng = np.hypot(rel[:, 0], rel[:, 1])
         far = rng > self.cfg.shore_margin_m
         np.minimum.at(horizon, self._bearing_bin(rel[far]), rng[far])
-        return ndimage.minimum_filter1d(horizon, size=3, mode="wrap")
+        horizon = ndimage.minimum_filter1d(horizon, size=3, mode="wrap")
+        self._horizon = (key, horizon)
+        return horizon
 
     def shore_verdict(self, sensor_ne: np.ndarray, clusters: list[np.ndarray]) -> np.ndarray:
         """(k,) int per cluster of (n_i, 2) world points: 0 keep, 1 on the shore, 2 behind it (seen from the radar).
