@@ -52,6 +52,7 @@ class StaticMap:
         # Flat indices of the cells holding evidence: the shore scan visits only these, not 1200 x 1200 cells.
         self._touched = np.empty(0, np.int64)
         self._touched_new: list[np.ndarray] = []  # cells hit since the last shore extraction, merged there
+        self._is_touched = np.zeros(self.size * self.size, bool)  # membership of _touched, so merging needs no sort
         self._clear_shore()
 
     # --- bookkeeping -------------------------------------------------------------------------------------------------
@@ -61,6 +62,7 @@ class StaticMap:
         self.last_hit[:] = -np.inf
         self._touched = np.empty(0, np.int64)
         self._touched_new = []
+        self._is_touched[:] = False
         self.origin = None
         self.t_last = -math.inf
         self._clear_shore()
@@ -116,6 +118,8 @@ class StaticMap:
         self.last_hit = new_hit
         self._touched = np.flatnonzero(new)  # a rare event: one full scan
         self._touched_new = []
+        self._is_touched[:] = False
+        self._is_touched[self._touched] = True
         self.origin = want  # type: ignore[assignment]
         self.shifts += 1
 
@@ -165,10 +169,14 @@ class StaticMap:
         self._t_shore = t
         scale = self._scale(t)
         if self._touched_new:
-            self._touched = np.union1d(self._touched, np.concatenate(self._touched_new))
+            fresh = np.unique(np.concatenate(self._touched_new))
+            fresh = fresh[~self._is_touched[fresh]]
+            self._is_touched[fresh] = True
+            self._touched = np.concatenate([self._touched, fresh])
             self._touched_new = []
         value = self.grid.flat[self._touched]
         keep = value >= 1e-3 * scale  # evidence decayed to nothing: forget the cell until it is hit again
+        self._is_touched[self._touched[~keep]] = False
         self._touched, value = self._touched[keep], value[keep]
         recent = self.last_hit.flat[self._touched] >= t - self.cfg.static_recent_s
         pool = max(1, round(self.cfg.static_evidence_pool_m / self.res))
@@ -216,9 +224,11 @@ class StaticMap:
         self._shore_rc = shore
         self._shore_keys = np.sort(_keys(shore))
         self._tree = cKDTree((shore + 0.5) * self.res)
-        # Contour: shore cells with at least one of their four neighbours not shore.
-        steps = np.array([[1, 0], [-1, 0], [0, 1], [0, -1]])
-        inner = np.all([self._contains(shore + d) for d in steps], axis=0)
+        # Contour: shore cells with at least one of their four neighbours not shore (on a raster of their bounds).
+        r, c = (shore - shore.min(axis=0) + 1).T
+        raster = np.zeros((r.max() + 2, c.max() + 2), bool)
+        raster[r, c] = True
+        inner = raster[r + 1, c] & raster[r - 1, c] & raster[r, c + 1] & raster[r, c - 1]
         self._edge_rc = shore[~inner]
         return True
 
