@@ -190,6 +190,11 @@ class RadarTrackerConfig:
     confirm_window: int = 5
     max_unseen_time_s: float = 2.0
     max_unseen_time_tentative_s: float = 0.5
+    # Not in the paper (the LiDAR paper's visibility factor, for the radar): a track whose bearing span is partly
+    # shadowed by a nearer cluster (occlusion_margin_m nearer) has this much variance, m^2, times the shadowed
+    # share squared added to its position measurement (RadarTracker._visibility). 0 disables.
+    occlusion_position_var_m2: float = 4.0
+    occlusion_margin_m: float = 1.0
 
     # --- Motion discriminator (eq. 8, Table 1) --------------------------------------------------------------------
     motion_discriminator_enabled: bool = True  # ablation switch ("Remove Motion Discriminator", Table 4)
@@ -253,6 +258,8 @@ class RadarTrackerConfig:
             "merge_gap_m",
             "birth_pool_min_range_m",
             "update_single_return_range_m",
+            "occlusion_position_var_m2",
+            "occlusion_margin_m",
             "recovery_gate_m",
             "static_evidence_pool_m",
             "static_recent_s",

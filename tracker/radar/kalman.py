@@ -228,10 +228,12 @@ def fused_update(
     vel: VelocityEstimate | None,
     cfg: RadarTrackerConfig,
     turn_gain: np.ndarray | None = None,
+    position_var_extra: float = 0.0,
 ) -> None:
     """Eq. 7: position and size, plus the distance-weighted Doppler velocity when the cluster determines one and it
-    agrees with the track (see doppler_consistent)."""
-    sp = position_std(cfg, distance) ** 2
+    agrees with the track (see doppler_consistent). ``position_var_extra`` (m^2) is added to the centre's variance
+    (a partly hidden hull, RadarTracker._visibility)."""
+    sp = position_std(cfg, distance) ** 2 + position_var_extra
     maneuver = False
     if cfg.maneuver_nis > 0:
         # Manoeuvre: the centre is further from the prediction than the filter's own uncertainty allows (a boat

@@ -34,6 +34,10 @@ log = logging.getLogger(__name__)
 _GATE = 2.0  # costs: 1 - IoU in [0, 1) for overlapping boxes, 1 + distance / gate in [1, 2] for the fallback
 
 
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
 def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(n, m) IoU of axis-aligned boxes given as (k, 4) [min0, min1, max0, max1]."""
     lo = np.maximum(a[:, None, :2], b[None, :, :2])
@@ -197,12 +201,23 @@ class RadarTracker:
         births = [(cl, False) for cl in self._merge_births([clusters[di] for di in spawn])]
         births += [(cl, True) for cl in self._pooled_births(out, groups)]
         used: list[tuple[int, RadarCluster]] = []
+        casters = self._shadow_casters(out)
         for ti, cl in groups.items():
             tr = self.tracks[ti]
             det = cl.to_detection(t, out.sensor_ne, cfg.min_box_size_m)
             size = np.array([det.length, det.width])
             centre = self._centre(tr, cl, det.center, out.sensor_ne)
-            kalman.fused_update(tr.kf, centre, size, det.range_m, cl.velocity, cfg, self._turn_gain(tr, cl))
+            hidden = 1.0 - self._visibility(tr, cl, casters, out.sensor_ne)
+            kalman.fused_update(
+                tr.kf,
+                centre,
+                size,
+                det.range_m,
+                cl.velocity,
+                cfg,
+                self._turn_gain(tr, cl),
+                position_var_extra=cfg.occlusion_position_var_m2 * hidden * hidden,
+            )
             self._remember_shape(tr, cl, t)
             tr.life.hit(t)
             tr.points = cl.points
@@ -300,6 +315,51 @@ class RadarTracker:
             return box_centre
         shape = np.concatenate([g for _, g in tr.shape] + [cl.points - tr.kf.x[kalman.POS, 0]])
         return visible_side_centre(cl.points, sensor_ne, shape, cfg.visible_depth_gain, cfg.visible_width_gain)
+
+    def _shadow_casters(self, out: DetectorOutput) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Every clustered return of the frame as a possible shadow caster: (rows, bearing rad, range m, cluster)."""
+        if self.cfg.occlusion_position_var_m2 <= 0 or not out.clusters:
+            e = np.empty(0)
+            return e.astype(np.int64), e, e, e.astype(np.int64)
+        rows = np.concatenate([cl.index for cl in out.clusters])
+        owner = np.repeat(np.arange(len(out.clusters)), [cl.n_points for cl in out.clusters])
+        rel = out.points[rows] - out.sensor_ne
+        return rows, np.arctan2(rel[:, 1], rel[:, 0]), out.range_m[rows], owner
+
+    def _visibility(
+        self,
+        tr: RadarTrackState,
+        cl: RadarCluster,
+        casters: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+        sensor_ne: np.ndarray,
+    ) -> float:
+        """Share (0..1) of the track's bearing span, seen from the radar, that no nearer cluster shadows (not in the
+        paper; the LiDAR paper's visibility factor, eq. 10-11, for the radar). A boat half behind another shows only
+        its visible half, whose box centre is off by up to half a hull across the line of sight: the position
+        measurement's variance grows by ``occlusion_position_var_m2`` x (1 - visibility)^2."""
+        rows, bearing, rng, owner = casters
+        if rows.size == 0:
+            return 1.0
+        b = kalman.box_of(tr.kf)
+        corners = np.array([[b[0], b[1]], [b[0], b[3]], [b[2], b[1]], [b[2], b[3]]]) - sensor_ne
+        centre = corners.mean(axis=0)
+        r_track = float(np.hypot(*centre))
+        b_track = math.atan2(centre[1], centre[0])
+        half = float(np.abs(_wrap(np.arctan2(corners[:, 1], corners[:, 0]) - b_track)).max())
+        d = _wrap(bearing - b_track)
+        front = (rng < r_track - self.cfg.occlusion_margin_m) & (np.abs(d) <= half + 0.1)
+        front &= ~np.isin(rows, cl.index)
+        if not front.any() or half <= 0:
+            return 1.0
+        # Each caster cluster shadows the span between its extreme bearings; their union over 16 bins of the span.
+        k = owner[front]
+        lo = np.full(k.max() + 1, np.inf)
+        hi = np.full(k.max() + 1, -np.inf)
+        np.minimum.at(lo, k, d[front])
+        np.maximum.at(hi, k, d[front])
+        bins = np.linspace(-half, half, 16)
+        shadow = ((bins[:, None] >= lo[None, :]) & (bins[:, None] <= hi[None, :])).any(axis=1)
+        return 1.0 - float(shadow.mean())
 
     def _rotation_doppler(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray:
         """(n,) Doppler each return owes to the hull's rotation about the track's centre at the track's turn rate:
