@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from tracker.radar import RadarTracker, RadarTrackerConfig
 from tracker.radar.synthetic import OwnBoat, box_points, observe
@@ -176,3 +177,23 @@ def test_a_hull_piece_whose_doppler_a_plausible_turn_rate_explains_joins_its_tra
     assert tracker._doppler_agrees(0, piece)
     tracker.cfg = replace(cfg, merge_turn_rate_sigmas=0.0)  # the track's own 0.5 rad/s only: 1.05 m/s left over
     assert not tracker._doppler_agrees(0, piece)
+
+
+def test_a_track_half_in_a_nearer_boats_shadow_has_half_visibility() -> None:
+    rng = np.random.default_rng(7)
+    far_c, near_c = np.array([40.0, 0.0]), np.array([20.0, 0.75])
+
+    def frame(with_near: bool) -> tuple[np.ndarray, np.ndarray]:
+        far = box_points(far_c, (2.0, 2.0), 10, rng)
+        if not with_near:
+            return far, np.zeros(2)
+        return np.concatenate([far, box_points(near_c, (1.0, 2.0), 12, rng)]), np.zeros(2)
+
+    for with_near, want in ((False, 1.0), (True, 0.5)):
+        tracker, _ = run(BASE, [frame(with_near) for _ in range(6)])
+        far_track = min(tracker.tracks, key=lambda s: np.linalg.norm(s.kf.x[:2, 0] - far_c))
+        far_cluster = min(tracker.last_clusters, key=lambda c: np.linalg.norm(c.points.mean(axis=0) - far_c))
+        casters = tracker._shadow_casters(tracker.last)
+        # The far track's box spans about +-1.1 deg; the near boat's returns (20 m, 0-1.3 m east) shadow 0 to 3.7 deg.
+        vis = tracker._visibility(far_track, far_cluster, casters, tracker.last.sensor_ne)
+        assert vis == pytest.approx(want, abs=0.15)
