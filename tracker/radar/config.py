@@ -207,6 +207,9 @@ class RadarTrackerConfig:
     # Not in the paper: a cluster whose Doppler speed is clearly above static_doppler_threshold_mps counts as "moved"
     # in eq. 8 whatever its hull overlap, so a slow boat is not published at zero speed.
     motion_doppler_veto: bool = True
+    # The veto needs the cluster's Doppler speed this far above zero plus 3 sigma. At 0 it is a plain 3-sigma test:
+    # a 0.5 m/s boat overlaps its hull of a second ago by ~0.7 and, without the veto, was published at speed zero.
+    motion_veto_speed_mps: float = 0.0
     # The paper compares consecutive frames (set 0 for that). At 10 Hz a 2 m/s boat moves 0.2 m per frame, less than
     # the frame-to-frame jitter of a sparse radar hull, so by default a hull is compared with the one >= 1 s older.
     motion_hull_baseline_s: float = 1.0
@@ -260,6 +263,7 @@ class RadarTrackerConfig:
             "update_single_return_range_m",
             "occlusion_position_var_m2",
             "occlusion_margin_m",
+            "motion_veto_speed_mps",
             "recovery_gate_m",
             "static_evidence_pool_m",
             "static_recent_s",

@@ -587,15 +587,15 @@ class RadarTracker:
         self.detector.update_map(out, exclude)
 
     def _doppler_moving(self, cl: RadarCluster) -> bool:
-        """The cluster's Doppler profile alone shows motion: speed along its best-known direction above the static
-        threshold by three standard deviations."""
+        """The cluster's Doppler profile alone shows motion: speed along its best-known direction above
+        ``motion_veto_speed_mps`` by three standard deviations."""
         v = cl.velocity
         if v.status is VelocityStatus.UNDETERMINED:
             return False
         e = v.radial_direction
         speed = abs(float(e @ v.velocity))
         std = math.sqrt(max(float(e @ v.covariance @ e), 0.0))
-        return speed > self.cfg.static_doppler_threshold_mps + 3.0 * std
+        return speed > self.cfg.motion_veto_speed_mps + 3.0 * std
 
     def _moving(self, tr: RadarTrackState, cl: RadarCluster | None = None) -> bool:
         """Clearly moving: filter speed above ``map_exclude_min_speed_mps`` and twice its own standard deviation, and
