@@ -197,3 +197,16 @@ def test_a_track_half_in_a_nearer_boats_shadow_has_half_visibility() -> None:
         # The far track's box spans about +-1.1 deg; the near boat's returns (20 m, 0-1.3 m east) shadow 0 to 3.7 deg.
         vis = tracker._visibility(far_track, far_cluster, casters, tracker.last.sensor_ne)
         assert vis == pytest.approx(want, abs=0.15)
+
+
+def test_doppler_veto_sees_a_slow_boat_move_and_a_moored_one_not() -> None:
+    rng = np.random.default_rng(8)
+
+    def cluster_at(speed_north: float, cfg: RadarTrackerConfig = BASE) -> bool:
+        frames = [(box_points(np.array([20.0, 1.0]), (2.0, 2.0), 12, rng), np.array([speed_north, 0.0]))]
+        tracker, _ = run(cfg, frames)
+        return tracker._doppler_moving(tracker.last_clusters[0])
+
+    assert cluster_at(0.4)  # 0.4 m/s away from the radar: well above 3 sigma of 12 returns' Doppler
+    assert not cluster_at(0.0)
+    assert not cluster_at(0.4, replace(BASE, motion_veto_speed_mps=0.5))  # the old threshold missed it
