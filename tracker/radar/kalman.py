@@ -17,6 +17,8 @@ offsets, RadarTracker._turn_gain); the velocity measurement gets that row for om
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
@@ -203,11 +205,19 @@ def doppler_consistent(
     h = velocity_rows(kf, turn_gain)
     y = vel.velocity - h @ kf.x[:, 0]
     s = h @ kf.P @ h.T + velocity_noise(vel, distance, cfg)
-    try:
-        d2 = float(y @ np.linalg.solve(s, y))
-    except np.linalg.LinAlgError:
-        return False
-    return d2 <= cfg.doppler_gate_chi2
+    d2 = mahalanobis2(y, s)
+    return math.isfinite(d2) and d2 <= cfg.doppler_gate_chi2
+
+
+def mahalanobis2(y: np.ndarray, s: np.ndarray) -> float:
+    """y^T S^-1 y for a 2-vector and a 2 x 2 covariance, in closed form (np.linalg.solve's call overhead is most of
+    its cost at this size); inf when S is singular or not positive definite."""
+    a, b, c, d = float(s[0, 0]), float(s[0, 1]), float(s[1, 0]), float(s[1, 1])
+    det = a * d - b * c
+    if not det > 0.0:
+        return math.inf
+    y0, y1 = float(y[0]), float(y[1])
+    return (d * y0 * y0 - (b + c) * y0 * y1 + a * y1 * y1) / det
 
 
 def velocity_rows(kf: KalmanFilter, turn_gain: np.ndarray | None = None) -> np.ndarray:
@@ -241,7 +251,7 @@ def fused_update(
         # update can turn it, instead of the track sliding off and a new one starting on the boat. Not in the paper.
         y = np.asarray(centre, float) - kf.x[POS, 0]
         s = kf.P[POS, POS] + sp * np.eye(2)
-        maneuver = float(y @ np.linalg.solve(s, y)) > cfg.maneuver_nis
+        maneuver = mahalanobis2(y, s) > cfg.maneuver_nis
         if maneuver:
             # As if the velocity had taken a random step of maneuver_velocity_std_mps at the start of the last
             # prediction: position and velocity variance and their coupling grow, so this very update can turn it.

@@ -338,17 +338,19 @@ class RadarTracker:
         its visible half, whose box centre is off by up to half a hull across the line of sight: the position
         measurement's variance grows by ``occlusion_position_var_m2`` x (1 - visibility)^2."""
         rows, bearing, rng, owner = casters
-        if rows.size == 0:
+        centre = tr.kf.x[kalman.POS, 0] - sensor_ne
+        r_track = math.hypot(centre[0], centre[1])
+        front = rng < r_track - self.cfg.occlusion_margin_m
+        if not front.any():  # nothing nearer: the usual case, decided before any trigonometry
             return 1.0
         b = kalman.box_of(tr.kf)
         corners = np.array([[b[0], b[1]], [b[0], b[3]], [b[2], b[1]], [b[2], b[3]]]) - sensor_ne
-        centre = corners.mean(axis=0)
-        r_track = float(np.hypot(*centre))
         b_track = math.atan2(centre[1], centre[0])
         half = float(np.abs(_wrap(np.arctan2(corners[:, 1], corners[:, 0]) - b_track)).max())
         d = _wrap(bearing - b_track)
-        front = (rng < r_track - self.cfg.occlusion_margin_m) & (np.abs(d) <= half + 0.1)
-        front &= ~np.isin(rows, cl.index)
+        own = np.zeros(int(rows.max()) + 1, bool)
+        own[cl.index[cl.index <= rows.max()]] = True
+        front &= (np.abs(d) <= half + 0.1) & ~own[rows]
         if not front.any() or half <= 0:
             return 1.0
         # Each caster cluster shadows the span between its extreme bearings; their union over 16 bins of the span.
