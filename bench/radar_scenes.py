@@ -25,22 +25,15 @@ import numpy as np
 
 from simulator.scenarios import RADAR_PAPER_SPEEDS
 from simulator.scene import OwnBoat, Scene, Trajectory, Vessel
+from tracker.adapters import DAEMON_RADAR_DEFAULTS
 from tracker.radar import RadarTrackerConfig
 
 BANDS: tuple[tuple[float, float], ...] = ((0.0, 30.0), (30.0, 60.0), (60.0, 90.0))
 BAND_MODEL: dict[str, Any] = {"max_range": 100.0, "snr_at_10m_db": 58.0}
 
-# Settings the benchmark found best on the simulated AWR1843 (see bench/results/radar_paper.md, "Settings").
-DAEMON_OVERRIDES: dict[str, Any] = {
-    "cluster_min_points": 3,  # paper: 20; a 3-5 m boat gives 3-10 returns a frame
-    "velocity_cluster_min_points": 3,  # paper: 20
-    "cluster_radius_m": 2.0,  # paper: 1.2; a sparse hull split into 2-3 clusters at 1.2 m
-    # Coordinated turn: constant velocity plus a turn-rate state that also explains the turning hull's Doppler
-    # spread; the turns are the model's, so the straight-line acceleration noise can be low (cv needed 2 m/s^2).
-    "motion_model": "ct",
-    "accel_std": 0.7,
-    "max_unseen_time_s": 1.0,  # coast 1 s: a lost track on a stale course is a false track for MOTA
-}
+# Settings the benchmark found best on the simulated AWR1843 (see bench/results/radar_paper.md, "Settings"); the
+# daemon uses the same (tracker.adapters), so what is measured here is what runs.
+DAEMON_OVERRIDES: dict[str, Any] = dict(DAEMON_RADAR_DEFAULTS)
 
 
 def daemon_config(mount_x: float = 0.0, mount_y: float = 0.0, **overrides: Any) -> RadarTrackerConfig:

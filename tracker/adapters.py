@@ -22,9 +22,11 @@ DAEMON_RADAR_DEFAULTS: dict[str, Any] = {
     "cluster_min_points": 3,
     "velocity_cluster_min_points": 3,
     "cluster_radius_m": 2.0,
+    # Coordinated turn: constant velocity plus a turn-rate state that also explains a turning hull's Doppler spread;
+    # the turns are the model's, so the straight-line acceleration noise can be low (constant velocity needed 2).
     "motion_model": "ct",
     "accel_std": 0.7,
-    "max_unseen_time_s": 1.0,
+    "max_unseen_time_s": 1.0,  # coast 1 s: a lost track on a stale course is a false track
 }
 
 
