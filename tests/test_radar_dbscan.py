@@ -7,7 +7,7 @@ from collections import deque
 import numpy as np
 import pytest
 
-from tracker.radar.dbscan import dbscan
+from tracker.radar.dbscan import dbscan, dbscan_1d_grouped
 
 
 def brute_force_dbscan(x: np.ndarray, eps: float, min_points: int) -> np.ndarray:
@@ -100,3 +100,19 @@ def test_component_labels_match_scipy_connected_components(seed: int) -> None:
         members = np.flatnonzero(ref == c)
         assert (lab[members] == members.min()).all()
     np.testing.assert_array_equal(component_labels(4, np.empty(0, int), np.empty(0, int)), [0, 1, 2, 3])
+
+
+def test_grouped_1d_dbscan_matches_dbscan_on_separated_lines() -> None:
+    # The Doppler split's sort-based 1-D DBSCAN against the k-d tree one with each group on its own far line.
+    rng = np.random.default_rng(11)
+    for _ in range(500):
+        n = int(rng.integers(1, 40))
+        groups = rng.integers(0, int(rng.integers(1, 5)), n)
+        values = rng.normal(0.0, 1.5, n)
+        values[: n // 4] = np.round(values[: n // 4], 1)  # some exactly equal values
+        eps, m = 0.75, int(rng.integers(1, 5))
+        offset = 10.0 * (np.abs(values).max() + eps + 1.0)
+        want = dbscan(np.column_stack([groups * offset, values]), eps, m)
+        np.testing.assert_array_equal(dbscan_1d_grouped(values, groups, eps, m), want)
+    assert dbscan_1d_grouped(np.empty(0), np.empty(0, int), 0.8, 3).size == 0
+    np.testing.assert_array_equal(dbscan_1d_grouped(np.array([0.0, 0.5, 5.0]), np.zeros(3, int), 0.8, 2), [0, 0, -1])

@@ -77,3 +77,57 @@ def component_labels(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         if np.array_equal(new, lab):
             return lab
         lab = new
+
+
+def dbscan_1d_grouped(values: np.ndarray, groups: np.ndarray, eps: float, min_points: int) -> np.ndarray:
+    """``dbscan`` of 1-D ``values`` run separately within each group (points of different groups never link), by
+    sorting instead of a k-d tree: the same labels, numbered the same way (by lowest core-point index).
+
+    In one dimension, with the points sorted, a point's neighbours are a contiguous run (two binary searches), two
+    core points are density-connected exactly when every gap between consecutive core points between them is at
+    most ``eps``, and a border point's nearest core point is the core point just before or just after it.
+    """
+    x = np.asarray(values, float).reshape(-1)
+    g = np.asarray(groups, np.int64).reshape(-1)
+    n = x.size
+    labels = np.full(n, -1, np.int64)
+    if n == 0:
+        return labels
+    if not np.all(np.isfinite(x)):
+        raise ValueError("dbscan_1d_grouped: values must be finite")
+    order = np.lexsort((np.arange(n), x, g))  # by group, then value, then index (ties as dbscan's lower index)
+    xs, gs = x[order], g[order]
+    # Within a group the searches run over [value - eps, value + eps]; groups are kept apart by searching on
+    # (group, value) pairs through a composite that cannot mix them.
+    span = float(xs.max() - xs.min()) + 2.0 * eps + 1.0
+    key = (gs - gs.min()) * span + (xs - xs.min())
+    lo = np.searchsorted(key, key - eps, side="left")
+    hi = np.searchsorted(key, key + eps, side="right")
+    core = (hi - lo) >= min_points
+    if not core.any():
+        return labels
+    ci = np.flatnonzero(core)
+    # Consecutive core points (sorted) in one group within eps share a cluster.
+    link = (gs[ci[1:]] == gs[ci[:-1]]) & (xs[ci[1:]] - xs[ci[:-1]] <= eps)
+    comp = np.concatenate([[0], np.cumsum(~link)])
+    # Number clusters by their lowest original index among core points, as dbscan does.
+    first = np.full(comp[-1] + 1, n, np.int64)
+    np.minimum.at(first, comp, order[ci])
+    rank = np.empty_like(first)
+    rank[np.argsort(first, kind="stable")] = np.arange(first.size)
+    lab_sorted = np.full(n, -1, np.int64)
+    lab_sorted[ci] = rank[comp]
+    # Border points: nearest core before or after (same group, within eps); a tie goes to the lower original index.
+    nb = np.flatnonzero(~core)
+    if nb.size:
+        pos = np.searchsorted(ci, nb)
+        prev = ci[np.maximum(pos - 1, 0)]
+        nxt = ci[np.minimum(pos, ci.size - 1)]
+        d_prev = np.where((pos > 0) & (gs[prev] == gs[nb]), xs[nb] - xs[prev], np.inf)
+        d_next = np.where((pos < ci.size) & (gs[nxt] == gs[nb]), xs[nxt] - xs[nb], np.inf)
+        take_next = (d_next < d_prev) | ((d_next == d_prev) & (order[nxt] < order[prev]))
+        best = np.where(take_next, nxt, prev)
+        ok = np.minimum(d_prev, d_next) <= eps
+        lab_sorted[nb[ok]] = lab_sorted[best[ok]]
+    labels[order] = lab_sorted
+    return labels

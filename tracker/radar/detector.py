@@ -27,7 +27,7 @@ from scipy.spatial import cKDTree
 
 from tracker.ego import body_to_world
 from tracker.radar.config import RadarTrackerConfig
-from tracker.radar.dbscan import dbscan
+from tracker.radar.dbscan import dbscan, dbscan_1d_grouped
 from tracker.radar.multipath import MultipathSettings, multipath_ghosts
 from tracker.radar.shore_lines import ShoreLines
 from tracker.radar.static_map import StaticMap
@@ -413,10 +413,8 @@ class RadarDetector:
             self.shore_lines.add(out.t, out.points[line])
 
     def split_by_doppler(self, spatial: np.ndarray, dop: np.ndarray) -> np.ndarray:
-        """Split each spatial cluster by 1-D DBSCAN over Doppler; one call for all clusters.
-
-        Each cluster is put on its own line far from the others (label x a large offset), so the density search can
-        only link returns of the same spatial cluster. Returns with unknown Doppler join the largest part.
+        """Split each spatial cluster by 1-D DBSCAN over Doppler; one call for all clusters, points of different
+        spatial clusters never linking. Returns with unknown Doppler join the largest part.
         """
         c = self.cfg
         out = np.full(spatial.size, -1, np.int64)
@@ -425,9 +423,9 @@ class RadarDetector:
             return out
         known = inside & np.isfinite(dop)
         if known.any():
-            offset = 10.0 * (np.nanmax(np.abs(dop[known])) + c.velocity_cluster_threshold_mps + 1.0)
-            feat = np.column_stack([spatial[known] * offset, dop[known]])
-            out[known] = dbscan(feat, c.velocity_cluster_threshold_mps, c.velocity_cluster_min_points)
+            out[known] = dbscan_1d_grouped(
+                dop[known], spatial[known], c.velocity_cluster_threshold_mps, c.velocity_cluster_min_points
+            )
         unknown = np.flatnonzero(inside & ~np.isfinite(dop))
         if unknown.size:
             for lab in np.unique(spatial[unknown]):
