@@ -25,7 +25,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tracker.ego import body_to_world
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.dbscan import dbscan, dbscan_1d_grouped
 from tracker.radar.multipath import MultipathSettings, multipath_ghosts
@@ -228,10 +227,9 @@ class RadarDetector:
         rot = _rot(float(yaw))
         sensor_body = np.asarray(c.sensor_position_body, float)
         sensor_ne = pos + rot @ sensor_body
-        if len(xyz):
-            world = body_to_world(xyz, np.array([pos[0], pos[1], 0.0]), 0.0, 0.0, float(yaw))[:, :2]
-        else:  # tracker.ego.body_to_world indexes the first pose, so an empty frame is handled here
-            world = np.empty((0, 2))
+        # Body FRD (fwd, stbd) -> world N/E: yaw only (the level-frame call of tracker.ego.body_to_world, written out
+        # for a frame of tens of returns, where that general path's setup cost more than the rotation).
+        world = xyz[:, :2] @ rot.T + pos
         rel = world - sensor_ne
         rng = np.hypot(rel[:, 0], rel[:, 1])
         los = rel / np.maximum(rng, 1e-9)[:, None]
