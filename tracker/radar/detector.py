@@ -171,7 +171,7 @@ class RadarDetector:
         c = self.cfg
         rel = xyz_body[:, :2] - np.asarray(c.sensor_position_body)
         rng = np.hypot(rel[:, 0], rel[:, 1])
-        az = np.angle(np.exp(1j * (np.arctan2(rel[:, 1], rel[:, 0]) - c.sensor_yaw_body_rad)))
+        az = (np.arctan2(rel[:, 1], rel[:, 0]) - c.sensor_yaw_body_rad + np.pi) % (2.0 * np.pi) - np.pi
         z = xyz_body[:, 2]
         with np.errstate(invalid="ignore"):
             return (

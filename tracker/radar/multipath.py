@@ -49,7 +49,7 @@ def multipath_ghosts(
     snr = np.asarray(snr, float)
     for start in range(0, n, _CHUNK):
         j = slice(start, min(start + _CHUNK, n))  # ghost candidates (rows) against every return (columns)
-        d_az = np.angle(np.exp(1j * (az[j, None] - az[None, :])))
+        d_az = (az[j, None] - az[None, :] + np.pi) % (2.0 * np.pi) - np.pi
         near = np.abs(d_az) <= settings.search_angle
         # NaN on either side compares False: the test passes
         weaker = ~(snr[j, None] > snr[None, :] - settings.min_snr_drop_db)
