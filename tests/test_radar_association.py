@@ -210,3 +210,22 @@ def test_doppler_veto_sees_a_slow_boat_move_and_a_moored_one_not() -> None:
     assert cluster_at(0.4)  # 0.4 m/s away from the radar: well above 3 sigma of 12 returns' Doppler
     assert not cluster_at(0.0)
     assert not cluster_at(0.4, replace(BASE, motion_veto_speed_mps=0.5))  # the old threshold missed it
+
+
+def test_turn_rate_is_held_at_zero_beyond_the_turn_models_range() -> None:
+    from tracker.radar import kalman
+
+    cfg = replace(BASE, motion_model="ct", accel_std=0.7)
+    rng = np.random.default_rng(9)
+    for north, frozen in ((70.0, True), (30.0, False)):
+        frames = [(box_points(np.array([north, 3.0]), (2.0, 2.0), 8, rng), np.zeros(2)) for _ in range(5)]
+        tracker, _ = run(cfg, frames)
+        kf = tracker.tracks[0].kf
+        assert bool(kf.x[kalman.TURN, 0] == 0.0 and kf.P[kalman.TURN, kalman.TURN] == 0.0) is frozen
+    # Frozen, the coordinated turn predicts exactly as constant velocity.
+    kf = kalman.new_filter(np.array([70.0, 3.0]), np.ones(2), 70.0, None, cfg)
+    kf.x[kalman.VEL, 0] = [1.0, 2.0]
+    kf.x[kalman.TURN, 0] = 1.0
+    kalman.freeze_turn_rate(kf)
+    kalman.predict(kf, 0.5, cfg)
+    np.testing.assert_allclose(kf.x[:4, 0], [70.5, 4.0, 1.0, 2.0])

@@ -125,6 +125,9 @@ class RadarTrackerConfig:
     turn_rate_std: float = 1.5  # rad/s/sqrt(s), random walk of the turn rate: ~0.5 rad/s per 0.1 s frame
     init_turn_rate_std: float = 0.5  # rad/s at birth
     max_turn_rate: float = 2.0  # rad/s, clamp: small boats do not turn faster
+    # Beyond this range the turn rate is held at zero (the track predicts as "cv"): 1 deg of azimuth noise is 1 m
+    # at 60 m, as much as a small boat's turning radius, and a turn rate fitted to such positions swings wildly.
+    turn_model_max_range_m: float = 60.0
     # With "ct": the Doppler velocity's measurement row reads the turn rate too (the fit over a turning hull's
     # returns gives v + M omega, RadarTracker._turn_gain), and the merge test expects each return's rotation Doppler
     # (RadarTracker._rotation_doppler). Not in the paper.
@@ -289,6 +292,7 @@ class RadarTrackerConfig:
             "init_turn_rate_std",
             "max_turn_rate",
             "merge_turn_rate_sigmas",
+            "turn_model_max_range_m",
             "maneuver_nis",
             "maneuver_velocity_std_mps",
             "doppler_model_std_mps",

@@ -41,6 +41,13 @@ def turn_rate(kf: KalmanFilter) -> tuple[float, float]:
     return float(kf.x[TURN, 0]), float(kf.P[TURN, TURN])
 
 
+def freeze_turn_rate(kf: KalmanFilter) -> None:
+    """Set a "ct" filter's turn rate to zero with no uncertainty: it then predicts as the "cv" model."""
+    kf.x[TURN, 0] = 0.0
+    kf.P[TURN, :] = 0.0
+    kf.P[:, TURN] = 0.0
+
+
 def transition(dt: float, cfg: RadarTrackerConfig | None = None) -> np.ndarray:
     cv = cfg is not None and cfg.motion_model == "cv"
     f = np.eye(DIM_X)
