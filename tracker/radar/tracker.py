@@ -193,9 +193,9 @@ class RadarTracker:
         for tr in self.tracks:
             kalman.predict(tr.kf, t - tr.t, cfg)
             tr.t = t
-            if tr.kf.dim_x > kalman.TURN and cfg.turn_model_max_range_m < math.inf:
-                if float(np.hypot(*(tr.kf.x[kalman.POS, 0] - out.sensor_ne))) > cfg.turn_model_max_range_m:
-                    kalman.freeze_turn_rate(tr.kf)  # before the update, so it cannot learn a rate either
+            far = float(np.hypot(*(tr.kf.x[kalman.POS, 0] - out.sensor_ne))) > cfg.turn_model_max_range_m
+            if far and tr.kf.dim_x > kalman.TURN:
+                kalman.freeze_turn_rate(tr.kf)  # before the update, so it cannot learn a rate either
         clusters = out.kept_clusters
         claims, spawn = self._associate(clusters)
         groups = {ti: self.detector.merge_clusters([clusters[di] for di in dis]) for ti, dis in claims.items()}
