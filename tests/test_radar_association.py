@@ -229,3 +229,20 @@ def test_turn_rate_is_held_at_zero_beyond_the_turn_models_range() -> None:
     kalman.freeze_turn_rate(kf)
     kalman.predict(kf, 0.5, cfg)
     np.testing.assert_allclose(kf.x[:4, 0], [70.5, 4.0, 1.0, 2.0])
+
+
+def test_a_far_track_fed_two_returns_a_frame_keeps_its_hull_size() -> None:
+    """The box of two returns is a fraction of the hull; the track's outline over the last second is not."""
+    rng = np.random.default_rng(9)
+    centre, size = np.array([45.0, 0.0]), (4.0, 3.0)
+    frames = [(box_points(centre, size, 8, rng), np.zeros(2)) for _ in range(5)]
+    frames += [(box_points(centre, size, 2, rng), np.zeros(2)) for _ in range(40)]  # loose returns, gathered
+    cfg = replace(BASE, visible_side_enabled=True)
+
+    def final_size(c: RadarTrackerConfig) -> np.ndarray:
+        _, outs = run(c, frames)
+        assert len(confirmed(outs[-1])) == 1
+        return np.array([outs[-1][0].length, outs[-1][0].width])
+
+    assert np.all(final_size(cfg) > 0.7 * np.array(size))
+    assert np.all(final_size(replace(cfg, outline_size_quantile=0.0)) < 0.5 * np.array(size))  # the paper's box

@@ -157,6 +157,10 @@ class RadarTrackerConfig:
     visible_depth_gain: float = 0.4  # fitted on the simulated paper boats; check on real returns
     visible_width_gain: float = 0.2
     shape_window_s: float = 1.0  # the outline is the track's returns of this long, relative to its centre
+    # Not in the paper: the size measurement is the larger of the frame's box and the outline's quantile spread (this
+    # quantile to 1 - it, over 1 - 2 x it) (RadarTracker._outline_size). A far hull's 1-3 returns a frame span a
+    # fraction of it, and the track shrank to the 0.5 m floor. 0: the frame's box, as the paper.
+    outline_size_quantile: float = 0.05
 
     # --- Association (sec. 2.3-1) ---------------------------------------------------------------------------------
     association_min_iou: float = 0.01  # below: the IoU cost gives way to the distance fallback
@@ -336,6 +340,8 @@ class RadarTrackerConfig:
         ):
             if not 0.0 < getattr(self, name) <= 1.0:
                 raise ValueError(f"RadarTrackerConfig.{name} must be in (0, 1]")
+        if not 0.0 <= self.outline_size_quantile < 0.5:
+            raise ValueError("RadarTrackerConfig.outline_size_quantile must be in [0, 0.5)")
         if not 0.0 <= self.fusion_gamma <= 1.0:
             raise ValueError("RadarTrackerConfig.fusion_gamma must be in [0, 1]")
         if not (

@@ -26,7 +26,7 @@ from tracker.radar.detector import DetectorOutput, RadarCluster, RadarDetector
 from tracker.radar.motion import MotionDiscriminator
 from tracker.radar.static_map import StaticMap
 from tracker.radar.velocity_profile import VelocityStatus
-from tracker.radar.visible_side import visible_side_centre
+from tracker.radar.visible_side import spread, visible_side_centre
 from tracker.types import Detection, MotionState, ShapeKind, Track
 
 log = logging.getLogger(__name__)
@@ -208,7 +208,7 @@ class RadarTracker:
         for ti, cl in groups.items():
             tr = self.tracks[ti]
             det = cl.to_detection(t, out.sensor_ne, cfg.min_box_size_m)
-            size = np.array([det.length, det.width])
+            size = self._outline_size(tr, cl, np.array([det.length, det.width]))
             centre = self._centre(tr, cl, det.center, out.sensor_ne)
             hidden = 1.0 - self._visibility(tr, cl, casters, out.sensor_ne)
             kalman.fused_update(
@@ -318,6 +318,23 @@ class RadarTracker:
             return box_centre
         shape = np.concatenate([g for _, g in tr.shape] + [cl.points - tr.kf.x[kalman.POS, 0]])
         return visible_side_centre(cl.points, sensor_ne, shape, cfg.visible_depth_gain, cfg.visible_width_gain)
+
+    def _outline_size(self, tr: RadarTrackState, cl: RadarCluster, size: np.ndarray) -> np.ndarray:
+        """(2,) size measurement: the frame's box, or the extent of the track's returns over ``shape_window_s`` when
+        larger (not in the paper). A far hull gives 1-3 returns a frame, whose box is a fraction of the hull (the box of
+        two returns is their distance): measured so, the track's size shrinks to the 0.5 m floor, its box no longer
+        covers its own returns next frame (association, shadow test) and its bearing span misses a nearer boat
+        shadowing it. The returns of the last second relative to the track's centre fill in the outline; their q to 1 - q
+        quantile spread (``outline_size_quantile``, robust to a stray return) is 1 - 2q of the extent they cover when
+        spread evenly along the hull's sides, hence the division."""
+        q = self.cfg.outline_size_quantile
+        if q <= 0 or not self.cfg.visible_side_enabled or not tr.shape:
+            return size
+        shape = np.concatenate([g for _, g in tr.shape] + [cl.points - tr.kf.x[kalman.POS, 0]])
+        if shape.shape[0] < 3:
+            return size
+        cover = 1.0 - 2.0 * q
+        return np.maximum(size, [spread(shape[:, 0], q) / cover, spread(shape[:, 1], q) / cover])
 
     def _shadow_casters(self, out: DetectorOutput) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Every clustered return of the frame as a possible shadow caster: (rows, bearing rad, range m, cluster)."""
