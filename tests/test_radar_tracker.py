@@ -38,7 +38,9 @@ def crossing(cfg: RadarTrackerConfig, seed: int, frames: int = 100) -> tuple[lis
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_ids_stay_with_their_boats_through_a_crossing(seed: int) -> None:
-    truth, outputs = crossing(CFG, seed)
+    # box_points fills each box, where a radar sees the near sides only: the visible-side centre (which moves the
+    # measurement behind the near sides) would be fed the wrong data, so it is off here as in the association tests.
+    truth, outputs = crossing(replace(CFG, visible_side_enabled=False), seed)
     ids_a, ids_b = set(), set()
     for (a, b), tracks in list(zip(truth, outputs, strict=True))[5:]:
         confirmed = [tr for tr in tracks if tr.confirmed]
