@@ -202,6 +202,9 @@ class RadarTrackerConfig:
     # share squared added to its position measurement (RadarTracker._visibility). 0 disables.
     occlusion_position_var_m2: float = 4.0
     occlusion_margin_m: float = 1.0
+    # Not in the paper: with one end of its bearing span in such a shadow, a track's centre across the line of sight
+    # is measured half its silhouette in from the lit edge of its returns (RadarTracker._lit_edge_centre).
+    occlusion_lit_edge: bool = True
 
     # --- Motion discriminator (eq. 8, Table 1) --------------------------------------------------------------------
     motion_discriminator_enabled: bool = True  # ablation switch ("Remove Motion Discriminator", Table 4)

@@ -210,7 +210,10 @@ class RadarTracker:
             det = cl.to_detection(t, out.sensor_ne, cfg.min_box_size_m)
             size = self._outline_size(tr, cl, np.array([det.length, det.width]))
             centre = self._centre(tr, cl, det.center, out.sensor_ne)
-            hidden = 1.0 - self._visibility(tr, cl, casters, out.sensor_ne)
+            shadow = self._shadow(tr, cl, casters, out.sensor_ne)
+            hidden = 0.0 if shadow is None else float(shadow.mean())
+            if cfg.occlusion_lit_edge:
+                centre = self._lit_edge_centre(tr, cl, centre, shadow, out.sensor_ne)
             kalman.fused_update(
                 tr.kf,
                 centre,
@@ -346,6 +349,41 @@ class RadarTracker:
         rel = out.points[rows] - out.sensor_ne
         return rows, np.arctan2(rel[:, 1], rel[:, 0]), out.range_m[rows], owner
 
+    def _shadow(
+        self,
+        tr: RadarTrackState,
+        cl: RadarCluster,
+        casters: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+        sensor_ne: np.ndarray,
+    ) -> np.ndarray | None:
+        """(16,) bool over the track's bearing span seen from the radar (from its counter-clockwise to its clockwise
+        edge, i.e. toward increasing bearing): which parts a nearer cluster shadows. None when nothing does."""
+        rows, bearing, rng, owner = casters
+        centre = tr.kf.x[kalman.POS, 0] - sensor_ne
+        r_track = math.hypot(centre[0], centre[1])
+        front = rng < r_track - self.cfg.occlusion_margin_m
+        if not front.any():  # nothing nearer: the usual case, decided before any trigonometry
+            return None
+        b = kalman.box_of(tr.kf)
+        corners = np.array([[b[0], b[1]], [b[0], b[3]], [b[2], b[1]], [b[2], b[3]]]) - sensor_ne
+        b_track = math.atan2(centre[1], centre[0])
+        half = float(np.abs(_wrap(np.arctan2(corners[:, 1], corners[:, 0]) - b_track)).max())
+        d = _wrap(bearing - b_track)
+        own = np.zeros(int(rows.max()) + 1, bool)
+        own[cl.index[cl.index <= rows.max()]] = True
+        front &= (np.abs(d) <= half + 0.1) & ~own[rows]
+        if not front.any() or half <= 0:
+            return None
+        # Each caster cluster shadows the span between its extreme bearings; their union over 16 bins of the span.
+        k = owner[front]
+        lo = np.full(k.max() + 1, np.inf)
+        hi = np.full(k.max() + 1, -np.inf)
+        np.minimum.at(lo, k, d[front])
+        np.maximum.at(hi, k, d[front])
+        bins = np.linspace(-half, half, 16)
+        shadow = ((bins[:, None] >= lo[None, :]) & (bins[:, None] <= hi[None, :])).any(axis=1)
+        return shadow if shadow.any() else None
+
     def _visibility(
         self,
         tr: RadarTrackState,
@@ -357,31 +395,38 @@ class RadarTracker:
         paper; the LiDAR paper's visibility factor, eq. 10-11, for the radar). A boat half behind another shows only
         its visible half, whose box centre is off by up to half a hull across the line of sight: the position
         measurement's variance grows by ``occlusion_position_var_m2`` x (1 - visibility)^2."""
-        rows, bearing, rng, owner = casters
-        centre = tr.kf.x[kalman.POS, 0] - sensor_ne
-        r_track = math.hypot(centre[0], centre[1])
-        front = rng < r_track - self.cfg.occlusion_margin_m
-        if not front.any():  # nothing nearer: the usual case, decided before any trigonometry
-            return 1.0
-        b = kalman.box_of(tr.kf)
-        corners = np.array([[b[0], b[1]], [b[0], b[3]], [b[2], b[1]], [b[2], b[3]]]) - sensor_ne
-        b_track = math.atan2(centre[1], centre[0])
-        half = float(np.abs(_wrap(np.arctan2(corners[:, 1], corners[:, 0]) - b_track)).max())
-        d = _wrap(bearing - b_track)
-        own = np.zeros(int(rows.max()) + 1, bool)
-        own[cl.index[cl.index <= rows.max()]] = True
-        front &= (np.abs(d) <= half + 0.1) & ~own[rows]
-        if not front.any() or half <= 0:
-            return 1.0
-        # Each caster cluster shadows the span between its extreme bearings; their union over 16 bins of the span.
-        k = owner[front]
-        lo = np.full(k.max() + 1, np.inf)
-        hi = np.full(k.max() + 1, -np.inf)
-        np.minimum.at(lo, k, d[front])
-        np.maximum.at(hi, k, d[front])
-        bins = np.linspace(-half, half, 16)
-        shadow = ((bins[:, None] >= lo[None, :]) & (bins[:, None] <= hi[None, :])).any(axis=1)
-        return 1.0 - float(shadow.mean())
+        shadow = self._shadow(tr, cl, casters, sensor_ne)
+        return 1.0 if shadow is None else 1.0 - float(shadow.mean())
+
+    def _lit_edge_centre(
+        self,
+        tr: RadarTrackState,
+        cl: RadarCluster,
+        centre: np.ndarray,
+        shadow: np.ndarray | None,
+        sensor_ne: np.ndarray,
+    ) -> np.ndarray:
+        """The centre measurement with its across-the-line-of-sight part taken from the lit edge (not in the paper).
+
+        When one end of the track's bearing span lies in a nearer object's shadow and the other end does not, the
+        returns come from the lit part only: their box centre is off toward the lit side by up to half the hidden
+        width. The lit edge is still an edge of the hull, so the centre lies half the track's silhouette width
+        (its box projected across the line of sight) in from it."""
+        if shadow is None:
+            return centre
+        m = shadow.size // 2
+        hidden_ccw, hidden_cw = float(shadow[:m].mean()), float(shadow[m:].mean())
+        if (hidden_ccw > 0) == (hidden_cw > 0):  # both ends, or neither: no lit edge to hold on to
+            return centre
+        rel = tr.kf.x[kalman.POS, 0] - sensor_ne
+        u = rel / max(float(np.hypot(*rel)), 1e-9)
+        n = np.array([-u[1], u[0]])  # toward increasing bearing (clockwise seen from above)
+        width = float(tr.kf.x[6, 0] * abs(n[0]) + tr.kf.x[7, 0] * abs(n[1]))
+        across = (cl.points - sensor_ne) @ n
+        if float(across.max() - across.min()) >= width:
+            return centre  # the returns already span the hull
+        lit = across.max() - width / 2 if hidden_ccw > 0 else across.min() + width / 2
+        return centre + n * (lit - float((centre - sensor_ne) @ n))
 
     def _rotation_doppler(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray:
         """(n,) Doppler each return owes to the hull's rotation about the track's centre at the track's turn rate:
