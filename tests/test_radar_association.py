@@ -254,11 +254,11 @@ def test_a_half_hidden_hull_is_measured_from_its_lit_edge() -> None:
     rng = np.random.default_rng(12)
     far_c, near_c = np.array([40.0, 0.0]), np.array([20.0, -1.0])
     frames = [(box_points(far_c, (2.0, 4.0), 12, rng), np.zeros(2)) for _ in range(10)]
-    lit_half = [(box_points(far_c + [0.0, 1.0], (2.0, 2.0), 6, rng), np.zeros(2)) for _ in range(10)]
+    lit_half = [(box_points(far_c + np.array([0.0, 1.0]), (2.0, 2.0), 6, rng), np.zeros(2)) for _ in range(10)]
     frames += [(np.concatenate([p, box_points(near_c, (1.0, 2.0), 12, rng)]), v) for p, v in lit_half]
 
     def east_error(cfg: RadarTrackerConfig) -> float:
-        tracker, outs = run(cfg, frames)
+        _, outs = run(cfg, frames)
         far = min(confirmed(outs[-1]), key=lambda tr: np.linalg.norm(tr.position - far_c))
         return float(far.position[1] - far_c[1])
 
