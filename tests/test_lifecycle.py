@@ -47,6 +47,16 @@ def test_confirmed_track_coasts_then_is_deleted_after_max_unseen_time() -> None:
     assert life.age == pytest.approx(1.31)
 
 
+def test_an_occluded_track_coasts_longer_and_only_while_occluded() -> None:
+    life = make(confirm_hits=1, confirm_window=1, max_unseen_time=1.0, max_unseen_time_occluded=3.0).start(0.0)
+    assert life.miss(2.0, occluded=True) is TrackStatus.COASTING  # 2 s unseen, hidden behind another boat
+    assert life.miss(2.9, occluded=True) is TrackStatus.COASTING
+    assert life.miss(3.1, occluded=True) is TrackStatus.DELETED  # past the occluded limit too
+    seen_again = make(confirm_hits=1, confirm_window=1, max_unseen_time=1.0, max_unseen_time_occluded=3.0).start(0.0)
+    assert seen_again.miss(2.0, occluded=True) is TrackStatus.COASTING
+    assert seen_again.miss(2.1) is TrackStatus.DELETED  # out of the shadow and still not seen: the open limit
+
+
 def test_m_of_one_confirms_at_birth() -> None:
     life = make(confirm_hits=1, confirm_window=1).start(5.0)
     assert life.status is TrackStatus.CONFIRMED

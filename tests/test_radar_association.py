@@ -267,3 +267,24 @@ def test_a_half_hidden_hull_is_measured_from_its_lit_edge() -> None:
     cfg = replace(BASE, visible_side_enabled=True)
     assert abs(east_error(cfg)) < 0.4
     assert east_error(replace(cfg, occlusion_lit_edge=False)) > 0.6  # pulled toward the lit side
+
+
+def test_a_boat_hidden_behind_another_keeps_its_track_and_id() -> None:
+    # A boat at 40 m; a nearer one (20 m, its bearing span covering the far one's) hides it completely for 2.5 s
+    # (no returns at all), longer than max_unseen_time_s (1 s). In the nearer boat's shadow the far track coasts on
+    # and keeps its id when the boat reappears; without the occlusion rule it is deleted and a new id starts.
+    rng = np.random.default_rng(13)
+    frames = []
+    for k in range(70):
+        far = np.array([40.0, -2.0])
+        pts = [box_points(far, (2.0, 3.0), 10, rng)] if not 20 <= k < 45 else []
+        pts.append(box_points(np.array([20.0, -1.0]), (2.0, 3.0), 14, rng))  # the nearer boat, moored
+        frames.append((np.concatenate(pts), np.zeros(2)))
+    cfg = replace(BASE, max_unseen_time_s=1.0, max_unseen_time_occluded_s=4.0)
+
+    def far_ids(c: RadarTrackerConfig) -> set[int]:
+        _, outs = run(c, frames)
+        return {tr.id for o in outs[10:] for tr in confirmed(o) if tr.position[0] > 30.0}
+
+    assert len(far_ids(cfg)) == 1
+    assert len(far_ids(replace(cfg, max_unseen_time_occluded_s=0.0))) == 2

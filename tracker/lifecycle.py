@@ -6,7 +6,9 @@ A tracker owns the filters; this module owns only the bookkeeping every tracker 
   ``confirm_window`` (N) cycles, and is deleted as soon as it can no longer reach M within N, so clutter dies fast;
 * a confirmed track missed in a cycle is COASTING (it is still published: a boat hidden behind another for a
   second is still there); a hit makes it CONFIRMED again;
-* any track unseen for longer than its limit is DELETED; deleted tracks never come back;
+* any track unseen for longer than its limit is DELETED; deleted tracks never come back. A confirmed track the
+  tracker reports as occluded (in the shadow of something nearer the sensor) has a longer limit: it is expected
+  not to be seen, and a boat behind a boat is still there;
 * ids come from an :class:`IdSource` that only counts up, so an id is never reused (a consumer that remembers
   "track 7" must not later see a different boat under that number). Trackers may share one source.
 
@@ -34,14 +36,15 @@ class LifecycleConfig:
     confirm_window: int = 5  # N: ... within this many cycles from birth
     max_unseen_time: float = 3.0  # s a confirmed track coasts unseen before deletion
     max_unseen_time_tentative: float = 0.5  # s a tentative track survives unseen
+    max_unseen_time_occluded: float = 0.0  # s a confirmed track coasts while occluded (below max_unseen_time: that)
 
     def __post_init__(self) -> None:
         if not 1 <= self.confirm_hits <= self.confirm_window:
             raise ValueError(
                 f"lifecycle: need 1 <= confirm_hits <= confirm_window, got {self.confirm_hits} of {self.confirm_window}"
             )
-        if self.max_unseen_time < 0 or self.max_unseen_time_tentative < 0:
-            raise ValueError("lifecycle: max_unseen_time and max_unseen_time_tentative must be >= 0")
+        if min(self.max_unseen_time, self.max_unseen_time_tentative, self.max_unseen_time_occluded) < 0:
+            raise ValueError("lifecycle: the max_unseen_time limits must be >= 0")
 
 
 class IdSource:
@@ -96,7 +99,8 @@ class TrackLife:
             self.status = TrackStatus.CONFIRMED
         return self.status
 
-    def miss(self, t: float) -> TrackStatus:
+    def miss(self, t: float, occluded: bool = False) -> TrackStatus:
+        """A cycle without a detection; ``occluded``: the tracker knows the track is hidden this cycle."""
         if not self.alive:
             return self.status
         self._advance(t, False)
@@ -107,7 +111,10 @@ class TrackLife:
                 self.status = TrackStatus.DELETED
         else:
             self.status = TrackStatus.COASTING
-            if self.time_since_update > self.config.max_unseen_time:
+            limit = self.config.max_unseen_time
+            if occluded:
+                limit = max(limit, self.config.max_unseen_time_occluded)
+            if self.time_since_update > limit:
                 self.status = TrackStatus.DELETED
         return self.status
 

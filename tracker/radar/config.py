@@ -197,6 +197,13 @@ class RadarTrackerConfig:
     confirm_window: int = 5
     max_unseen_time_s: float = 2.0
     max_unseen_time_tentative_s: float = 0.5
+    # Not in the paper: a confirmed track coasts this long while at least occluded_min_share of its bearing span lies
+    # in a nearer cluster's shadow (a boat behind a boat is still there; in the simulated paper scenes the Xi spends
+    # up to 3 s at a time wholly behind the Smurf), its velocity relaxing toward zero with occluded_velocity_decay_s
+    # (hidden, its course is not known to be kept). 0: as in the open.
+    max_unseen_time_occluded_s: float = 4.0
+    occluded_min_share: float = 0.5
+    occluded_velocity_decay_s: float = 2.0
     # Not in the paper (the LiDAR paper's visibility factor, for the radar): a track whose bearing span is partly
     # shadowed by a nearer cluster (occlusion_margin_m nearer) has this much variance, m^2, times the shadowed
     # share squared added to its position measurement (RadarTracker._visibility). 0 disables.
@@ -273,6 +280,8 @@ class RadarTrackerConfig:
             "update_single_return_range_m",
             "occlusion_position_var_m2",
             "occlusion_margin_m",
+            "max_unseen_time_occluded_s",
+            "occluded_velocity_decay_s",
             "motion_veto_speed_mps",
             "recovery_gate_m",
             "static_evidence_pool_m",
@@ -339,6 +348,7 @@ class RadarTrackerConfig:
             "shore_on_fraction",
             "motion_iou_threshold",
             "multipath_cluster_ghost_share",
+            "occluded_min_share",
             "duplicate_iou",
         ):
             if not 0.0 < getattr(self, name) <= 1.0:
@@ -368,6 +378,7 @@ class RadarTrackerConfig:
             confirm_window=self.confirm_window,
             max_unseen_time=self.max_unseen_time_s,
             max_unseen_time_tentative=self.max_unseen_time_tentative_s,
+            max_unseen_time_occluded=self.max_unseen_time_occluded_s,
         )
 
     def profile_settings(self) -> ProfileFitSettings:

@@ -188,6 +188,7 @@ class RadarTracker:
         yaw_rate = float(yaw_rate) if math.isfinite(float(yaw_rate)) else 0.0
         out = self.detector.detect(points_body, doppler, snr, t, pos, float(yaw), velocity, yaw_rate, update_map=False)
         self.last = out
+        frame_dt = t - self.t_last if math.isfinite(self.t_last) else 0.0
         self.t_last = t
         cfg = self.cfg
         for tr in self.tracks:
@@ -231,7 +232,17 @@ class RadarTracker:
                 tr.motion.observe(t, cl.points, self._doppler_moving(cl))
             used.append((ti, cl))
         for ti in lost:
-            self.tracks[ti].life.miss(t)
+            tr = self.tracks[ti]
+            hidden = False
+            if tr.life.confirmed and cfg.max_unseen_time_occluded_s > cfg.max_unseen_time_s:
+                shadow = self._shadow(tr, None, casters, out.sensor_ne)
+                hidden = shadow is not None and float(shadow.mean()) >= cfg.occluded_min_share
+            if hidden and cfg.occluded_velocity_decay_s > 0:
+                decay = math.exp(-frame_dt / cfg.occluded_velocity_decay_s)
+                tr.kf.x[kalman.VEL, 0] *= decay
+                if tr.kf.dim_x > kalman.TURN:
+                    tr.kf.x[kalman.TURN, 0] *= decay
+            tr.life.miss(t, occluded=hidden)
         for cl, sparse in births:
             det = cl.to_detection(t, out.sensor_ne, cfg.min_box_size_m)
             size = np.array([det.length, det.width])
@@ -341,7 +352,7 @@ class RadarTracker:
 
     def _shadow_casters(self, out: DetectorOutput) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Every clustered return of the frame as a possible shadow caster: (rows, bearing rad, range m, cluster)."""
-        if self.cfg.occlusion_position_var_m2 <= 0 or not out.clusters:
+        if not out.clusters:
             e = np.empty(0)
             return e.astype(np.int64), e, e, e.astype(np.int64)
         rows = np.concatenate([cl.index for cl in out.clusters])
@@ -352,7 +363,7 @@ class RadarTracker:
     def _shadow(
         self,
         tr: RadarTrackState,
-        cl: RadarCluster,
+        cl: RadarCluster | None,
         casters: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
         sensor_ne: np.ndarray,
     ) -> np.ndarray | None:
@@ -369,9 +380,11 @@ class RadarTracker:
         b_track = math.atan2(centre[1], centre[0])
         half = float(np.abs(_wrap(np.arctan2(corners[:, 1], corners[:, 0]) - b_track)).max())
         d = _wrap(bearing - b_track)
-        own = np.zeros(int(rows.max()) + 1, bool)
-        own[cl.index[cl.index <= rows.max()]] = True
-        front &= (np.abs(d) <= half + 0.1) & ~own[rows]
+        front &= np.abs(d) <= half + 0.1
+        if cl is not None:
+            own = np.zeros(int(rows.max()) + 1, bool)
+            own[cl.index[cl.index <= rows.max()]] = True
+            front &= ~own[rows]
         if not front.any() or half <= 0:
             return None
         # Each caster cluster shadows the span between its extreme bearings; their union over 16 bins of the span.
