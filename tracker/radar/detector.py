@@ -75,6 +75,14 @@ class RadarCluster:
         """(4,) world-axis-aligned box: north_min, east_min, north_max, east_max."""
         return np.concatenate([self.points.min(axis=0), self.points.max(axis=0)])
 
+    def measured_box(self, sensor_ne: np.ndarray, min_size: float) -> tuple[np.ndarray, np.ndarray, float]:
+        """(centre (2,), size (2,) north and east extents with ``min_size`` as floor, range of the centre m): what the
+        track filter measures, without building a Detection."""
+        lo, hi = self.points.min(axis=0), self.points.max(axis=0)
+        centre = (lo + hi) / 2
+        rel = centre - sensor_ne
+        return centre, np.maximum(hi - lo, min_size), math.hypot(float(rel[0]), float(rel[1]))
+
     def to_detection(self, t: float, sensor_ne: np.ndarray, min_size: float) -> Detection:
         lo, hi = self.points.min(axis=0), self.points.max(axis=0)
         centre = (lo + hi) / 2

@@ -208,9 +208,10 @@ class RadarTracker:
         casters = self._shadow_casters(out)
         for ti, cl in groups.items():
             tr = self.tracks[ti]
-            det = cl.to_detection(t, out.sensor_ne, cfg.min_box_size_m)
-            size = self._outline_size(tr, cl, np.array([det.length, det.width]))
-            centre = self._centre(tr, cl, det.center, out.sensor_ne)
+            box_centre, box_size, distance = cl.measured_box(out.sensor_ne, cfg.min_box_size_m)
+            outline = self._outline(tr, cl)
+            size = self._outline_size(outline if tr.shape else None, box_size)
+            centre = self._centre(outline, cl, box_centre, out.sensor_ne)
             shadow = self._shadow(tr, cl, casters, out.sensor_ne)
             hidden = 0.0 if shadow is None else float(shadow.mean())
             if cfg.occlusion_lit_edge:
@@ -219,7 +220,7 @@ class RadarTracker:
                 tr.kf,
                 centre,
                 size,
-                det.range_m,
+                distance,
                 cl.velocity,
                 cfg,
                 self._turn_gain(tr, cl),
@@ -323,17 +324,23 @@ class RadarTracker:
             taken.add(int(cand[c]))
         return [int(d) for d in cand if int(d) not in taken]
 
+    def _outline(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray | None:
+        """(k, 2) the track's returns of the last ``shape_window_s`` and this cluster's, relative to the track's
+        centre (world axes); None without the visible-side centre (which keeps them)."""
+        if not self.cfg.visible_side_enabled:
+            return None
+        return np.concatenate([g for _, g in tr.shape] + [cl.points - tr.kf.x[kalman.POS, 0]])
+
     def _centre(
-        self, tr: RadarTrackState, cl: RadarCluster, box_centre: np.ndarray, sensor_ne: np.ndarray
+        self, outline: np.ndarray | None, cl: RadarCluster, box_centre: np.ndarray, sensor_ne: np.ndarray
     ) -> np.ndarray:
         """Position measurement: the box centre (paper), or the hull centre behind the visible sides."""
         cfg = self.cfg
-        if not cfg.visible_side_enabled:
+        if outline is None:
             return box_centre
-        shape = np.concatenate([g for _, g in tr.shape] + [cl.points - tr.kf.x[kalman.POS, 0]])
-        return visible_side_centre(cl.points, sensor_ne, shape, cfg.visible_depth_gain, cfg.visible_width_gain)
+        return visible_side_centre(cl.points, sensor_ne, outline, cfg.visible_depth_gain, cfg.visible_width_gain)
 
-    def _outline_size(self, tr: RadarTrackState, cl: RadarCluster, size: np.ndarray) -> np.ndarray:
+    def _outline_size(self, outline: np.ndarray | None, size: np.ndarray) -> np.ndarray:
         """(2,) size measurement: the frame's box, or the extent of the track's returns over ``shape_window_s`` when
         larger (not in the paper). A far hull gives 1-3 returns a frame, whose box is a fraction of the hull (the box of
         two returns is their distance): measured so, the track's size shrinks to the 0.5 m floor, its box no longer
@@ -342,13 +349,10 @@ class RadarTracker:
         quantile spread (``outline_size_quantile``, robust to a stray return) is 1 - 2q of the extent they cover when
         spread evenly along the hull's sides, hence the division."""
         q = self.cfg.outline_size_quantile
-        if q <= 0 or not self.cfg.visible_side_enabled or not tr.shape:
-            return size
-        shape = np.concatenate([g for _, g in tr.shape] + [cl.points - tr.kf.x[kalman.POS, 0]])
-        if shape.shape[0] < 3:
+        if q <= 0 or outline is None or outline.shape[0] < 3:
             return size
         cover = 1.0 - 2.0 * q
-        return np.maximum(size, [spread(shape[:, 0], q) / cover, spread(shape[:, 1], q) / cover])
+        return np.maximum(size, [spread(outline[:, 0], q) / cover, spread(outline[:, 1], q) / cover])
 
     def _shadow_casters(self, out: DetectorOutput) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Every clustered return of the frame as a possible shadow caster: (rows, bearing rad, range m, cluster)."""
