@@ -179,24 +179,29 @@ def test_a_hull_piece_whose_doppler_a_plausible_turn_rate_explains_joins_its_tra
     assert not tracker._doppler_agrees(0, piece)
 
 
-def test_a_track_half_in_a_nearer_boats_shadow_has_half_visibility() -> None:
-    rng = np.random.default_rng(7)
-    far_c, near_c = np.array([40.0, 0.0]), np.array([20.0, 0.75])
+def test_a_track_half_in_a_nearer_boats_shadow_is_half_shadowed() -> None:
+    far_c, near_c = np.array([40.0, 0.0]), np.array([20.0, 0.9])
 
-    def frame(with_near: bool) -> tuple[np.ndarray, np.ndarray]:
-        far = box_points(far_c, (2.0, 2.0), 10, rng)
-        if not with_near:
-            return far, np.zeros(2)
-        return np.concatenate([far, box_points(near_c, (1.0, 2.0), 12, rng)]), np.zeros(2)
+    def frames(with_near: bool) -> list[tuple[np.ndarray, np.ndarray]]:
+        rng = np.random.default_rng(7)
+        out = []
+        for _ in range(6):
+            pts = [box_points(far_c, (2.0, 2.0), 10, rng)]
+            if with_near:
+                pts.append(box_points(near_c, (1.0, 2.0), 12, rng))
+            out.append((np.concatenate(pts), np.zeros(2)))
+        return out
 
-    for with_near, want in ((False, 1.0), (True, 0.5)):
-        tracker, _ = run(BASE, [frame(with_near) for _ in range(6)])
+    for with_near, want in ((False, 0.0), (True, 0.5)):
+        tracker, _ = run(BASE, frames(with_near))
         far_track = min(tracker.tracks, key=lambda s: np.linalg.norm(s.kf.x[:2, 0] - far_c))
-        far_cluster = min(tracker.last_clusters, key=lambda c: np.linalg.norm(c.points.mean(axis=0) - far_c))
-        casters = tracker._shadow_casters(tracker.last)
-        # The far track's box spans about +-1.1 deg; the near boat's returns (20 m, 0-1.3 m east) shadow 0 to 3.7 deg.
-        vis = tracker._visibility(far_track, far_cluster, casters, tracker.last.sensor_ne)
-        assert vis == pytest.approx(want, abs=0.15)
+        # The far track's box (about 1.6 m across) spans +-1.1 deg; the near boat's returns, 20 m out and 0.4-1.4 m
+        # east, each taken 0.15 m wide, shadow from about 0.7 deg clockwise: about half of it.
+        assert far_track.shadowed == pytest.approx(want, abs=0.15)
+    # A piece of the track's own hull, nearer than its centre, is no shadow: a 6 m long boat seen end-on.
+    rng = np.random.default_rng(8)
+    tracker, _ = run(BASE, [(box_points(np.array([30.0, 0.0]), (6.0, 2.0), 16, rng), np.zeros(2)) for _ in range(6)])
+    assert tracker.tracks[0].shadowed == 0.0
 
 
 def test_doppler_veto_sees_a_slow_boat_move_and_a_moored_one_not() -> None:

@@ -109,7 +109,8 @@ class RadarTrackerConfig:
 
     # --- Kalman filter (sec. 2.3-1, eq. 1-2) ---------------------------------------------------------------------
     # "ca": constant acceleration driven by white jerk (jerk_std); "cv": constant velocity driven by white
-    # acceleration (accel_std). Not in the paper, which names a Kalman filter without its motion model.
+    # acceleration (accel_std); "ct": "cv" plus a turn rate (see below). Not in the paper, which names a Kalman filter
+    # without its motion model.
     motion_model: str = "ca"
     jerk_std: float = 0.1  # m/s^3, white-noise jerk: boats change acceleration slowly; not in the paper
     accel_std: float = 2.0  # m/s^2, white-noise acceleration of the "cv" model (a 3 m/s boat turning on 2.5 m: 3.6)
@@ -127,10 +128,10 @@ class RadarTrackerConfig:
     max_turn_rate: float = 2.0  # rad/s, clamp: small boats do not turn faster
     # Beyond this range the turn rate is held at zero (the track predicts as "cv"): 1 deg of azimuth noise is 1 m
     # at 60 m, as much as a small boat's turning radius, and a turn rate fitted to such positions swings wildly.
-    turn_model_max_range_m: float = 60.0
+    turn_model_max_range_m: float = 60.0  # inf: everywhere; 0: nowhere (the "ct" track then predicts as "cv")
     # With "ct": the Doppler velocity's measurement row reads the turn rate too (the fit over a turning hull's
-    # returns gives v + M omega, RadarTracker._turn_gain), and the merge test expects each return's rotation Doppler
-    # (RadarTracker._rotation_doppler). Not in the paper.
+    # returns gives v + M omega, RadarTracker._turn_gain), and the merge test allows the rotation Doppler of any turn
+    # rate within merge_turn_rate_sigmas of the track's (RadarTracker._doppler_agrees). Not in the paper.
     turn_doppler_compensation: bool = True
     # Not in the paper: with "ct", a cluster's Doppler agrees with a track if some turn rate within this many of the
     # track's standard deviations explains it (RadarTracker._doppler_agrees). 0: the track's own rate only.
@@ -159,7 +160,8 @@ class RadarTrackerConfig:
     shape_window_s: float = 1.0  # the outline is the track's returns of this long, relative to its centre
     # Not in the paper: the size measurement is the larger of the frame's box and the outline's quantile spread (this
     # quantile to 1 - it, over 1 - 2 x it) (RadarTracker._outline_size). A far hull's 1-3 returns a frame span a
-    # fraction of it, and the track shrank to the 0.5 m floor. 0: the frame's box, as the paper.
+    # fraction of it, and the track shrank to the 0.5 m floor. 0: the frame's box, as the paper; the outline is kept
+    # with the visible-side centre only, so with visible_side_enabled False this is off too.
     outline_size_quantile: float = 0.05
 
     # --- Association (sec. 2.3-1) ---------------------------------------------------------------------------------
@@ -182,7 +184,7 @@ class RadarTrackerConfig:
     # Not in the paper: beyond this range from the radar a track takes a single loose return (with agreeing
     # Doppler). A 3 m boat at 75 m gives about one return a frame; sea clutter that far out is sparse, while near
     # the radar it is dense and a single return there is as likely clutter as boat. inf: never.
-    update_single_return_range_m: float = 40.0
+    update_single_return_range_m: float = 40.0  # the return must have a finite Doppler that agrees
     merge_doppler_tolerance_mps: float = 0.8  # = velocity_cluster_threshold_mps: what the Doppler split would tell
     # Not in the paper: tracks born from pieces of one hull before either was established are duplicates when their
     # boxes overlap this much or their centres are this close while moving alike; the younger is dropped.
@@ -200,13 +202,13 @@ class RadarTrackerConfig:
     # Not in the paper: a confirmed track coasts this long while at least occluded_min_share of its bearing span lies
     # in a nearer cluster's shadow (a boat behind a boat is still there; in the simulated paper scenes the Xi spends
     # up to 3 s at a time wholly behind the Smurf), its velocity relaxing toward zero with occluded_velocity_decay_s
-    # (hidden, its course is not known to be kept). 0: as in the open.
+    # (hidden, its course is not known to be kept; 0: no relaxing). max_unseen_time_occluded_s 0: as in the open.
     max_unseen_time_occluded_s: float = 4.0
     occluded_min_share: float = 0.5
     occluded_velocity_decay_s: float = 2.0
     # Not in the paper (the LiDAR paper's visibility factor, for the radar): a track whose bearing span is partly
     # shadowed by a nearer cluster (occlusion_margin_m nearer) has this much variance, m^2, times the shadowed
-    # share squared added to its position measurement (RadarTracker._visibility). 0 disables.
+    # share squared added to its position measurement (RadarTracker._shadow). 0 disables.
     occlusion_position_var_m2: float = 4.0
     occlusion_margin_m: float = 1.0
     # Not in the paper: with one end of its bearing span in such a shadow, a track's centre across the line of sight
@@ -224,9 +226,14 @@ class RadarTrackerConfig:
     # Not in the paper: a cluster whose Doppler speed is clearly above static_doppler_threshold_mps counts as "moved"
     # in eq. 8 whatever its hull overlap, so a slow boat is not published at zero speed.
     motion_doppler_veto: bool = True
-    # The veto needs the cluster's Doppler speed this far above zero plus 3 sigma. At 0 it is a plain 3-sigma test:
-    # a 0.5 m/s boat overlaps its hull of a second ago by ~0.7 and, without the veto, was published at speed zero.
+    # The veto needs the cluster's Doppler speed this far above zero plus 3 sigma, sigma counting the profile fit and
+    # the own boat's velocity error (ego_velocity_std_mps). At 0 it is a plain 3-sigma test: a 0.5 m/s boat overlaps
+    # its hull of a second ago by ~0.7 and, without the veto, was published at speed zero.
     motion_veto_speed_mps: float = 0.0
+    # Not in the paper: error (1 sigma, per axis) of the own boat's velocity over ground from the autopilot, m/s
+    # (0.05: a GNSS-aided autopilot EKF; raise it for a poorer receiver). It is common to every return, so a cluster's
+    # fit does not see it; the Doppler veto adds it (the Doppler ego fit, without an autopilot, brings its own).
+    ego_velocity_std_mps: float = 0.05
     # The paper compares consecutive frames (set 0 for that). At 10 Hz a 2 m/s boat moves 0.2 m per frame, less than
     # the frame-to-frame jitter of a sparse radar hull, so by default a hull is compared with the one >= 1 s older.
     motion_hull_baseline_s: float = 1.0
@@ -283,6 +290,7 @@ class RadarTrackerConfig:
             "max_unseen_time_occluded_s",
             "occluded_velocity_decay_s",
             "motion_veto_speed_mps",
+            "ego_velocity_std_mps",
             "recovery_gate_m",
             "static_evidence_pool_m",
             "static_recent_s",

@@ -56,7 +56,7 @@ class RadarCluster:
     range_m: np.ndarray  # (n,) horizontal range from the radar
     index: np.ndarray  # (n,) int, rows of DetectorOutput.points
     profile: ProfileFitSettings  # the velocity-profile fit, made on first use of ``velocity``
-    rng: np.random.Generator
+    rng: np.random.Generator | None  # None: a generator of its own, made if the fit is ever asked for
     shore: int = SHORE_KEEP  # SHORE_KEEP, SHORE_ON or SHORE_BEHIND
     _velocity: VelocityEstimate | None = None
 
@@ -64,7 +64,8 @@ class RadarCluster:
     def velocity(self) -> VelocityEstimate:
         """Eq. 3-6, fitted when first asked for: shore clusters (~40 % near a quay) never need one."""
         if self._velocity is None:
-            self._velocity = fit_velocity_profile(self.los, self.doppler_world, self.profile, self.rng)
+            rng = self.rng if self.rng is not None else np.random.default_rng(0)
+            self._velocity = fit_velocity_profile(self.los, self.doppler_world, self.profile, rng)
         return self._velocity
 
     @property
@@ -316,6 +317,14 @@ class RadarDetector:
                 cl.shore = int(v)
             self._count(counts, "shore_clusters", int((verdict != SHORE_KEEP).sum()))
         kept = [cl for cl in clusters if cl.shore == SHORE_KEEP]
+        # The kept clusters' velocity fits draw from the tracker's RNG here, in cluster order, whatever reads them
+        # later; a shore cluster's fit, made only if someone asks, draws from a generator of its own. So reading
+        # velocities outside the tracker cannot change the random draws, and a replay gives the same tracks.
+        for cl in kept:
+            _ = cl.velocity
+        for cl in clusters:
+            if cl.shore != SHORE_KEEP:
+                cl.rng = None
         # Returns in no kept cluster, no ghost and not on the shore: too few to start a track, but a track that finds
         # no cluster this frame may take them (RadarTracker, update_min_points).
         loose = np.ones(len(xyz), bool)

@@ -218,7 +218,7 @@ def doppler_consistent(
 
 def mahalanobis2(y: np.ndarray, s: np.ndarray) -> float:
     """y^T S^-1 y for a 2-vector and a 2 x 2 covariance, in closed form (np.linalg.solve's call overhead is most of
-    its cost at this size); inf when S is singular or not positive definite."""
+    its cost at this size); inf when det S <= 0 (S singular or indefinite; a covariance here never is)."""
     a, b, c, d = float(s[0, 0]), float(s[0, 1]), float(s[1, 0]), float(s[1, 1])
     det = a * d - b * c
     if not det > 0.0:
@@ -249,7 +249,7 @@ def fused_update(
 ) -> None:
     """Eq. 7: position and size, plus the distance-weighted Doppler velocity when the cluster determines one and it
     agrees with the track (see doppler_consistent). ``position_var_extra`` (m^2) is added to the centre's variance
-    (a partly hidden hull, RadarTracker._visibility)."""
+    (a partly hidden hull, RadarTracker._shadow)."""
     sp = position_std(cfg, distance) ** 2 + position_var_extra
     maneuver = False
     if cfg.maneuver_nis > 0:

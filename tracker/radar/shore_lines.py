@@ -121,6 +121,8 @@ class ShoreLines:
         link wide: returns of a wall seen for seconds pile up in the same places, so a few hundred cells stand for
         the window's ~600 returns and their ~7000 linked pairs. Cells link when their centroids are within
         ``link_m`` (the effective link shifts by up to a cell diagonal, 0.35 x link)."""
+        if self.link_m <= 0:  # nothing links: every return is its own component
+            return np.arange(pts.shape[0])
         side = self.link_m / 4.0
         cell = np.floor(pts / side).astype(np.int64)
         key = (cell[:, 0] - cell[:, 0].min()) * (int(cell[:, 1].max() - cell[:, 1].min()) + 1) + (

@@ -281,6 +281,7 @@ class StaticMap:
         far = rng > self.cfg.shore_margin_m
         np.minimum.at(horizon, self._bearing_bin(rel[far]), rng[far])
         horizon = ndimage.minimum_filter1d(horizon, size=3, mode="wrap")
+        horizon.flags.writeable = False  # cached and shared between calls
         self._horizon = (key, horizon)
         return horizon
 

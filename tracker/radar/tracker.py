@@ -22,7 +22,7 @@ from tracker.lifecycle import IdSource, Lifecycle, TrackLife, TrackStatus
 from tracker.radar import kalman
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.dbscan import component_labels, dbscan
-from tracker.radar.detector import DetectorOutput, RadarCluster, RadarDetector
+from tracker.radar.detector import SHORE_KEEP, DetectorOutput, RadarCluster, RadarDetector
 from tracker.radar.motion import MotionDiscriminator
 from tracker.radar.static_map import StaticMap
 from tracker.radar.velocity_profile import VelocityStatus
@@ -66,6 +66,16 @@ def association_cost(track_boxes: np.ndarray, det_boxes: np.ndarray, cfg: RadarT
 
 
 @dataclass
+class ShadowCasters:
+    """Returns that may hide a track this frame, world N/E, seen from the radar."""
+
+    points: np.ndarray  # (n, 2)
+    bearing: np.ndarray  # (n,) rad
+    range_m: np.ndarray  # (n,)
+    owner: np.ndarray  # (n,) which caster (cluster) each belongs to
+
+
+@dataclass
 class RadarTrackState:
     life: TrackLife
     kf: KalmanFilter
@@ -74,6 +84,7 @@ class RadarTrackState:
     points: np.ndarray  # last associated point group, world N/E
     shape: deque[tuple[float, np.ndarray]] = field(default_factory=deque)  # (t, returns - centre) of recent frames
     sparse: bool = False  # born from returns pooled over several frames (a far boat)
+    shadowed: float = 0.0  # share of its bearing span in a nearer object's shadow at its last update or miss
 
     def to_track(self, cfg: RadarTrackerConfig) -> Track:
         x = self.kf.x[:, 0]
@@ -116,6 +127,7 @@ class RadarTracker:
         self.last: DetectorOutput | None = None
         self._pool: deque[tuple[DetectorOutput, np.ndarray]] = deque()  # recent frames and their unused loose returns
         self.skipped_frames = 0
+        self._ego_velocity_var = 0.0  # (m/s)^2 of the own velocity used this frame, per axis
 
     # --- access to the last cycle ------------------------------------------------------------------------------------
 
@@ -188,6 +200,11 @@ class RadarTracker:
         yaw_rate = float(yaw_rate) if math.isfinite(float(yaw_rate)) else 0.0
         out = self.detector.detect(points_body, doppler, snr, t, pos, float(yaw), velocity, yaw_rate, update_map=False)
         self.last = out
+        if out.ego_source == "doppler" and out.ego_estimate is not None:
+            e_cov = np.asarray(out.ego_estimate.covariance, float)
+            self._ego_velocity_var = float(np.trace(e_cov)) / 2 if np.all(np.isfinite(e_cov)) else 0.0
+        else:
+            self._ego_velocity_var = self.cfg.ego_velocity_std_mps**2 if out.ego_source == "autopilot" else 0.0
         frame_dt = t - self.t_last if math.isfinite(self.t_last) else 0.0
         self.t_last = t
         cfg = self.cfg
@@ -205,15 +222,15 @@ class RadarTracker:
         births = [(cl, False) for cl in self._merge_births([clusters[di] for di in spawn])]
         births += [(cl, True) for cl in self._pooled_births(out, groups)]
         used: list[tuple[int, RadarCluster]] = []
-        casters = self._shadow_casters(out)
+        casters = self._shadow_casters(out, groups)
         for ti, cl in groups.items():
             tr = self.tracks[ti]
             box_centre, box_size, distance = cl.measured_box(out.sensor_ne, cfg.min_box_size_m)
             outline = self._outline(tr, cl)
             size = self._outline_size(outline if tr.shape else None, box_size)
             centre = self._centre(outline, cl, box_centre, out.sensor_ne)
-            shadow = self._shadow(tr, cl, casters, out.sensor_ne)
-            hidden = 0.0 if shadow is None else float(shadow.mean())
+            shadow = self._shadow(tr, casters, out.sensor_ne)
+            hidden = tr.shadowed = 0.0 if shadow is None else float(shadow.mean())
             if cfg.occlusion_lit_edge:
                 centre = self._lit_edge_centre(tr, cl, centre, shadow, out.sensor_ne)
             kalman.fused_update(
@@ -236,8 +253,9 @@ class RadarTracker:
             tr = self.tracks[ti]
             hidden = False
             if tr.life.confirmed and cfg.max_unseen_time_occluded_s > cfg.max_unseen_time_s:
-                shadow = self._shadow(tr, None, casters, out.sensor_ne)
-                hidden = shadow is not None and float(shadow.mean()) >= cfg.occluded_min_share
+                shadow = self._shadow(tr, casters, out.sensor_ne)
+                tr.shadowed = 0.0 if shadow is None else float(shadow.mean())
+                hidden = tr.shadowed >= cfg.occluded_min_share
             if hidden and cfg.occluded_velocity_decay_s > 0:
                 decay = math.exp(-frame_dt / cfg.occluded_velocity_decay_s)
                 tr.kf.x[kalman.VEL, 0] *= decay
@@ -354,66 +372,57 @@ class RadarTracker:
         cover = 1.0 - 2.0 * q
         return np.maximum(size, [spread(outline[:, 0], q) / cover, spread(outline[:, 1], q) / cover])
 
-    def _shadow_casters(self, out: DetectorOutput) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Every clustered return of the frame as a possible shadow caster: (rows, bearing rad, range m, cluster)."""
-        if not out.clusters:
+    def _shadow_casters(self, out: DetectorOutput, groups: dict[int, RadarCluster]) -> ShadowCasters:
+        """What may hide a track this frame: the returns of clusters held by confirmed tracks and of shore clusters.
+        Persistent objects only: a 3-return clutter cluster near the radar covers more bearing than a boat at 50 m and
+        would hide it for a frame, giving it seconds of coasting and a shifted centre."""
+        parts = [cl.points for ti, cl in groups.items() if self.tracks[ti].life.confirmed]
+        parts += [cl.points for cl in out.clusters if cl.shore != SHORE_KEEP]
+        if not parts:
             e = np.empty(0)
-            return e.astype(np.int64), e, e, e.astype(np.int64)
-        rows = np.concatenate([cl.index for cl in out.clusters])
-        owner = np.repeat(np.arange(len(out.clusters)), [cl.n_points for cl in out.clusters])
-        rel = out.points[rows] - out.sensor_ne
-        return rows, np.arctan2(rel[:, 1], rel[:, 0]), out.range_m[rows], owner
+            return ShadowCasters(np.empty((0, 2)), e, e, e.astype(np.int64))
+        pts = np.concatenate(parts)
+        rel = pts - out.sensor_ne
+        return ShadowCasters(
+            points=pts,
+            bearing=np.arctan2(rel[:, 1], rel[:, 0]),
+            range_m=np.hypot(rel[:, 0], rel[:, 1]),
+            owner=np.repeat(np.arange(len(parts)), [len(p) for p in parts]),
+        )
 
-    def _shadow(
-        self,
-        tr: RadarTrackState,
-        cl: RadarCluster | None,
-        casters: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-        sensor_ne: np.ndarray,
-    ) -> np.ndarray | None:
+    def _shadow(self, tr: RadarTrackState, casters: ShadowCasters, sensor_ne: np.ndarray) -> np.ndarray | None:
         """(16,) bool over the track's bearing span seen from the radar (from its counter-clockwise to its clockwise
-        edge, i.e. toward increasing bearing): which parts a nearer cluster shadows. None when nothing does."""
-        rows, bearing, rng, owner = casters
+        edge, i.e. toward increasing bearing): which parts a nearer caster shadows. None when nothing does.
+
+        A caster must lie ``occlusion_margin_m`` nearer than the track's centre and outside the track's own box grown
+        by ``merge_gap_m`` (a piece of the track's own hull does not hide it). Each caster shadows the bearing span of
+        its returns, each return taken ``hull_point_pad_m`` wide."""
         centre = tr.kf.x[kalman.POS, 0] - sensor_ne
         r_track = math.hypot(centre[0], centre[1])
-        front = rng < r_track - self.cfg.occlusion_margin_m
+        front = casters.range_m < r_track - self.cfg.occlusion_margin_m
         if not front.any():  # nothing nearer: the usual case, decided before any trigonometry
             return None
         b = kalman.box_of(tr.kf)
-        corners = np.array([[b[0], b[1]], [b[0], b[3]], [b[2], b[1]], [b[2], b[3]]]) - sensor_ne
+        g = self.cfg.merge_gap_m
+        own = np.all((casters.points >= b[:2] - g) & (casters.points <= b[2:] + g), axis=1)
         b_track = math.atan2(centre[1], centre[0])
-        half = float(np.abs(_wrap(np.arctan2(corners[:, 1], corners[:, 0]) - b_track)).max())
-        d = _wrap(bearing - b_track)
-        front &= np.abs(d) <= half + 0.1
-        if cl is not None:
-            own = np.zeros(int(rows.max()) + 1, bool)
-            own[cl.index[cl.index <= rows.max()]] = True
-            front &= ~own[rows]
-        if not front.any() or half <= 0:
+        d = _wrap(casters.bearing - b_track)
+        front &= ~own & (np.abs(d) < math.pi / 2)
+        if not front.any():
             return None
-        # Each caster cluster shadows the span between its extreme bearings; their union over 16 bins of the span.
-        k = owner[front]
+        corners = np.array([[b[0], b[1]], [b[0], b[3]], [b[2], b[1]], [b[2], b[3]]]) - sensor_ne
+        half = float(np.abs(_wrap(np.arctan2(corners[:, 1], corners[:, 0]) - b_track)).max())
+        if half <= 0:
+            return None
+        k = casters.owner[front]
+        pad = self.cfg.hull_point_pad_m / np.maximum(casters.range_m[front], 1e-3)
         lo = np.full(k.max() + 1, np.inf)
         hi = np.full(k.max() + 1, -np.inf)
-        np.minimum.at(lo, k, d[front])
-        np.maximum.at(hi, k, d[front])
+        np.minimum.at(lo, k, d[front] - pad)
+        np.maximum.at(hi, k, d[front] + pad)
         bins = np.linspace(-half, half, 16)
         shadow = ((bins[:, None] >= lo[None, :]) & (bins[:, None] <= hi[None, :])).any(axis=1)
         return shadow if shadow.any() else None
-
-    def _visibility(
-        self,
-        tr: RadarTrackState,
-        cl: RadarCluster,
-        casters: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-        sensor_ne: np.ndarray,
-    ) -> float:
-        """Share (0..1) of the track's bearing span, seen from the radar, that no nearer cluster shadows (not in the
-        paper; the LiDAR paper's visibility factor, eq. 10-11, for the radar). A boat half behind another shows only
-        its visible half, whose box centre is off by up to half a hull across the line of sight: the position
-        measurement's variance grows by ``occlusion_position_var_m2`` x (1 - visibility)^2."""
-        shadow = self._shadow(tr, cl, casters, sensor_ne)
-        return 1.0 if shadow is None else 1.0 - float(shadow.mean())
 
     def _lit_edge_centre(
         self,
@@ -444,15 +453,6 @@ class RadarTracker:
             return centre  # the returns already span the hull
         lit = across.max() - width / 2 if hidden_ccw > 0 else across.min() + width / 2
         return centre + n * (lit - float((centre - sensor_ne) @ n))
-
-    def _rotation_doppler(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray:
-        """(n,) Doppler each return owes to the hull's rotation about the track's centre at the track's turn rate:
-        u_i . (omega x (p_i - c)). Zero without a turn-rate state."""
-        w, _ = kalman.turn_rate(tr.kf)
-        if w == 0.0:
-            return np.zeros(cl.n_points)
-        r = cl.points - tr.kf.x[kalman.POS, 0]
-        return w * (cl.los[:, 1] * r[:, 0] - cl.los[:, 0] * r[:, 1])
 
     def _turn_gain(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray | None:
         """(2,) how the cluster's fitted Doppler velocity moves per rad/s of the hull's turn rate, or None.
@@ -583,7 +583,10 @@ class RadarTracker:
         )
         for k in np.unique(owner[near]):  # one iteration per track that found returns
             mine = idx[near & (owner == k)]
-            if mine.size < (1 if far[k] else cfg.update_min_points):
+            enough = mine.size >= cfg.update_min_points or (
+                far[k] and mine.size >= 1 and bool(np.isfinite(out.doppler_world[mine]).all())
+            )  # one return only with a Doppler to check it against the track (no Doppler: any stray return would do)
+            if not enough:
                 continue
             cl = self.detector.cluster_of(out, mine)
             if self._doppler_agrees(cand[int(k)], cl):
@@ -672,14 +675,15 @@ class RadarTracker:
 
     def _doppler_moving(self, cl: RadarCluster) -> bool:
         """The cluster's Doppler profile alone shows motion: speed along its best-known direction above
-        ``motion_veto_speed_mps`` by three standard deviations."""
+        ``motion_veto_speed_mps`` by three standard deviations of the fit and of the own velocity (common to every
+        return: an error of the autopilot's velocity, or of the Doppler ego fit, makes a moored boat look moving)."""
         v = cl.velocity
         if v.status is VelocityStatus.UNDETERMINED:
             return False
         e = v.radial_direction
         speed = abs(float(e @ v.velocity))
-        std = math.sqrt(max(float(e @ v.covariance @ e), 0.0))
-        return speed > self.cfg.motion_veto_speed_mps + 3.0 * std
+        var = max(float(e @ v.covariance @ e), 0.0) + self._ego_velocity_var
+        return speed > self.cfg.motion_veto_speed_mps + 3.0 * math.sqrt(var)
 
     def _moving(self, tr: RadarTrackState, cl: RadarCluster | None = None) -> bool:
         """Clearly moving: filter speed above ``map_exclude_min_speed_mps`` and twice its own standard deviation, and
