@@ -293,3 +293,29 @@ def test_a_boat_hidden_behind_another_keeps_its_track_and_id() -> None:
 
     assert len(far_ids(cfg)) == 1
     assert len(far_ids(replace(cfg, max_unseen_time_occluded_s=0.0))) == 2
+
+
+def test_a_moving_boat_hidden_behind_another_coasts_with_relaxing_speed_and_keeps_its_id() -> None:
+    # 1 m/s east at 40 m, hidden for 2.5 s behind a boat moored at 20 m whose bearing span covers its path.
+    rng = np.random.default_rng(14)
+    frames, hidden = [], range(25, 50)
+    for k in range(75):
+        far = np.array([40.0, -4.0 + 0.1 * k])
+        vel_far = np.array([0.0, 1.0])
+        near = box_points(np.array([20.0, -0.5]), (2.0, 4.0), 16, rng)
+        if k in hidden:
+            frames.append((near, np.zeros(2)))
+        else:
+            pts = np.concatenate([box_points(far, (2.0, 3.0), 10, rng), near])
+            frames.append((pts, np.concatenate([np.tile(vel_far, (10, 1)), np.zeros((16, 2))])))
+    cfg = replace(BASE, max_unseen_time_s=1.0, max_unseen_time_occluded_s=4.0, occluded_velocity_decay_s=2.0)
+    _, outs = run(cfg, frames)
+
+    def far_track(o: list) -> object:
+        return min(confirmed(o), key=lambda tr: abs(tr.position[0] - 40.0))
+
+    before, late = far_track(outs[hidden.start - 1]), far_track(outs[hidden.stop - 1])
+    assert before.id == late.id == far_track(outs[-1]).id  # coasted through the 2.5 s, found again
+    assert late.time_since_update == pytest.approx(2.5, abs=0.05)
+    # The speed relaxed by about exp(-2.5 s / 2 s) = 0.29 while hidden.
+    assert np.hypot(*late.velocity) == pytest.approx(0.29 * np.hypot(*before.velocity), rel=0.2)
