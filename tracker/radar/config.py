@@ -212,7 +212,7 @@ class RadarTrackerConfig:
     occlusion_position_var_m2: float = 4.0
     occlusion_margin_m: float = 1.0
     # Not in the paper: with one end of its bearing span in such a shadow, a track's centre across the line of sight
-    # is measured half its silhouette in from the lit edge of its returns (RadarTracker._lit_edge_centre).
+    # is measured half its silhouette in from the lit edge of its returns (tracker.radar.occlusion.lit_edge_centre).
     occlusion_lit_edge: bool = True
 
     # --- Motion discriminator (eq. 8, Table 1) --------------------------------------------------------------------

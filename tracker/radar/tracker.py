@@ -19,11 +19,12 @@ from filterpy.kalman import KalmanFilter
 from drivers.frames import EgoPose, RadarFrame
 from tracker.assignment import gated_assignment
 from tracker.lifecycle import IdSource, Lifecycle, TrackLife, TrackStatus
-from tracker.radar import kalman
+from tracker.radar import kalman, occlusion
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.dbscan import component_labels, dbscan
 from tracker.radar.detector import SHORE_KEEP, DetectorOutput, RadarCluster, RadarDetector
 from tracker.radar.motion import MotionDiscriminator
+from tracker.radar.occlusion import ShadowCasters
 from tracker.radar.static_map import StaticMap
 from tracker.radar.velocity_profile import VelocityStatus
 from tracker.radar.visible_side import spread, visible_side_centre
@@ -32,10 +33,6 @@ from tracker.types import Detection, MotionState, ShapeKind, Track
 log = logging.getLogger(__name__)
 
 _GATE = 2.0  # costs: 1 - IoU in [0, 1) for overlapping boxes, 1 + distance / gate in [1, 2] for the fallback
-
-
-def _wrap(angle: np.ndarray) -> np.ndarray:
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -63,16 +60,6 @@ def association_cost(track_boxes: np.ndarray, det_boxes: np.ndarray, cfg: RadarT
     dist = np.linalg.norm(ct[:, None, :] - cd[None, :, :], axis=2)
     gate = cfg.association_distance_gate_m
     return np.where(iou >= cfg.association_min_iou, 1.0 - iou, np.where(dist <= gate, 1.0 + dist / gate, np.inf))
-
-
-@dataclass
-class ShadowCasters:
-    """Returns that may hide a track this frame, world N/E, seen from the radar."""
-
-    points: np.ndarray  # (n, 2)
-    bearing: np.ndarray  # (n,) rad
-    range_m: np.ndarray  # (n,)
-    owner: np.ndarray  # (n,) which caster (cluster) each belongs to
 
 
 @dataclass
@@ -221,71 +208,88 @@ class RadarTracker:
         lost = [ti for ti in range(len(self.tracks)) if ti not in groups]
         births = [(cl, False) for cl in self._merge_births([clusters[di] for di in spawn])]
         births += [(cl, True) for cl in self._pooled_births(out, groups)]
-        used: list[tuple[int, RadarCluster]] = []
         casters = self._shadow_casters(out, groups)
-        for ti, cl in groups.items():
-            tr = self.tracks[ti]
-            box_centre, box_size, distance = cl.measured_box(out.sensor_ne, cfg.min_box_size_m)
-            outline = self._outline(tr, cl)
-            size = self._outline_size(outline if tr.shape else None, box_size)
-            centre = self._centre(outline, cl, box_centre, out.sensor_ne)
-            shadow = self._shadow(tr, casters, out.sensor_ne)
-            hidden = tr.shadowed = 0.0 if shadow is None else float(shadow.mean())
-            if cfg.occlusion_lit_edge:
-                centre = self._lit_edge_centre(tr, cl, centre, shadow, out.sensor_ne)
-            kalman.fused_update(
-                tr.kf,
-                centre,
-                size,
-                distance,
-                cl.velocity,
-                cfg,
-                self._turn_gain(tr, cl),
-                position_var_extra=cfg.occlusion_position_var_m2 * hidden * hidden,
-            )
-            self._remember_shape(tr, cl, t)
-            tr.life.hit(t)
-            tr.points = cl.points
-            if cfg.motion_discriminator_enabled:
-                tr.motion.observe(t, cl.points, self._doppler_moving(cl))
-            used.append((ti, cl))
+        used = [(ti, cl) for ti, cl in groups.items()]
+        for ti, cl in used:
+            self._update_track(self.tracks[ti], cl, t, out, casters)
         for ti in lost:
-            tr = self.tracks[ti]
-            hidden = False
-            if tr.life.confirmed and cfg.max_unseen_time_occluded_s > cfg.max_unseen_time_s:
-                shadow = self._shadow(tr, casters, out.sensor_ne)
-                tr.shadowed = 0.0 if shadow is None else float(shadow.mean())
-                hidden = tr.shadowed >= cfg.occluded_min_share
-            if hidden and cfg.occluded_velocity_decay_s > 0:
-                decay = math.exp(-frame_dt / cfg.occluded_velocity_decay_s)
-                tr.kf.x[kalman.VEL, 0] *= decay
-                if tr.kf.dim_x > kalman.TURN:
-                    tr.kf.x[kalman.TURN, 0] *= decay
-            tr.life.miss(t, occluded=hidden)
+            self._miss_track(self.tracks[ti], t, frame_dt, out, casters)
         for cl, sparse in births:
-            det = cl.to_detection(t, out.sensor_ne, cfg.min_box_size_m)
-            size = np.array([det.length, det.width])
-            centre = det.center
-            if cfg.visible_side_enabled:
-                centre = visible_side_centre(
-                    cl.points, out.sensor_ne, cl.points - det.center, cfg.visible_depth_gain, cfg.visible_width_gain
-                )
-            tr = RadarTrackState(
-                life=self.lifecycle.start(t),
-                kf=kalman.new_filter(centre, size, det.range_m, cl.velocity, cfg),
-                motion=MotionDiscriminator(cfg),
-                t=t,
-                points=cl.points,
-                sparse=sparse,
-            )
-            self._remember_shape(tr, cl, t)
-            if cfg.motion_discriminator_enabled:
-                tr.motion.observe(t, cl.points, self._doppler_moving(cl))
-            self.tracks.append(tr)
+            self.tracks.append(self._start_track(cl, sparse, t, out))
         self._update_static_map(out, used)
         self._prune_duplicates()
         self.tracks = [tr for tr in self.tracks if tr.life.alive]
         return self.current_tracks()
+
+    def _update_track(
+        self, tr: RadarTrackState, cl: RadarCluster, t: float, out: DetectorOutput, casters: ShadowCasters
+    ) -> None:
+        """Eq. 7 with the cluster the track was given: centre (visible sides, lit edge when partly hidden), size from
+        the outline, Doppler velocity with its turn-rate row; then the lifecycle and the motion discriminator."""
+        cfg = self.cfg
+        box_centre, box_size, distance = cl.measured_box(out.sensor_ne, cfg.min_box_size_m)
+        outline = self._outline(tr, cl)
+        size = self._outline_size(outline if tr.shape else None, box_size)
+        centre = self._centre(outline, cl, box_centre, out.sensor_ne)
+        shadow = self._shadow(tr, casters, out.sensor_ne)
+        hidden = tr.shadowed = 0.0 if shadow is None else float(shadow.mean())
+        if cfg.occlusion_lit_edge:
+            centre = occlusion.lit_edge_centre(
+                centre, cl.points, tr.kf.x[kalman.POS, 0], tr.kf.x[kalman.SIZE, 0], shadow, out.sensor_ne
+            )
+        kalman.fused_update(
+            tr.kf,
+            centre,
+            size,
+            distance,
+            cl.velocity,
+            cfg,
+            self._turn_gain(tr, cl),
+            position_var_extra=cfg.occlusion_position_var_m2 * hidden * hidden,
+        )
+        self._remember_shape(tr, cl, t)
+        tr.life.hit(t)
+        tr.points = cl.points
+        if cfg.motion_discriminator_enabled:
+            tr.motion.observe(t, cl.points, self._doppler_moving(cl))
+
+    def _miss_track(
+        self, tr: RadarTrackState, t: float, frame_dt: float, out: DetectorOutput, casters: ShadowCasters
+    ) -> None:
+        """No cluster this frame. A confirmed track at least ``occluded_min_share`` in a nearer object's shadow may
+        coast ``max_unseen_time_occluded_s``, its velocity and turn rate relaxing toward zero meanwhile."""
+        cfg = self.cfg
+        hidden = False
+        if tr.life.confirmed and cfg.max_unseen_time_occluded_s > cfg.max_unseen_time_s:
+            shadow = self._shadow(tr, casters, out.sensor_ne)
+            tr.shadowed = 0.0 if shadow is None else float(shadow.mean())
+            hidden = tr.shadowed >= cfg.occluded_min_share
+        if hidden and cfg.occluded_velocity_decay_s > 0:
+            decay = math.exp(-frame_dt / cfg.occluded_velocity_decay_s)
+            tr.kf.x[kalman.VEL, 0] *= decay
+            if tr.kf.dim_x > kalman.TURN:
+                tr.kf.x[kalman.TURN, 0] *= decay
+        tr.life.miss(t, occluded=hidden)
+
+    def _start_track(self, cl: RadarCluster, sparse: bool, t: float, out: DetectorOutput) -> RadarTrackState:
+        cfg = self.cfg
+        centre, size, distance = cl.measured_box(out.sensor_ne, cfg.min_box_size_m)
+        if cfg.visible_side_enabled:
+            centre = visible_side_centre(
+                cl.points, out.sensor_ne, cl.points - centre, cfg.visible_depth_gain, cfg.visible_width_gain
+            )
+        tr = RadarTrackState(
+            life=self.lifecycle.start(t),
+            kf=kalman.new_filter(centre, size, distance, cl.velocity, cfg),
+            motion=MotionDiscriminator(cfg),
+            t=t,
+            points=cl.points,
+            sparse=sparse,
+        )
+        self._remember_shape(tr, cl, t)
+        if cfg.motion_discriminator_enabled:
+            tr.motion.observe(t, cl.points, self._doppler_moving(cl))
+        return tr
 
     def _associate(self, clusters: list[RadarCluster]) -> tuple[dict[int, list[int]], list[int]]:
         """Clusters per track, and the clusters that start tracks.
@@ -378,81 +382,14 @@ class RadarTracker:
         would hide it for a frame, giving it seconds of coasting and a shifted centre."""
         parts = [cl.points for ti, cl in groups.items() if self.tracks[ti].life.confirmed]
         parts += [cl.points for cl in out.clusters if cl.shore != SHORE_KEEP]
-        if not parts:
-            e = np.empty(0)
-            return ShadowCasters(np.empty((0, 2)), e, e, e.astype(np.int64))
-        pts = np.concatenate(parts)
-        rel = pts - out.sensor_ne
-        return ShadowCasters(
-            points=pts,
-            bearing=np.arctan2(rel[:, 1], rel[:, 0]),
-            range_m=np.hypot(rel[:, 0], rel[:, 1]),
-            owner=np.repeat(np.arange(len(parts)), [len(p) for p in parts]),
-        )
+        return ShadowCasters.of(parts, out.sensor_ne)
 
     def _shadow(self, tr: RadarTrackState, casters: ShadowCasters, sensor_ne: np.ndarray) -> np.ndarray | None:
-        """(16,) bool over the track's bearing span seen from the radar (from its counter-clockwise to its clockwise
-        edge, i.e. toward increasing bearing): which parts a nearer caster shadows. None when nothing does.
-
-        A caster must lie ``occlusion_margin_m`` nearer than the track's centre and outside the track's own box grown
-        by ``merge_gap_m`` (a piece of the track's own hull does not hide it). Each caster shadows the bearing span of
-        its returns, each return taken ``hull_point_pad_m`` wide."""
-        centre = tr.kf.x[kalman.POS, 0] - sensor_ne
-        r_track = math.hypot(centre[0], centre[1])
-        front = casters.range_m < r_track - self.cfg.occlusion_margin_m
-        if not front.any():  # nothing nearer: the usual case, decided before any trigonometry
-            return None
-        b = kalman.box_of(tr.kf)
-        g = self.cfg.merge_gap_m
-        own = np.all((casters.points >= b[:2] - g) & (casters.points <= b[2:] + g), axis=1)
-        b_track = math.atan2(centre[1], centre[0])
-        d = _wrap(casters.bearing - b_track)
-        front &= ~own & (np.abs(d) < math.pi / 2)
-        if not front.any():
-            return None
-        corners = np.array([[b[0], b[1]], [b[0], b[3]], [b[2], b[1]], [b[2], b[3]]]) - sensor_ne
-        half = float(np.abs(_wrap(np.arctan2(corners[:, 1], corners[:, 0]) - b_track)).max())
-        if half <= 0:
-            return None
-        k = casters.owner[front]
-        pad = self.cfg.hull_point_pad_m / np.maximum(casters.range_m[front], 1e-3)
-        lo = np.full(k.max() + 1, np.inf)
-        hi = np.full(k.max() + 1, -np.inf)
-        np.minimum.at(lo, k, d[front] - pad)
-        np.maximum.at(hi, k, d[front] + pad)
-        bins = np.linspace(-half, half, 16)
-        shadow = ((bins[:, None] >= lo[None, :]) & (bins[:, None] <= hi[None, :])).any(axis=1)
-        return shadow if shadow.any() else None
-
-    def _lit_edge_centre(
-        self,
-        tr: RadarTrackState,
-        cl: RadarCluster,
-        centre: np.ndarray,
-        shadow: np.ndarray | None,
-        sensor_ne: np.ndarray,
-    ) -> np.ndarray:
-        """The centre measurement with its across-the-line-of-sight part taken from the lit edge (not in the paper).
-
-        When one end of the track's bearing span lies in a nearer object's shadow and the other end does not, the
-        returns come from the lit part only: their box centre is off toward the lit side by up to half the hidden
-        width. The lit edge is still an edge of the hull, so the centre lies half the track's silhouette width
-        (its box projected across the line of sight) in from it."""
-        if shadow is None:
-            return centre
-        m = shadow.size // 2
-        hidden_ccw, hidden_cw = float(shadow[:m].mean()), float(shadow[m:].mean())
-        if (hidden_ccw > 0) == (hidden_cw > 0):  # both ends, or neither: no lit edge to hold on to
-            return centre
-        rel = tr.kf.x[kalman.POS, 0] - sensor_ne
-        u = rel / max(float(np.hypot(*rel)), 1e-9)
-        n = np.array([-u[1], u[0]])  # toward increasing bearing (clockwise seen from above)
-        width = float(tr.kf.x[6, 0] * abs(n[0]) + tr.kf.x[7, 0] * abs(n[1]))
-        across = (cl.points - sensor_ne) @ n
-        if float(across.max() - across.min()) >= width:
-            return centre  # the returns already span the hull
-        lit = across.max() - width / 2 if hidden_ccw > 0 else across.min() + width / 2
-        return centre + n * (lit - float((centre - sensor_ne) @ n))
+        """The track's shadowed bearing bins this frame (occlusion.shadow), or None."""
+        cfg = self.cfg
+        return occlusion.shadow(
+            kalman.box_of(tr.kf), casters, sensor_ne, cfg.occlusion_margin_m, cfg.merge_gap_m, cfg.hull_point_pad_m
+        )
 
     def _turn_gain(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray | None:
         """(2,) how the cluster's fitted Doppler velocity moves per rad/s of the hull's turn rate, or None.
