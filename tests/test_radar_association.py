@@ -319,3 +319,29 @@ def test_a_moving_boat_hidden_behind_another_coasts_with_relaxing_speed_and_keep
     assert late.time_since_update == pytest.approx(2.5, abs=0.05)
     # The speed relaxed by about exp(-2.5 s / 2 s) = 0.29 while hidden.
     assert np.hypot(*late.velocity) == pytest.approx(0.29 * np.hypot(*before.velocity), rel=0.2)
+
+
+def test_a_quay_piece_tracked_before_the_wall_was_known_is_dropped_once_it_is_shore() -> None:
+    # First 0.5 s: only an 8 m piece of a quay wall 25 m north is seen (shorter than shore_min_extent_m): a track.
+    # Then the whole 40 m wall: the shore-line search calls it shore, the piece's cluster is removed, and the track
+    # on it is deleted at once instead of coasting (max_unseen_time_s 2 s here) as an object.
+    from tracker.radar.synthetic import segment_points
+
+    rng = np.random.default_rng(15)
+    frames = []
+    for k in range(25):
+        a, b = (
+            (np.array([25.0, -4.0]), np.array([25.0, 4.0]))
+            if k < 5
+            else (np.array([25.0, -20.0]), np.array([25.0, 20.0]))
+        )
+        frames.append((segment_points(a, b, 12 if k < 5 else 50, 0.1, rng), np.zeros(2)))
+    cfg = replace(BASE, shore_filter_enabled=True)
+
+    def piece_track_frames(c: RadarTrackerConfig) -> int:
+        _, outs = run(c, frames)
+        return sum(any(abs(tr.position[0] - 25.0) < 2.0 and abs(tr.position[1]) < 5.0 for tr in o) for o in outs)
+
+    kept_for = piece_track_frames(cfg)
+    assert 5 <= kept_for <= 9  # born on the piece, gone within a few frames of the whole wall being seen
+    assert piece_track_frames(replace(cfg, drop_tracks_on_shore=False)) >= kept_for + 10  # coasted on for ~2 s

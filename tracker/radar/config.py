@@ -78,6 +78,9 @@ class RadarTrackerConfig:
     shore_min_extent_m: float = 10.0  # not in the paper: a static structure this long is shore, not a moored boat
     shore_margin_m: float = 1.0  # not in the paper: a cluster this close to the shore is "on" it
     shore_on_fraction: float = 0.5  # share of a cluster's points on the shore that removes it
+    # Not in the paper: a track left without a cluster whose centre now lies on the shore is deleted at once instead
+    # of coasting (a quay piece tracked in the first frames, before the wall was known as shore).
+    drop_tracks_on_shore: bool = True
     shore_horizon_bin_rad: float = math.radians(1.0)  # bearing bins of the "what lies behind the shore" test
     # Not in the paper: seconds between shore extractions (map and lines); in between the last shore is used. At
     # 0.3 s a wall is found at most three frames later, for a third of the cost of extracting every frame.

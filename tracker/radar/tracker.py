@@ -259,6 +259,13 @@ class RadarTracker:
         """No cluster this frame. A confirmed track at least ``occluded_min_share`` in a nearer object's shadow may
         coast ``max_unseen_time_occluded_s``, its velocity and turn rate relaxing toward zero meanwhile."""
         cfg = self.cfg
+        if cfg.shore_filter_enabled and cfg.drop_tracks_on_shore:
+            centre = tr.kf.x[kalman.POS, 0].reshape(1, 2)
+            on_map = self.detector.static_map.on_shore(centre)[0]
+            if on_map or self.detector.shore_lines.near(centre, cfg.shore_margin_m)[0]:
+                # Its returns now count as shore (a quay piece tracked before the wall was known): it is no object.
+                tr.life.status = TrackStatus.DELETED
+                return
         hidden = False
         if tr.life.confirmed and cfg.max_unseen_time_occluded_s > cfg.max_unseen_time_s:
             shadow = self._shadow(tr, casters, out.sensor_ne)
