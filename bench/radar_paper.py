@@ -71,14 +71,9 @@ def fmt(x: float, digits: int = 1) -> str:
     return "n/a" if x is None or not math.isfinite(x) else f"{x:.{digits}f}"
 
 
-def run_all(recs: list[Recording], cfg: RadarTrackerConfig) -> tuple[list[Scored], np.ndarray, np.ndarray]:
-    scored, wall, cpu = [], [], []
-    for rec in recs:
-        run = run_tracker(rec, cfg)
-        scored.append(score(rec, run))
-        wall.append(run.seconds)
-        cpu.append(run.cpu_seconds)
-    return scored, np.concatenate(wall), np.concatenate(cpu)
+def run_all(recs: list[Recording], cfg: RadarTrackerConfig) -> list[Scored]:
+    """Track and score each recording (timing is time_tracker's)."""
+    return [score(rec, run_tracker(rec, cfg)) for rec in recs]
 
 
 def time_tracker(recs: list[Recording], cfg: RadarTrackerConfig) -> tuple[np.ndarray, np.ndarray]:
@@ -138,7 +133,7 @@ def main() -> None:
     print(f"recorded {n_frames} + {sum(len(r.times) for b in bands.values() for r in b)} frames", flush=True)
 
     # --- Table 3 -----------------------------------------------------------------------------------------------
-    full, _, _ = run_all(all_recs, ours)
+    full = run_all(all_recs, ours)
     # Runtime: the same frames timed in TIMING_PASSES passes and the quietest reported (this machine's cores are
     # shared; a neighbour's burst in one pass is not the tracker's cost), every pass listed.
     passes = [time_tracker(all_recs, ours) for _ in range(TIMING_PASSES)]
@@ -149,13 +144,13 @@ def main() -> None:
     m_vessel = {v: metrics([(s, vessel_mask(v)) for s in full]) for v in VESSELS}
     m_all = metrics([(s, None) for s in full])
     print(f"ours: MOTA {m_all.mota:.1f} % ({time.perf_counter() - t_start:.0f} s)", flush=True)
-    paper_run, _, _ = run_all(all_recs, paper_defaults)
+    paper_run = run_all(all_recs, paper_defaults)
     m_paper_cfg = metrics([(s, None) for s in paper_run])
 
     # --- Table 4: ablation -------------------------------------------------------------------------------------
     ablation: dict[str, tuple[Metrics, Metrics]] = {}
     for key, change in ABLATIONS.items():
-        sc = full if not change else run_all(all_recs, replace(ours, **change))[0]
+        sc = full if not change else run_all(all_recs, replace(ours, **change))
         low = sc[SPEEDS.index("low") * len(seeds) : (SPEEDS.index("low") + 1) * len(seeds)]
         ablation[key] = (metrics([(s, None) for s in sc]), metrics([(s, None) for s in low]))
     print(f"ablation done ({time.perf_counter() - t_start:.0f} s)", flush=True)
@@ -163,7 +158,7 @@ def main() -> None:
     # --- Table 5: distance bands -------------------------------------------------------------------------------
     band_metrics: dict[tuple[float, float], Metrics] = {}
     for band, recs in bands.items():
-        sc, _, _ = run_all(recs, ours)
+        sc = run_all(recs, ours)
         band_metrics[band] = metrics([(s, None) for s in sc], band=band)
     print(f"bands done ({time.perf_counter() - t_start:.0f} s)", flush=True)
 
@@ -175,18 +170,16 @@ def main() -> None:
         sweep.append(
             (
                 f"min points {k}, radius {ours.cluster_radius_m} m",
-                metrics([(s, None) for s in run_all(sweep_recs, cfg)[0]]),
+                metrics([(s, None) for s in run_all(sweep_recs, cfg)]),
             )
         )
     for k in (3, 4):
         cfg = replace(ours, cluster_min_points=k, velocity_cluster_min_points=k, cluster_radius_m=1.2)
-        sweep.append(
-            (f"min points {k}, radius 1.2 m (paper)", metrics([(s, None) for s in run_all(sweep_recs, cfg)[0]]))
-        )
+        sweep.append((f"min points {k}, radius 1.2 m (paper)", metrics([(s, None) for s in run_all(sweep_recs, cfg)])))
     sweep.append(
         (
             "ours with constant velocity instead of the turn model (cv, 2 m/s^2)",
-            metrics([(s, None) for s in run_all(sweep_recs, replace(ours, motion_model="cv", accel_std=2.0))[0]]),
+            metrics([(s, None) for s in run_all(sweep_recs, replace(ours, motion_model="cv", accel_std=2.0))]),
         )
     )
     cfg = replace(
@@ -195,7 +188,7 @@ def main() -> None:
     sweep.append(
         (
             "ours with the config's filter defaults (CA, coast 2 s)",
-            metrics([(s, None) for s in run_all(sweep_recs, cfg)[0]]),
+            metrics([(s, None) for s in run_all(sweep_recs, cfg)]),
         )
     )
     elapsed = time.perf_counter() - t_start

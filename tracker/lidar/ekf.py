@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
+from tracker.kalman_update import joseph_update, joseph_update_selected
 from tracker.lidar.config import EkfConfig
 from tracker.types import ShapeKind
 
@@ -197,13 +198,7 @@ def _kalman_update_full(ekf: ExtendedKalmanFilter, m: Measurement) -> None:
     x, p = ekf.x, ekf.P
     y = np.array([m.center[0], m.center[1], m.heading, m.length, m.width, m.height]) - x[_Z_STATES]
     y[Z_PSI] = (y[Z_PSI] + math.pi) % (2.0 * math.pi) - math.pi
-    pht = p[:, _Z_STATES]
-    s = pht[_Z_STATES] + m.r
-    k = np.linalg.solve(s, pht.T).T
-    ekf.x = x + k @ y
-    i_kh = np.eye(DIM_X)
-    i_kh[:, _Z_STATES] -= k
-    ekf.P = i_kh @ p @ i_kh.T + k @ m.r @ k.T
+    ekf.x, ekf.P, s, k = joseph_update_selected(x, p, _Z_STATES, y, m.r)
     ekf.y, ekf.S, ekf.K = y, s, k
 
 
@@ -226,7 +221,7 @@ def _kalman_update_full_many(filters: list[ExtendedKalmanFilter], ms: list[Measu
 
 
 def _kalman_update(ekf: ExtendedKalmanFilter, z: np.ndarray, h: np.ndarray, r: np.ndarray, psi_row: int) -> None:
-    """Linear(ised) Kalman update in Joseph form, as filterpy's, without its per-call bookkeeping.
+    """Linear(ised) Kalman update (tracker.kalman_update.joseph_update).
 
     ``psi_row`` is the row of ``z`` that is a heading (its residual is wrapped), -1 for none.
     """
@@ -234,12 +229,7 @@ def _kalman_update(ekf: ExtendedKalmanFilter, z: np.ndarray, h: np.ndarray, r: n
     y = z - h @ x
     if psi_row >= 0:
         y[psi_row] = wrap_angle(float(y[psi_row]))
-    pht = p @ h.T
-    s = h @ pht + r
-    k = np.linalg.solve(s, pht.T).T
-    ekf.x = x + k @ y
-    i_kh = np.eye(DIM_X) - k @ h
-    ekf.P = i_kh @ p @ i_kh.T + k @ r @ k.T
+    ekf.x, ekf.P, s, k = joseph_update(x, p, h, y, r)
     ekf.y, ekf.S, ekf.K = y, s, k
 
 

@@ -85,20 +85,19 @@ class RadarCluster:
         return centre, np.maximum(hi - lo, min_size), math.hypot(float(rel[0]), float(rel[1]))
 
     def to_detection(self, t: float, sensor_ne: np.ndarray, min_size: float) -> Detection:
-        lo, hi = self.points.min(axis=0), self.points.max(axis=0)
-        centre = (lo + hi) / 2
+        centre, size, range_m = self.measured_box(sensor_ne, min_size)
         v = self.velocity
         known = v.status is not VelocityStatus.UNDETERMINED
         return Detection(
             t=t,
             center=centre,
             heading=0.0,  # the box is world-axis-aligned: length along north, width along east
-            length=max(float(hi[0] - lo[0]), min_size),
-            width=max(float(hi[1] - lo[1]), min_size),
+            length=float(size[0]),
+            width=float(size[1]),
             height=0.0,  # the AWR1843's elevation is too coarse to give one
             shape=ShapeKind.BOX if self.n_points >= 3 else ShapeKind.POINT,
             n_points=self.n_points,
-            range_m=float(np.hypot(*(centre - sensor_ne))),
+            range_m=range_m,
             points=self.points,
             # RADIAL_ONLY: the radial component, with undetermined_velocity_var across the line of sight
             velocity=v.velocity.copy() if known else np.full(2, np.nan),

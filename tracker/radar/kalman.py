@@ -22,6 +22,7 @@ import math
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
+from tracker.kalman_update import joseph_update, joseph_update_selected
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.velocity_profile import VelocityEstimate, VelocityStatus
 
@@ -304,27 +305,17 @@ _Z_POS_SIZE_VEL = np.array([0, 1, 6, 7, 2, 3])
 
 
 def _update_selected(kf: KalmanFilter, rows: np.ndarray, z: np.ndarray, r: np.ndarray) -> None:
-    """filterpy's Joseph-form KalmanFilter.update for an H that picks the states ``rows``: the products with H
-    become indexing, and its per-call bookkeeping (copies, likelihood) is skipped. Same numbers."""
-    x, p = kf.x[:, 0], kf.P
-    pht = p[:, rows]
-    s = pht[rows] + r
-    k = np.linalg.solve(s, pht.T).T
-    kf.x = (x + k @ (z - x[rows])).reshape(-1, 1)
-    i_kh = np.eye(kf.dim_x)
-    i_kh[:, rows] -= k
-    kf.P = i_kh @ p @ i_kh.T + k @ r @ k.T
+    """filterpy's Joseph-form update for an H that picks the states ``rows`` (tracker.kalman_update)."""
+    x = kf.x[:, 0]
+    x, kf.P, _, _ = joseph_update_selected(x, kf.P, rows, z - x[rows], r)
+    kf.x = x.reshape(-1, 1)
 
 
 def _update(kf: KalmanFilter, h: np.ndarray, z: np.ndarray, r: np.ndarray) -> None:
-    """filterpy's Joseph-form KalmanFilter.update for any H, without its per-call bookkeeping."""
-    x, p = kf.x[:, 0], kf.P
-    pht = p @ h.T
-    s = h @ pht + r
-    k = np.linalg.solve(s, pht.T).T
-    kf.x = (x + k @ (z - h @ x)).reshape(-1, 1)
-    i_kh = np.eye(kf.dim_x) - k @ h
-    kf.P = i_kh @ p @ i_kh.T + k @ r @ k.T
+    """filterpy's Joseph-form update for any H (tracker.kalman_update)."""
+    x = kf.x[:, 0]
+    x, kf.P, _, _ = joseph_update(x, kf.P, h, z - h @ x, r)
+    kf.x = x.reshape(-1, 1)
 
 
 def box_of(kf: KalmanFilter) -> np.ndarray:

@@ -114,7 +114,6 @@ class RadarTracker:
         self.last: DetectorOutput | None = None
         self._pool: deque[tuple[DetectorOutput, np.ndarray]] = deque()  # recent frames and their unused loose returns
         self.skipped_frames = 0
-        self._ego_velocity_var = 0.0  # (m/s)^2 of the own velocity used this frame, per axis
 
     # --- access to the last cycle ------------------------------------------------------------------------------------
 
@@ -187,11 +186,6 @@ class RadarTracker:
         yaw_rate = float(yaw_rate) if math.isfinite(float(yaw_rate)) else 0.0
         out = self.detector.detect(points_body, doppler, snr, t, pos, float(yaw), velocity, yaw_rate, update_map=False)
         self.last = out
-        if out.ego_source == "doppler" and out.ego_estimate is not None:
-            e_cov = np.asarray(out.ego_estimate.covariance, float)
-            self._ego_velocity_var = float(np.trace(e_cov)) / 2 if np.all(np.isfinite(e_cov)) else 0.0
-        else:
-            self._ego_velocity_var = self.cfg.ego_velocity_std_mps**2 if out.ego_source == "autopilot" else 0.0
         frame_dt = t - self.t_last if math.isfinite(self.t_last) else 0.0
         self.t_last = t
         cfg = self.cfg
@@ -209,7 +203,7 @@ class RadarTracker:
         births = [(cl, False) for cl in self._merge_births([clusters[di] for di in spawn])]
         births += [(cl, True) for cl in self._pooled_births(out, groups)]
         casters = self._shadow_casters(out, groups)
-        used = [(ti, cl) for ti, cl in groups.items()]
+        used = list(groups.items())
         for ti, cl in used:
             self._update_track(self.tracks[ti], cl, t, out, casters)
         for ti in lost:
@@ -617,6 +611,16 @@ class RadarTracker:
                 exclude[cl.index] = True
         self.detector.update_map(out, exclude)
 
+    def _ego_velocity_var(self) -> float:
+        """(m/s)^2 per axis of the own velocity the last frame's Doppler was compensated with."""
+        out = self.last
+        if out is None or out.ego_source == "none":
+            return 0.0
+        if out.ego_source == "autopilot" or out.ego_estimate is None:
+            return self.cfg.ego_velocity_std_mps**2
+        cov = np.asarray(out.ego_estimate.covariance, float)
+        return float(np.trace(cov)) / 2 if np.all(np.isfinite(cov)) else 0.0
+
     def _doppler_moving(self, cl: RadarCluster) -> bool:
         """The cluster's Doppler profile alone shows motion: speed along its best-known direction above
         ``motion_veto_speed_mps`` by three standard deviations of the fit and of the own velocity (common to every
@@ -626,7 +630,7 @@ class RadarTracker:
             return False
         e = v.radial_direction
         speed = abs(float(e @ v.velocity))
-        var = max(float(e @ v.covariance @ e), 0.0) + self._ego_velocity_var
+        var = max(float(e @ v.covariance @ e), 0.0) + self._ego_velocity_var()
         return speed > self.cfg.motion_veto_speed_mps + 3.0 * math.sqrt(var)
 
     def _moving(self, tr: RadarTrackState, cl: RadarCluster | None = None) -> bool:
