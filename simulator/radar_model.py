@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drivers.mount import TI_TO_FRD, Mount
-from simulator.scene import LABEL_CLUTTER, LABEL_GHOST, LABEL_SHORE, Scene
+from simulator.scene import LABEL_CLUTTER, LABEL_GHOST, LABEL_SHORE, Prisms, Scene
 from tracker.ego import rotation_matrices
 
 log = logging.getLogger(__name__)
@@ -150,14 +150,14 @@ class Awr1843Model:
         verts = self.scene.footprints(t)[0] if self.scene.vessels else np.zeros((0, 5, 2))
         parts = [
             self._vessel_points(t, verts, pose, rng),
-            self._shore_points(verts, pose, rng),
+            self._shore_points(pose, rng),
             self._clutter_points(pose, rng),
         ]
         pw = np.concatenate([p[0] for p in parts])  # world scatter positions (N, 3)
         vw = np.concatenate([p[1] for p in parts])  # their world velocities (N, 3)
         snr_extra = np.concatenate([p[2] for p in parts])  # dB relative to the 10 m reference, before range loss
         label = np.concatenate([p[3] for p in parts]).astype(np.int64)
-        blocked = np.concatenate([p[4] for p in parts])
+        blocked = self._occluded(pose.position, pw, label, self.scene.prisms_at(t))
 
         frd = (pw - pose.position) @ pose.rotation  # world -> sensor FRD (rotation is orthonormal)
         ti = frd @ TI_TO_FRD  # sensor FRD -> TI (the axis map is its own inverse)
@@ -279,10 +279,9 @@ class Awr1843Model:
             + 10 * np.log10(np.maximum(self._vessel_height[owner], 0.3) * self._vessel_rcs[owner])
             + 10 * np.log10(np.maximum(cos_inc, 0.1))
         )
-        blocked = self._occluded(pose.position[:2], p2, owner, verts)
-        return pw, vw, snr, owner, blocked
+        return pw, vw, snr, owner
 
-    def _shore_points(self, verts: np.ndarray, pose: _SensorPose, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+    def _shore_points(self, pose: _SensorPose, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
         """Echoes off the quay walls facing the radar; a fixed wall has no Doppler of its own."""
         pts, normals, heights = self._shore
         if pts.shape[0] == 0:
@@ -295,8 +294,7 @@ class Awr1843Model:
         n = p2.shape[0]
         pw = np.concatenate([p2, -(h * rng.uniform(0.1, 0.95, n))[:, None]], axis=1)
         snr = self.snr_at_10m_db + 10 * np.log10(np.maximum(h, 0.3)) + 10 * np.log10(np.maximum(cos_inc, 0.1))
-        blocked = self._occluded(pose.position[:2], p2, np.full(n, LABEL_SHORE), verts)
-        return pw, np.zeros((n, 3)), snr, np.full(n, LABEL_SHORE), blocked
+        return pw, np.zeros((n, 3)), snr, np.full(n, LABEL_SHORE)
 
     def _clutter_points(self, pose: _SensorPose, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
         """Sea clutter: a few near-range echoes off the water, moving slowly with the waves."""
@@ -309,37 +307,41 @@ class Awr1843Model:
         d2 = d[:, :2] / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
         pw = np.concatenate([pose.position[:2] + r[:, None] * d2, np.zeros((n, 1))], axis=1)
         vw = np.concatenate([rng.normal(0.0, 0.2, (n, 2)), np.zeros((n, 1))], axis=1)
-        return pw, vw, np.zeros(n), np.full(n, LABEL_CLUTTER), np.zeros(n, bool)
+        return pw, vw, np.zeros(n), np.full(n, LABEL_CLUTTER)
 
-    def _occluded(self, sensor: np.ndarray, points: np.ndarray, owner: np.ndarray, verts: np.ndarray) -> np.ndarray:
-        """True where the sight line sensor->point crosses a hull edge of another vessel or a quay wall (2-D)."""
+    @staticmethod
+    def _occluded(sensor: np.ndarray, points: np.ndarray, owner: np.ndarray, prisms: Prisms) -> np.ndarray:
+        """True where the sight line sensor->point passes through a prism (hull, cabin, quay block) of another owner.
+
+        In 3-D: the line crosses a prism's side where its footprint edge is cut, and is blocked only if its height
+        there lies between the prism's bottom and top. A radar 0.9 m up sees a 3 m cabin over a 0.6 m dinghy, and
+        only the low returns of a boat behind a 1 m hull are lost. Sea clutter (a water return) is never blocked.
+        """
         n = points.shape[0]
-        if n == 0:
-            return np.zeros(0, bool)
-        seg_a = [verts.reshape(-1, 2)]
-        seg_b = [np.roll(verts, -1, axis=1).reshape(-1, 2)]
-        seg_owner = [np.repeat(np.arange(verts.shape[0]), verts.shape[1])]
-        qa, qb = self.scene.quay_wall_segments()
-        seg_a.append(qa)
-        seg_b.append(qb)
-        seg_owner.append(np.full(qa.shape[0], LABEL_SHORE))
-        a, b, so = np.concatenate(seg_a), np.concatenate(seg_b), np.concatenate(seg_owner)
-        if a.shape[0] == 0:
+        verts = prisms.vertices[0]  # (P, K, 2) world (north, east)
+        if n == 0 or verts.shape[0] == 0:
             return np.zeros(n, bool)
-        r = points - sensor  # (N, 2)
-        s = b - a  # (S, 2)
+        a = verts.reshape(-1, 2)
+        s = np.roll(verts, -1, axis=1).reshape(-1, 2) - a  # (S, 2) edge vectors
+        k = verts.shape[1]
+        seg_owner, seg_bottom, seg_top = (np.repeat(x, k) for x in (prisms.label, prisms.bottom, prisms.top))
+        r = points[:, :2] - sensor[:2]  # (N, 2)
         denom = r[:, None, 0] * s[None, :, 1] - r[:, None, 1] * s[None, :, 0]  # cross(r, s)
-        qp = a[None, :, :] - sensor  # (1, S, 2)
+        qp = a[None, :, :] - sensor[:2]  # (1, S, 2)
         with np.errstate(divide="ignore", invalid="ignore"):
             t_ray = (qp[..., 0] * s[None, :, 1] - qp[..., 1] * s[None, :, 0]) / denom
             u_seg = (qp[..., 0] * r[:, None, 1] - qp[..., 1] * r[:, None, 0]) / denom
         crosses = (np.abs(denom) > 1e-12) & (t_ray > 0) & (t_ray < 1 - 1e-6) & (u_seg >= 0) & (u_seg <= 1)
-        crosses &= so[None, :] != owner[:, None]
+        crosses &= (seg_owner[None, :] != owner[:, None]) & (owner[:, None] != LABEL_CLUTTER)
+        # world z is down: heights above the water are -z
+        h_sensor, h_point = -sensor[2], -points[:, 2]
+        h_cross = h_sensor + np.where(crosses, t_ray, 0.0) * (h_point - h_sensor)[:, None]
+        crosses &= (h_cross >= seg_bottom[None, :]) & (h_cross <= seg_top[None, :])
         return np.any(crosses, axis=1)
 
 
 def _empty() -> tuple[np.ndarray, ...]:
-    return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, bool)
+    return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64)
 
 
 def _spherical(ti: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
