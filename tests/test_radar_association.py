@@ -269,9 +269,9 @@ def test_a_half_hidden_hull_is_measured_from_its_lit_edge() -> None:
 
     # The track's width comes from its outline over the last second (kept with the visible-side centre on; along
     # the line of sight that centre is off here, as box_points fill the box, but only east is checked).
-    cfg = replace(BASE, visible_side_enabled=True)
+    cfg = replace(BASE, visible_side_enabled=True, occlusion_lit_edge=True)
     assert abs(east_error(cfg)) < 0.4
-    assert east_error(replace(cfg, occlusion_lit_edge=False)) > 0.6  # pulled toward the lit side
+    assert east_error(replace(cfg, occlusion_lit_edge=False)) > 0.6  # pulled toward the lit side (the default)
 
 
 def test_a_boat_hidden_behind_another_keeps_its_track_and_id() -> None:
@@ -345,3 +345,21 @@ def test_a_quay_piece_tracked_before_the_wall_was_known_is_dropped_once_it_is_sh
     kept_for = piece_track_frames(cfg)
     assert 5 <= kept_for <= 9  # born on the piece, gone within a few frames of the whole wall being seen
     assert piece_track_frames(replace(cfg, drop_tracks_on_shore=False)) >= kept_for + 10  # coasted on for ~2 s
+
+
+def test_a_sparse_cluster_next_to_the_radar_starts_no_track() -> None:
+    # Four returns a frame hold still 6 m off the bow: as many as sea clutter clumps into there now and then.
+    # Within near_birth_range_m (10 m) a track needs near_birth_min_points (5) returns to start; farther out, or
+    # with more returns, the same cluster is a boat.
+    rng = np.random.default_rng(21)
+
+    def tracks_after(centre: tuple[float, float], n: int, cfg: RadarTrackerConfig) -> list:
+        frames = [(box_points(np.array(centre), (1.0, 1.0), n, rng), np.zeros(2)) for _ in range(10)]
+        return confirmed(run(cfg, frames)[1][-1])
+
+    assert tracks_after((6.0, 0.0), 4, BASE) == []
+    assert len(tracks_after((6.0, 0.0), 8, BASE)) == 1
+    assert len(tracks_after((25.0, 0.0), 4, BASE)) == 1
+    near = tracks_after((6.0, 0.0), 4, replace(BASE, near_birth_min_points=0))
+    assert len(near) == 1
+    np.testing.assert_allclose(near[0].position, [6.0, 0.0], atol=0.3)

@@ -181,6 +181,13 @@ class RadarTrackerConfig:
     # boats (RadarTracker._pooled_births). 1: one frame, as the paper.
     birth_window_frames: int = 3
     birth_pool_min_range_m: float = 20.0  # only returns this far are pooled (clutter is dense near the radar)
+    # Not in the paper: sea clutter is densest next to the boat, where a real hull gives the most returns. A new
+    # cluster nearer than near_birth_range_m (median range of its returns) starts a track only with
+    # near_birth_min_points returns; 3-return clutter clusters there otherwise confirm now and then on a lucky 3 of 5
+    # and coast a second at the bow. An object giving fewer returns this close (a small buoy) is left to the LiDAR,
+    # which sees best there; a boat approaching is tracked from farther out. 0 disables.
+    near_birth_range_m: float = 10.0
+    near_birth_min_points: int = 5
     # Not in the paper: a track that gets no cluster takes this many loose returns (in no cluster) within
     # merge_gap_m of its predicted box as its measurement. 0 disables.
     update_min_points: int = 2
@@ -216,7 +223,10 @@ class RadarTrackerConfig:
     occlusion_margin_m: float = 1.0
     # Not in the paper: with one end of its bearing span in such a shadow, a track's centre across the line of sight
     # is measured half its silhouette in from the lit edge of its returns (tracker.radar.occlusion.lit_edge_centre).
-    occlusion_lit_edge: bool = True
+    # Off by default: the shadow test is 2-D, and a radar mounted above a low hull sees over it (0.9 m up, a 0.6 m
+    # dinghy 15 m out hides nothing of a boat at 37 m), so the shift moved fully seen tracks by half a hull. It pays
+    # where the nearer hulls are taller than the radar mount (a radar at the water line among moored boats).
+    occlusion_lit_edge: bool = False
 
     # --- Motion discriminator (eq. 8, Table 1) --------------------------------------------------------------------
     motion_discriminator_enabled: bool = True  # ablation switch ("Remove Motion Discriminator", Table 4)
@@ -233,6 +243,12 @@ class RadarTrackerConfig:
     # the own boat's velocity error (ego_velocity_std_mps). At 0 it is a plain 3-sigma test: a 0.5 m/s boat overlaps
     # its hull of a second ago by ~0.7 and, without the veto, was published at speed zero.
     motion_veto_speed_mps: float = 0.0
+    # Not in the paper: the same veto from the track's filter, whose velocity integrates the Doppler and the positions
+    # over seconds: a boat crossing the line of sight has no Doppler to veto with, and at 0.5 m/s its hull of a
+    # second ago still overlaps. Speed above motion_filter_veto_speed_mps and this many sigmas (a vote, not a
+    # verdict: the counter needs many of them, and a moored boat's filter speed rarely clears 0.2 m/s); 0: off.
+    motion_filter_veto_sigmas: float = 1.5
+    motion_filter_veto_speed_mps: float = 0.2
     # Not in the paper: error (1 sigma, per axis) of the own boat's velocity over ground from the autopilot, m/s
     # (0.05: a GNSS-aided autopilot EKF; raise it for a poorer receiver). It is common to every return, so a cluster's
     # fit does not see it; the Doppler veto adds it (the Doppler ego fit, without an autopilot, brings its own).
@@ -287,12 +303,16 @@ class RadarTrackerConfig:
             "shore_link_radius_m",
             "merge_gap_m",
             "birth_pool_min_range_m",
+            "near_birth_range_m",
+            "near_birth_min_points",
             "update_single_return_range_m",
             "occlusion_position_var_m2",
             "occlusion_margin_m",
             "max_unseen_time_occluded_s",
             "occluded_velocity_decay_s",
             "motion_veto_speed_mps",
+            "motion_filter_veto_sigmas",
+            "motion_filter_veto_speed_mps",
             "ego_velocity_std_mps",
             "recovery_gate_m",
             "static_evidence_pool_m",

@@ -200,7 +200,9 @@ class RadarTracker:
         groups = {ti: self.detector.merge_clusters([clusters[di] for di in dis]) for ti, dis in claims.items()}
         groups.update(self._gather_loose(out, [ti for ti in range(len(self.tracks)) if ti not in claims]))
         lost = [ti for ti in range(len(self.tracks)) if ti not in groups]
-        births = [(cl, False) for cl in self._merge_births([clusters[di] for di in spawn])]
+        births = [
+            (cl, False) for cl in self._merge_births([clusters[di] for di in spawn]) if not self._near_clutter(cl)
+        ]
         births += [(cl, True) for cl in self._pooled_births(out, groups)]
         casters = self._shadow_casters(out, groups)
         used = list(groups.items())
@@ -245,7 +247,7 @@ class RadarTracker:
         tr.life.hit(t)
         tr.points = cl.points
         if cfg.motion_discriminator_enabled:
-            tr.motion.observe(t, cl.points, self._doppler_moving(cl))
+            tr.motion.observe(t, cl.points, self._doppler_moving(cl) or self._filter_moving(tr))
 
     def _miss_track(
         self, tr: RadarTrackState, t: float, frame_dt: float, out: DetectorOutput, casters: ShadowCasters
@@ -441,6 +443,11 @@ class RadarTracker:
         comp = component_labels(len(fresh), a, b)
         return [self.detector.merge_clusters([fresh[i] for i in np.flatnonzero(comp == c)]) for c in np.unique(comp)]
 
+    def _near_clutter(self, cl: RadarCluster) -> bool:
+        """Too few returns, too near the radar, to start a track (``near_birth_min_points``)."""
+        cfg = self.cfg
+        return cl.n_points < cfg.near_birth_min_points and float(np.median(cl.range_m)) < cfg.near_birth_range_m
+
     def _pooled_births(self, out: DetectorOutput, groups: dict[int, RadarCluster]) -> list[RadarCluster]:
         """New tracks from the loose returns of the last ``birth_window_frames`` frames clustered together (not in the
         paper, which clusters one frame). A boat 45 m away gives 2-3 returns a frame, never the cluster_min_points of
@@ -632,6 +639,19 @@ class RadarTracker:
         speed = abs(float(e @ v.velocity))
         var = max(float(e @ v.covariance @ e), 0.0) + self._ego_velocity_var()
         return speed > self.cfg.motion_veto_speed_mps + 3.0 * math.sqrt(var)
+
+    def _filter_moving(self, tr: RadarTrackState) -> bool:
+        """The track's filter shows it moving: speed above ``motion_filter_veto_speed_mps`` and
+        ``motion_filter_veto_sigmas`` standard deviations of its own along its velocity (0 sigmas: never)."""
+        k = self.cfg.motion_filter_veto_sigmas
+        if k <= 0:
+            return False
+        v = tr.kf.x[kalman.VEL, 0]
+        speed = float(np.hypot(*v))
+        if speed <= self.cfg.motion_filter_veto_speed_mps:
+            return False
+        var_along = float(v @ tr.kf.P[kalman.VEL, kalman.VEL] @ v) / speed**2
+        return speed > k * math.sqrt(max(var_along, 0.0))
 
     def _moving(self, tr: RadarTrackState, cl: RadarCluster | None = None) -> bool:
         """Clearly moving: filter speed above ``map_exclude_min_speed_mps`` and twice its own standard deviation, and
