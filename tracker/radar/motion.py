@@ -23,7 +23,7 @@ from collections import deque
 import numpy as np
 
 from tracker.radar.config import RadarTrackerConfig
-from tracker.radar.hull import convex_iou, padded_hull
+from tracker.radar.hull import support_iou, support_offsets
 from tracker.types import MotionState
 
 LEVELS = (
@@ -99,15 +99,17 @@ class MotionDiscriminator:
                 self.step_iou(0.0)
                 self.last_iou = math.nan  # not computed: the Doppler decided
             else:
-                iou = convex_iou(self._hull(ref), self._hull(entry))
+                iou = support_iou(self._hull(ref), self._hull(entry))
                 self.step_iou(iou)
             self._hulls.appendleft(ref)  # it may still be the reference next time
         self._hulls.append(entry)
         return self.state
 
-    def _hull(self, entry: list) -> np.ndarray:
+    def _hull(self, entry: list) -> np.ndarray | None:
+        """The group's padded hull as a support polygon (hull.support_offsets: 16 directions, its area within 2 % of
+        the convex hull's, a quarter of qhull's cost), built once."""
         if entry[2] is None:
-            entry[2] = padded_hull(entry[1], self.cfg.hull_point_pad_m)
+            entry[2] = support_offsets(entry[1], self.cfg.hull_point_pad_m)
         return entry[2]
 
     def velocity(self, filter_velocity: np.ndarray) -> np.ndarray:
