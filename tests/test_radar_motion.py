@@ -165,10 +165,17 @@ def test_observe_with_baseline_compares_with_the_hull_one_second_older() -> None
     assert md.last_iou == pytest.approx(1 / 3) and md.counter == 2
 
 
-def test_point_group_accumulates_recent_frames() -> None:
+@pytest.mark.parametrize("exact", [False, True], ids=["support-polygon", "qhull"])
+def test_point_group_accumulates_recent_frames(exact: bool) -> None:
     # Two returns per frame alternate between opposite corners: one frame's hull is a sliver, the 0.25 s group's
     # hull (three frames) is the whole 2 x 2 square, so the comparison one second apart sees full overlap.
-    cfg = replace(RadarTrackerConfig(), motion_hull_baseline_s=1.0, hull_point_pad_m=0.0, motion_group_window_s=0.25)
+    cfg = replace(
+        RadarTrackerConfig(),
+        motion_hull_baseline_s=1.0,
+        hull_point_pad_m=0.0,
+        motion_group_window_s=0.25,
+        motion_hull_exact=exact,
+    )
     md = MotionDiscriminator(cfg)
     a = np.array([[0.0, 0.0], [2.0, 2.0]])
     b = np.array([[2.0, 0.0], [0.0, 2.0]])

@@ -14,7 +14,7 @@ Where this departs from the paper, and why (each is a config field; the paper's 
 * Doppler veto (motion_doppler_veto): a cluster whose own Doppler clearly shows motion counts as "moved"; so does a
   track whose filter speed clearly does (motion_filter_veto_sigmas, the tracker's: a crossing boat has no Doppler).
 * The hulls are support polygons in 16 directions (hull.support_offsets), not qhull's: the same IoU within a few
-  hundredths, at a quarter of the cost.
+  hundredths, at a quarter of the cost (motion_hull_exact: qhull's).
 * |D| is clamped (motion_counter_limit) so a boat moored for an hour is seen leaving within seconds.
 """
 
@@ -26,7 +26,7 @@ from collections import deque
 import numpy as np
 
 from tracker.radar.config import RadarTrackerConfig
-from tracker.radar.hull import support_iou, support_offsets
+from tracker.radar.hull import convex_iou, padded_hull, support_iou, support_offsets
 from tracker.types import MotionState
 
 LEVELS = (
@@ -102,17 +102,21 @@ class MotionDiscriminator:
                 self.step_iou(0.0)
                 self.last_iou = math.nan  # not computed: the Doppler decided
             else:
-                iou = support_iou(self._hull(ref), self._hull(entry))
+                if self.cfg.motion_hull_exact:
+                    iou = convex_iou(self._hull(ref), self._hull(entry))
+                else:
+                    iou = support_iou(self._hull(ref), self._hull(entry))
                 self.step_iou(iou)
             self._hulls.appendleft(ref)  # it may still be the reference next time
         self._hulls.append(entry)
         return self.state
 
     def _hull(self, entry: list) -> np.ndarray | None:
-        """The group's padded hull as a support polygon (hull.support_offsets: 16 directions, its area within 2 % of
-        the convex hull's, a quarter of qhull's cost), built once."""
+        """The group's padded hull, built once: its vertices (``motion_hull_exact``) or its support polygon
+        (hull.support_offsets: 16 directions, its area within 2 % of the convex hull's, a quarter of qhull's cost)."""
         if entry[2] is None:
-            entry[2] = support_offsets(entry[1], self.cfg.hull_point_pad_m)
+            pad = self.cfg.hull_point_pad_m
+            entry[2] = padded_hull(entry[1], pad) if self.cfg.motion_hull_exact else support_offsets(entry[1], pad)
         return entry[2]
 
     def velocity(self, filter_velocity: np.ndarray) -> np.ndarray:
