@@ -139,8 +139,8 @@ def main() -> None:
     passes = [time_tracker(all_recs, ours) for _ in range(TIMING_PASSES)]
     wall, cpu = min(passes, key=lambda wc: float(np.percentile(wc[0], 99)))
     pass_p99 = [float(np.percentile(w, 99) * 1e3) for w, _ in passes]
-    # Each frame's fastest pass: the same deterministic work each time, so the minimum is the frame's own cost with
-    # the neighbours' interference (which lands on random frames, pass to pass) taken out.
+    # Each frame's fastest pass: the same deterministic work each time, so the minimum bounds the frame's own cost
+    # from below (it also drops whatever slowed the frame in the other passes; reported beside, not judged on).
     frame_best = np.min(np.array([w for w, _ in passes]), axis=0)
     by_speed = {sp: full[i * len(seeds) : (i + 1) * len(seeds)] for i, sp in enumerate(SPEEDS)}
     m_speed = {sp: metrics([(s, None) for s in by_speed[sp]]) for sp in SPEEDS}
@@ -368,8 +368,8 @@ def report(
         f"(p99 per pass: {', '.join(f'{v:.2f}' for v in pass_p99)} ms): mean {rt['wall_mean_ms']:.2f} ms, "
         f"p50 {rt['wall_p50_ms']:.2f} ms, p99 {rt['wall_p99_ms']:.2f} ms, max {rt['wall_max_ms']:.2f} ms wall clock; "
         f"CPU time of the thread mean {rt['cpu_mean_ms']:.2f} ms, p99 {rt['cpu_p99_ms']:.2f} ms "
-        "(2 shared cores; paper: 24.5 ms mean on a Jetson Xavier NX). Each frame's own cost, its fastest of the "
-        f"{len(pass_p99)} passes (the work is the same each time; a neighbour's burst hits random frames): "
+        "(2 shared cores; paper: 24.5 ms mean on a Jetson Xavier NX). Each frame's fastest of the "
+        f"{len(pass_p99)} passes (the work is the same each time), a lower bound of what the frame itself costs: "
         f"p99 {rt['own_p99_ms']:.2f} ms.",
         "",
         "## Goals",
@@ -443,13 +443,12 @@ def goals(
             f" cm/s; low-speed MAE {fmt(full[1].mae_deg)} -> {fmt(no_md[1].mae_deg)} deg, vector error"
             f" {fmt(full[1].mve_vec_cmps)} -> {fmt(no_md[1].mve_vec_cmps)} cm/s; overall MVE {fmt(full[0].mve_cmps)} ->"
             f" {fmt(no_md[0].mve_cmps)} cm/s)"
-            + (" - a margin within run-to-run noise" if no_md[1].mve_cmps < 1.02 * full[1].mve_cmps else ""),
+            + f" - {100 * (no_md[1].mve_cmps / full[1].mve_cmps - 1):.1f} % at low speed",
         ),
         line(
-            rt["own_p99_ms"] < 5.0,
-            f"radar pipeline p99 < 5 ms: {rt['own_p99_ms']:.2f} ms, each frame's own cost (its fastest of the passes: "
-            f"never below what the frame costs, whatever the neighbours); the quietest whole pass on this shared machine "
-            f"{rt['wall_p99_ms']:.2f} ms wall, {rt['cpu_p99_ms']:.2f} ms CPU",
+            rt["wall_p99_ms"] < 5.0,
+            f"radar pipeline p99 < 5 ms: {rt['wall_p99_ms']:.2f} ms wall, {rt['cpu_p99_ms']:.2f} ms CPU in the quietest "
+            f"pass (each frame's fastest of the passes, a lower bound of its own cost: p99 {rt['own_p99_ms']:.2f} ms)",
         ),
     ]
 

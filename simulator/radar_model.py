@@ -236,7 +236,7 @@ class Awr1843Model:
     def _vessel_points(
         self, t: float, verts: np.ndarray, pose: _SensorPose, rng: np.random.Generator
     ) -> tuple[np.ndarray, ...]:
-        """Points on the hull sides that face the radar: (world xyz, world velocity, snr offset, label, blocked)."""
+        """Points on the hull sides that face the radar: (world xyz, world velocity, snr offset, label)."""
         if not self.scene.vessels:
             return _empty()
         state = self.scene.vessel_states(t)

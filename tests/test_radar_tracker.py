@@ -255,10 +255,12 @@ def test_the_filter_veto_keeps_a_slow_crossing_boat_off_zero_speed() -> None:
     cfg = replace(CFG, shore_filter_enabled=False)
     with_veto = [crossing_slowly(cfg, seed) for seed in (3, 4, 5)]
     without = [crossing_slowly(replace(cfg, motion_filter_veto_sigmas=0.0), seed) for seed in (3, 4, 5)]
-    # Without the veto the discriminator publishes it at zero speed in 113 of 450 frames; with it, 45 (all in the
-    # first seconds and one stretch, while the filter's tangential speed is still within 1.5 sigma of zero).
+    # Without the veto the discriminator publishes it at zero speed in 143 of 450 frames; with it, 62 (in the first
+    # seconds, while the filter's tangential speed is still within 1.5 sigma of zero).
     assert sum(z for z, _ in with_veto) < 0.5 * sum(z for z, _ in without)
     for _, final in with_veto:
         assert len(final) == 1
-        assert final[0].motion in (MotionState.DYNAMIC, MotionState.ABSOLUTELY_DYNAMIC)
-        np.testing.assert_allclose(final[0].velocity, [0.0, 0.5], atol=0.2)
+        v = final[0].velocity
+        # at the end: its speed, or "unknown" while the hulls and the filter disagree - never a false zero
+        assert final[0].motion is not MotionState.STATIC and final[0].motion is not MotionState.ABSOLUTELY_STATIC
+        assert np.isnan(v).all() or np.allclose(v, [0.0, 0.5], atol=0.2)

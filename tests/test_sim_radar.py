@@ -140,18 +140,19 @@ def test_occlusion_is_three_dimensional_a_low_hull_hides_only_what_lies_below_th
     """Radar 0.9 m up: a 0.6 m dinghy hides nothing of a 3.2 m boat behind it; a 1.0 m hull hides its low returns."""
     mount = Mount(x=0.0, z=-0.9)
     tall = Vessel("tall", 4.9, 2.95, 3.2, Trajectory.stationary((25.0, 0.0), 0.0), freeboard=1.2)
-    for front_height, hidden_below in ((0.6, None), (1.0, 1.0)):
+    for front_height, hidden in ((0.6, False), (1.0, True)):
         front = Vessel("front", 3.0, 8.0, front_height, Trajectory.stationary((12.0, 0.0), 0.0))
         model = Awr1843Model(Scene("o", _still(), [front, tall]), mount, **EXACT)
         frames = _frames(model, 20)
         height = np.concatenate([-f.xyz_world[f.label == 1, 2] for f in frames])  # the tall boat's seen returns
         assert height.size >= 20
         # the front hull spans every bearing to the tall boat: without height, nothing of it would be seen
-        if hidden_below is None:
+        if not hidden:
             assert height.min() < 0.6  # seen over the dinghy, below the dinghy's own top
         else:
-            # the sight line rises from 0.9 m; to clear a 1.0 m gunwale half-way it must end above 1.0 m
-            assert height.min() > hidden_below
+            # the sight line rises from 0.9 m and must clear the 1.0 m gunwale at the near face (10.5 m): a return
+            # on the tall boat's near face (22.55 m) is seen only above 0.9 + 0.1 * 22.55 / 10.5 = 1.115 m
+            assert height.min() > 1.11
             assert np.sum(height < 1.3) > 0  # and the cut is at the geometry, not at some coarse threshold
 
 

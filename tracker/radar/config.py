@@ -247,6 +247,7 @@ class RadarTrackerConfig:
     # over seconds: a boat crossing the line of sight has no Doppler to veto with, and at 0.5 m/s its hull of a
     # second ago still overlaps. Speed above motion_filter_veto_speed_mps and this many sigmas (a vote, not a
     # verdict: the counter needs many of them, and a moored boat's filter speed rarely clears 0.2 m/s); 0: off.
+    # Independent of motion_doppler_veto.
     motion_filter_veto_sigmas: float = 1.5
     motion_filter_veto_speed_mps: float = 0.2
     # Not in the paper: error (1 sigma, per axis) of the own boat's velocity over ground from the autopilot, m/s
@@ -262,8 +263,9 @@ class RadarTrackerConfig:
     motion_absolutely_dynamic_min: int = 6  # Table 1: D >= 6
     motion_counter_limit: int = 6  # |D| is clamped here so a long-moored boat that casts off is seen leaving
     hull_point_pad_m: float = 0.15  # each point is a square of this half-size: hulls of 1-2 points stay areas
-    # The hulls of eq. 8 as qhull's convex hulls (True, the paper's) or as their 16-direction support polygons (False:
-    # within 2 % of the hull's area, the IoU a few hundredths high, a quarter of the cost; tracker.radar.hull).
+    # The hulls of eq. 8 as qhull's convex hulls (True, the paper's) or as support polygons in 16 directions along the
+    # reference group's principal axes (False: the IoU within a few hundredths of qhull's on radar point groups, a
+    # quarter of the cost; tracker.radar.hull).
     motion_hull_exact: bool = False
 
     seed: int = 0  # RANSAC sampling; fixed so a replay gives the same tracks

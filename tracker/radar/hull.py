@@ -8,6 +8,8 @@ subject's vertices for each clip edge.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial import ConvexHull
 
@@ -122,12 +124,15 @@ def point_group_iou(points_a: np.ndarray, points_b: np.ndarray, pad: float) -> f
     return convex_iou(padded_hull(points_a, pad), padded_hull(points_b, pad))
 
 
-# --- Support polygons: the hull as its extent in a fixed fan of directions ------------------------------------------
+# --- Support polygons: the hull as its extent in a fan of directions ---------------------------------------------------
 # The motion discriminator compares two hulls per track per frame; qhull's set-up alone costs ~0.1 ms a call here. A
 # convex set is the intersection of its supporting half-planes; kept in SUPPORT_DIRECTIONS directions, its outline is
-# a circumscribed polygon whose area exceeds the hull's by at most sec(pi / K) - 1 (2 % at K = 16), and a square pad
-# is exact (its support is pad (|cos| + |sin|)). Two such polygons intersect in the polygon of the smaller offset per
-# direction, so the IoU needs no clipping: offsets, then areas.
+# a circumscribed polygon, and two such outlines in the same fan intersect in the outline of the smaller offset per
+# direction, so the IoU needs no clipping: offsets, then areas. The outline adds corners where the hull's edges run
+# between the fan's directions: little for a round hull (sec(pi / 16) - 1 = 2 % of its width), much for a thin one
+# at an angle. The fan is therefore laid along the reference group's principal axis (``support_frame``), where a
+# boat's returns from one side - the thin case - are exact, as is the pad (a square in that frame), and its origin at
+# the group's centre, so nothing depends on how far the boat is from the world origin.
 SUPPORT_DIRECTIONS = 16
 _ANG = np.arange(SUPPORT_DIRECTIONS) * (2.0 * np.pi / SUPPORT_DIRECTIONS)
 _DIRS = np.column_stack([np.cos(_ANG), np.sin(_ANG)])  # (K, 2) outward normals, counter-clockwise
@@ -156,12 +161,30 @@ _NEXT = np.roll(np.arange(SUPPORT_DIRECTIONS), -1)
 _CONSECUTIVE_DET = _DIRS[:, 0] * _DIRS[_NEXT, 1] - _DIRS[:, 1] * _DIRS[_NEXT, 0]
 
 
-def support_offsets(points: np.ndarray, pad: float) -> np.ndarray | None:
-    """(K,) max of d_k . p over the points, each grown to a square of half-size ``pad``; None if no finite point."""
+def support_frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(origin (2,), axes (2, 2)) of a point group: its centre and its principal axes as columns; None if no point."""
     p = np.asarray(points, float).reshape(-1, 2)
     p = p[np.isfinite(p[:, 0]) & np.isfinite(p[:, 1])]
     if p.shape[0] == 0:
         return None
+    c = p.mean(axis=0)
+    d = p - c
+    sxx, syy, sxy = float(d[:, 0] @ d[:, 0]), float(d[:, 1] @ d[:, 1]), float(d[:, 0] @ d[:, 1])
+    a = 0.5 * math.atan2(2.0 * sxy, sxx - syy)
+    return c, np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+
+
+def support_offsets(
+    points: np.ndarray, pad: float, frame: tuple[np.ndarray, np.ndarray] | None = None
+) -> np.ndarray | None:
+    """(K,) max of d_k . p over the points in ``frame`` (``support_frame``; None: the world axes at the origin),
+    each grown to a square of half-size ``pad`` in that frame; None if no finite point."""
+    p = np.asarray(points, float).reshape(-1, 2)
+    p = p[np.isfinite(p[:, 0]) & np.isfinite(p[:, 1])]
+    if p.shape[0] == 0:
+        return None
+    if frame is not None:
+        p = (p - frame[0]) @ frame[1]
     return (p @ _DIRS.T).max(axis=0) + pad * _PAD_SUPPORT
 
 
@@ -190,7 +213,7 @@ def support_area(offsets: np.ndarray) -> float:
 
 
 def support_iou(a: np.ndarray | None, b: np.ndarray | None) -> float:
-    """IoU of two support polygons (``support_offsets``); 0 when either is missing or has no area."""
+    """IoU of two support polygons (``support_offsets`` in one frame); 0 when either is missing or has no area."""
     if a is None or b is None:
         return 0.0
     area_a, area_b = outline_area(a), outline_area(b)

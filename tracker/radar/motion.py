@@ -13,8 +13,9 @@ Where this departs from the paper, and why (each is a config field; the paper's 
 * Point group (motion_group_window_s, 0 = one frame): the hull is taken over the last few frames' returns.
 * Doppler veto (motion_doppler_veto): a cluster whose own Doppler clearly shows motion counts as "moved"; so does a
   track whose filter speed clearly does (motion_filter_veto_sigmas, the tracker's: a crossing boat has no Doppler).
-* The hulls are support polygons in 16 directions (hull.support_offsets), not qhull's: the same IoU within a few
-  hundredths, at a quarter of the cost (motion_hull_exact: qhull's).
+* The hulls are support polygons in 16 directions laid along the reference group's principal axes
+  (hull.support_offsets), not qhull's: the same IoU within a few hundredths, at a quarter of the cost
+  (motion_hull_exact: qhull's).
 * |D| is clamped (motion_counter_limit) so a boat moored for an hour is seen leaving within seconds.
 """
 
@@ -26,7 +27,7 @@ from collections import deque
 import numpy as np
 
 from tracker.radar.config import RadarTrackerConfig
-from tracker.radar.hull import convex_iou, padded_hull, support_iou, support_offsets
+from tracker.radar.hull import convex_iou, padded_hull, support_frame, support_iou, support_offsets
 from tracker.types import MotionState
 
 LEVELS = (
@@ -74,14 +75,18 @@ class MotionDiscriminator:
         self.state = LEVELS[min(max(target, here - 1), here + 1)]  # adjacent levels only
         return self.state
 
-    def observe(self, t: float, points_ne: np.ndarray, doppler_moving: bool = False) -> MotionState:
+    def observe(
+        self, t: float, points_ne: np.ndarray, doppler_moving: bool = False, filter_moving: bool = False
+    ) -> MotionState:
         """Compare the hull of the track's recent returns with the newest one at least ``motion_hull_baseline_s``
         older.
 
         The point group is the returns of the last ``motion_group_window_s``: a dozen returns drawn anew each frame
         from the same hull give hulls whose IoU scatters from 0.4 to 0.8 even at rest; three frames' worth do not.
-        ``doppler_moving``: the cluster's own Doppler shows it moving; a comparison made this frame then counts as
-        "moved" whatever the overlap (a 3 m boat at 0.8 m/s still overlaps its hull of a second ago by ~0.5).
+        ``doppler_moving``: the cluster's own Doppler shows it moving (counted with ``motion_doppler_veto``);
+        ``filter_moving``: the track's filter does (the tracker applies ``motion_filter_veto_sigmas``). Either makes a
+        comparison made this frame count as "moved" whatever the overlap (a 3 m boat at 0.8 m/s still overlaps its
+        hull of a second ago by ~0.5).
         """
         pts = np.asarray(points_ne, float).reshape(-1, 2)
         self._groups.append((t, pts))
@@ -91,33 +96,36 @@ class MotionDiscriminator:
         if not np.isfinite(group).all(axis=1).any():
             return self.state
         # Hulls are built only when compared: a vetoed comparison needs neither, and a boat that keeps moving is
-        # vetoed every frame. A stored entry is [t, group, hull or None].
+        # vetoed every frame. A stored entry is [t, group, its own hull or None].
         entry: list = [t, group, None]
         base = self.cfg.motion_hull_baseline_s
         ref = None
         while self._hulls and self._hulls[0][0] < t and t - self._hulls[0][0] >= base:
             ref = self._hulls.popleft()  # the newest qualifying hull wins; older ones are never needed again
         if ref is not None:
-            if doppler_moving and self.cfg.motion_doppler_veto:
+            if (doppler_moving and self.cfg.motion_doppler_veto) or filter_moving:
                 self.step_iou(0.0)
-                self.last_iou = math.nan  # not computed: the Doppler decided
+                self.last_iou = math.nan  # not computed: the Doppler or the filter decided
             else:
-                if self.cfg.motion_hull_exact:
-                    iou = convex_iou(self._hull(ref), self._hull(entry))
-                else:
-                    iou = support_iou(self._hull(ref), self._hull(entry))
-                self.step_iou(iou)
+                self.step_iou(self._iou(ref, entry))
             self._hulls.appendleft(ref)  # it may still be the reference next time
         self._hulls.append(entry)
         return self.state
 
-    def _hull(self, entry: list) -> np.ndarray | None:
-        """The group's padded hull, built once: its vertices (``motion_hull_exact``) or its support polygon
-        (hull.support_offsets: 16 directions, its area within 2 % of the convex hull's, a quarter of qhull's cost)."""
-        if entry[2] is None:
-            pad = self.cfg.hull_point_pad_m
-            entry[2] = padded_hull(entry[1], pad) if self.cfg.motion_hull_exact else support_offsets(entry[1], pad)
-        return entry[2]
+    def _iou(self, ref: list, entry: list) -> float:
+        """Eq. 8's hull IoU: qhull's hulls (``motion_hull_exact``), or support polygons (hull.support_offsets) in
+        the reference group's frame - centre and principal axes, built once per reference - a quarter of the cost."""
+        pad = self.cfg.hull_point_pad_m
+        if self.cfg.motion_hull_exact:
+            for e in (ref, entry):
+                if e[2] is None:
+                    e[2] = padded_hull(e[1], pad)
+            return convex_iou(ref[2], entry[2])
+        if ref[2] is None:
+            frame = support_frame(ref[1])
+            ref[2] = (frame, support_offsets(ref[1], pad, frame))
+        frame, ref_offsets = ref[2]
+        return support_iou(ref_offsets, support_offsets(entry[1], pad, frame))
 
     def velocity(self, filter_velocity: np.ndarray) -> np.ndarray:
         """What to publish: NaN in "wait", zero when static, the filter's otherwise."""

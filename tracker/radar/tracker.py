@@ -247,7 +247,7 @@ class RadarTracker:
         tr.life.hit(t)
         tr.points = cl.points
         if cfg.motion_discriminator_enabled:
-            tr.motion.observe(t, cl.points, self._doppler_moving(cl) or self._filter_moving(tr))
+            tr.motion.observe(t, cl.points, self._doppler_moving(cl), self._filter_moving(tr))
 
     def _miss_track(
         self, tr: RadarTrackState, t: float, frame_dt: float, out: DetectorOutput, casters: ShadowCasters
@@ -650,7 +650,7 @@ class RadarTracker:
         speed = float(np.hypot(*v))
         if speed <= self.cfg.motion_filter_veto_speed_mps:
             return False
-        var_along = float(v @ tr.kf.P[kalman.VEL, kalman.VEL] @ v) / speed**2
+        var_along = float(v @ tr.kf.P[kalman.VEL, kalman.VEL] @ v) / speed**2 + self._ego_velocity_var()
         return speed > k * math.sqrt(max(var_along, 0.0))
 
     def _moving(self, tr: RadarTrackState, cl: RadarCluster | None = None) -> bool:
