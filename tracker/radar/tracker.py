@@ -27,7 +27,7 @@ from tracker.radar.motion import MotionDiscriminator
 from tracker.radar.occlusion import ShadowCasters
 from tracker.radar.static_map import StaticMap
 from tracker.radar.velocity_profile import VelocityStatus
-from tracker.radar.visible_side import spread, visible_side_centre
+from tracker.radar.visible_side import spreads, visible_side_centre
 from tracker.types import Detection, MotionState, ShapeKind, Track
 
 log = logging.getLogger(__name__)
@@ -377,7 +377,7 @@ class RadarTracker:
         if q <= 0 or outline is None or outline.shape[0] < 3:
             return size
         cover = 1.0 - 2.0 * q
-        return np.maximum(size, [spread(outline[:, 0], q) / cover, spread(outline[:, 1], q) / cover])
+        return np.maximum(size, spreads(outline, q) / cover)
 
     def _shadow_casters(self, out: DetectorOutput, groups: dict[int, RadarCluster]) -> ShadowCasters:
         """What may hide a track this frame: the returns of clusters held by confirmed tracks and of shore clusters.

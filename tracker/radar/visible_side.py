@@ -25,6 +25,19 @@ from __future__ import annotations
 import numpy as np
 
 
+def spreads(columns: np.ndarray, quantile: float) -> np.ndarray:
+    """(m,) ``spread`` of each column of ``columns`` (n, m), with one sort for all of them."""
+    n = columns.shape[0]
+    if n < 2:
+        return np.zeros(columns.shape[1])
+    v = np.sort(columns, axis=0)
+    pos = np.array([quantile, 1.0 - quantile]) * (n - 1)
+    lo = np.floor(pos).astype(np.int64)
+    hi = np.minimum(lo + 1, n - 1)
+    q = v[lo] + (pos - lo)[:, None] * (v[hi] - v[lo])
+    return q[1] - q[0]
+
+
 def spread(values: np.ndarray, quantile: float) -> float:
     """Width between the ``quantile`` and ``1 - quantile`` quantiles (robust extent of a sparse outline)."""
     n = values.size
@@ -64,7 +77,6 @@ def visible_side_centre(
     shp = np.asarray(shape, float).reshape(-1, 2)
     # Spreads between the quantiles are (1 - 2 quantile) of the extent of evenly spread returns: extents, not spreads,
     # are what the geometry below is written in.
-    depth = spread(shp @ u, quantile) / (1.0 - 2.0 * quantile)
-    width = spread(shp @ n, quantile) / (1.0 - 2.0 * quantile)
+    depth, width = spreads(shp @ np.column_stack([u, n]), quantile) / (1.0 - 2.0 * quantile)
     centre_r = near + depth_gain * depth + width_gain * width
     return np.asarray(sensor_ne, float) + u * max(centre_r, near)
