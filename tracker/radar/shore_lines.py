@@ -14,9 +14,9 @@ from __future__ import annotations
 from collections import deque
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
+
+from tracker.radar.dbscan import component_labels
 
 
 class ShoreLines:
@@ -133,9 +133,10 @@ class ShoreLines:
         w = np.bincount(of_point).astype(float)
         centroid = np.column_stack([np.bincount(of_point, pts[:, 0]), np.bincount(of_point, pts[:, 1])]) / w[:, None]
         pairs = cKDTree(centroid).query_pairs(self.link_m, output_type="ndarray")
-        m = centroid.shape[0]
-        graph = coo_matrix((np.ones(len(pairs), np.int8), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
-        return connected_components(graph, directed=False)[1][of_point]
+        # numpy label propagation, not scipy's sparse connected_components: a few hundred cells and ~2000 pairs cost
+        # it less than building the sparse matrix does (same labels, numbered by their lowest cell).
+        lowest = component_labels(centroid.shape[0], pairs[:, 0], pairs[:, 1])
+        return np.unique(lowest, return_inverse=True)[1].reshape(-1)[of_point]
 
     def near(self, points_ne: np.ndarray, margin_m: float) -> np.ndarray:
         """(n,) bool: within ``margin_m`` of a return found on a line at the last full search."""
