@@ -210,9 +210,9 @@ class RadarTrackerConfig:
     max_unseen_time_s: float = 2.0
     max_unseen_time_tentative_s: float = 0.5
     # Not in the paper: a confirmed track coasts this long while at least occluded_min_share of its bearing span lies
-    # in a nearer cluster's shadow (a boat behind a boat is still there; in the simulated paper scenes the Xi spends
-    # up to 3 s at a time wholly behind the Smurf), its velocity relaxing toward zero with occluded_velocity_decay_s
-    # (hidden, its course is not known to be kept; 0: no relaxing). max_unseen_time_occluded_s 0: as in the open.
+    # in a nearer cluster's shadow (a boat wholly behind a taller one is still there), its velocity relaxing toward
+    # zero with occluded_velocity_decay_s (hidden, its course is not known to be kept; 0: no relaxing).
+    # max_unseen_time_occluded_s 0: as in the open.
     max_unseen_time_occluded_s: float = 4.0
     occluded_min_share: float = 0.5
     occluded_velocity_decay_s: float = 2.0

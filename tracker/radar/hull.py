@@ -21,6 +21,12 @@ except ImportError:  # scipy < 1.11 keeps it in the private module
 _SQUARE = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
 
 
+def _finite_points(points: np.ndarray) -> np.ndarray:
+    """(k, 2) the rows of ``points`` with both coordinates finite."""
+    p = np.asarray(points, float).reshape(-1, 2)
+    return p[np.isfinite(p[:, 0]) & np.isfinite(p[:, 1])]
+
+
 def polygon_area(poly: np.ndarray) -> float:
     """Signed shoelace area: > 0 for counter-clockwise vertices in (x, y) = (first, second) column order."""
     if len(poly) < 3:
@@ -31,8 +37,7 @@ def polygon_area(poly: np.ndarray) -> float:
 
 def padded_hull(points: np.ndarray, pad: float) -> np.ndarray:
     """(m, 2) counter-clockwise hull of the points, each grown to a square of half-size ``pad``; (0, 2) if none."""
-    p = np.asarray(points, float).reshape(-1, 2)
-    p = p[np.all(np.isfinite(p), axis=1)]
+    p = _finite_points(points)
     if p.shape[0] == 0:
         return np.empty((0, 2))
     if pad > 0:
@@ -163,8 +168,7 @@ _CONSECUTIVE_DET = _DIRS[:, 0] * _DIRS[_NEXT, 1] - _DIRS[:, 1] * _DIRS[_NEXT, 0]
 
 def support_frame(points: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """(origin (2,), axes (2, 2)) of a point group: its centre and its principal axes as columns; None if no point."""
-    p = np.asarray(points, float).reshape(-1, 2)
-    p = p[np.isfinite(p[:, 0]) & np.isfinite(p[:, 1])]
+    p = _finite_points(points)
     if p.shape[0] == 0:
         return None
     c = p.mean(axis=0)
@@ -179,8 +183,7 @@ def support_offsets(
 ) -> np.ndarray | None:
     """(K,) max of d_k . p over the points in ``frame`` (``support_frame``; None: the world axes at the origin),
     each grown to a square of half-size ``pad`` in that frame; None if no finite point."""
-    p = np.asarray(points, float).reshape(-1, 2)
-    p = p[np.isfinite(p[:, 0]) & np.isfinite(p[:, 1])]
+    p = _finite_points(points)
     if p.shape[0] == 0:
         return None
     if frame is not None:

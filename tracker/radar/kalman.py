@@ -210,10 +210,15 @@ def doppler_consistent(
     echo) would otherwise be explained through the component the track knows least: a radial error of 1 m/s on a
     line of sight 4 deg off north becomes ~14 m/s east. Such a measurement is left out; position still updates.
     """
-    h = velocity_rows(kf, turn_gain)
-    y = vel.velocity - h @ kf.x[:, 0]
-    s = h @ kf.P @ h.T + velocity_noise(vel, distance, cfg)
-    d2 = mahalanobis2(y, s)
+    return _velocity_gate(kf, vel, velocity_rows(kf, turn_gain), velocity_noise(vel, distance, cfg), cfg)
+
+
+def _velocity_gate(
+    kf: KalmanFilter, vel: VelocityEstimate, h_v: np.ndarray, r_v: np.ndarray, cfg: RadarTrackerConfig
+) -> bool:
+    """``doppler_consistent`` with the velocity rows ``h_v`` and noise ``r_v`` the update goes on to use."""
+    y = vel.velocity - h_v @ kf.x[:, 0]
+    d2 = mahalanobis2(y, h_v @ kf.P @ h_v.T + r_v)
     return math.isfinite(d2) and d2 <= cfg.doppler_gate_chi2
 
 
@@ -270,11 +275,11 @@ def fused_update(
             kf.P = kf.P + cfg.maneuver_velocity_std_mps**2 * (g @ g.T)
     # A turning hull's returns carry yaw rate x lever arm (1 m/s and more on a sharp turn, all one way when only one
     # side is seen): during a manoeuvre the Doppler velocity is left out and the positions turn the track.
-    with_v = (
-        uses_doppler(cfg, vel)
-        and not (maneuver and cfg.maneuver_skip_doppler)
-        and doppler_consistent(kf, vel, distance, cfg, turn_gain)  # type: ignore[arg-type]
-    )
+    with_v = uses_doppler(cfg, vel) and not (maneuver and cfg.maneuver_skip_doppler)
+    if with_v:
+        assert vel is not None
+        h_v, r_v = velocity_rows(kf, turn_gain), velocity_noise(vel, distance, cfg)
+        with_v = _velocity_gate(kf, vel, h_v, r_v, cfg)  # doppler_consistent
     rows = _Z_POS_SIZE_VEL if with_v else _Z_POS_SIZE
     m = rows.size
     z = np.empty(m)
@@ -285,12 +290,12 @@ def fused_update(
     if with_v:
         assert vel is not None
         z[4:] = vel.velocity
-        r[4:, 4:] = velocity_noise(vel, distance, cfg)
+        r[4:, 4:] = r_v
     if with_v and turn_gain is not None and kf.dim_x > TURN:
         # The velocity rows also read the turn rate (velocity_rows): H no longer only picks states.
         h = np.zeros((m, kf.dim_x))
         h[np.arange(4), rows[:4]] = 1.0
-        h[4:] = velocity_rows(kf, turn_gain)
+        h[4:] = h_v
         _update(kf, h, z, r)
     else:
         _update_selected(kf, rows, z, r)

@@ -644,14 +644,20 @@ class RadarTracker:
         """The track's filter shows it moving: speed above ``motion_filter_veto_speed_mps`` and
         ``motion_filter_veto_sigmas`` standard deviations of its own along its velocity (0 sigmas: never)."""
         k = self.cfg.motion_filter_veto_sigmas
-        if k <= 0:
-            return False
+        return k > 0 and self._filter_speed_above(
+            tr, self.cfg.motion_filter_veto_speed_mps, k, self._ego_velocity_var()
+        )
+
+    @staticmethod
+    def _filter_speed_above(tr: RadarTrackState, min_speed: float, sigmas: float, extra_var: float = 0.0) -> bool:
+        """The filter's speed is above ``min_speed`` and ``sigmas`` standard deviations of its own along the
+        velocity (plus ``extra_var``, (m/s)^2)."""
         v = tr.kf.x[kalman.VEL, 0]
         speed = float(np.hypot(*v))
-        if speed <= self.cfg.motion_filter_veto_speed_mps:
+        if speed <= min_speed:
             return False
-        var_along = float(v @ tr.kf.P[kalman.VEL, kalman.VEL] @ v) / speed**2 + self._ego_velocity_var()
-        return speed > k * math.sqrt(max(var_along, 0.0))
+        var_along = float(v @ tr.kf.P[kalman.VEL, kalman.VEL] @ v) / speed**2 + extra_var
+        return speed > sigmas * math.sqrt(max(var_along, 0.0))
 
     def _moving(self, tr: RadarTrackState, cl: RadarCluster | None = None) -> bool:
         """Clearly moving: filter speed above ``map_exclude_min_speed_mps`` and twice its own standard deviation, and
@@ -662,19 +668,14 @@ class RadarTracker:
         before the shore is known may pick up a spurious filter velocity; its Doppler (zero) contradicts it, so its
         returns still build the shore.
         """
-        v = tr.kf.x[kalman.VEL, 0]
-        speed = float(np.hypot(*v))
-        if speed <= self.cfg.map_exclude_min_speed_mps:
-            return False
-        var_along = float(v @ tr.kf.P[kalman.VEL, kalman.VEL] @ v) / speed**2
-        if speed <= 2.0 * math.sqrt(var_along):
+        if not self._filter_speed_above(tr, self.cfg.map_exclude_min_speed_mps, 2.0):
             return False
         if cl is None:
             return True
         ok = np.isfinite(cl.doppler_world)
         if not ok.any():
             return True
-        miss = float(np.median(cl.doppler_world[ok] - cl.los[ok] @ v))
+        miss = float(np.median(cl.doppler_world[ok] - cl.los[ok] @ tr.kf.x[kalman.VEL, 0]))
         return abs(miss) <= self.cfg.map_exclude_doppler_tolerance_mps
 
     def current_tracks(self) -> list[Track]:
