@@ -132,8 +132,6 @@ def pipeline_for(config: Config) -> PerceptionPipeline:
         min_distance_m=config.output.min_distance_m,
         max_distance_m=config.output.max_distance_m,
         lidar_max_range_m=config.lidar.max_range_m,
-        min_height_above_water_m=config.output.min_height_above_water_m,
-        water_z_m=config.boat.water_z_m,
         radar_fov_rad=math.radians(config.radar.fov_deg),
         radar_yaw_rad=math.radians(config.radar.mount.yaw),
         radar_max_range_m=config.radar.max_range_m,

@@ -63,8 +63,8 @@ def test_spray_is_removed_but_low_hulls_are_kept() -> None:
     rng = np.random.default_rng(4)
     # A dinghy's gunwale 0.3 m above the water: 40 returns along 3 m (body z = 0.5 - 0.3 = 0.2).
     gunwale = np.stack([np.linspace(15.0, 18.0, 40), np.full(40, 3.0), np.full(40, 0.2)], axis=1)
-    # Water clutter: 30 isolated returns 0.1 m above the water, metres apart.
-    clutter = np.stack([rng.uniform(5, 60, 30), rng.uniform(-30, 30, 30), np.full(30, 0.4)], axis=1)
+    # Spray: 30 isolated returns 0.3 m above the water (above the 0.15 m sea margin), metres apart.
+    clutter = np.stack([rng.uniform(5, 60, 30), rng.uniform(-30, 30, 30), np.full(30, 0.2)], axis=1)
     # A hull at 30 m: three rings 1 m apart, the lowest 0.2 m above the water, returns 0.1 m apart along each.
     ring = np.linspace(-6.0, -4.0, 20)
     hull = np.concatenate([np.stack([np.full(20, 30.0), ring, np.full(20, z)], axis=1) for z in (0.3, -0.7, -1.7)])

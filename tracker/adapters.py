@@ -46,6 +46,7 @@ def lidar_tracker_table(config: Any) -> dict[str, Any]:
             "origin_height_above_water": -b.water_z_m,
             "min_range": config.lidar.min_range_m,
             "max_range": config.lidar.max_range_m,
+            "water": {"margin_floor": config.output.min_height_above_water_m},
         }
     }
     return _merge(derived, config.tracker.lidar)

@@ -20,8 +20,9 @@ import numpy as np
 
 from drivers.frames import EgoPose, LidarScan, RadarFrame
 from drivers.mount import Mount
-from tracker.ego import rotation_matrices, sample_poses, world_to_body_2d
+from tracker.ego import sample_poses, world_to_body_2d
 from tracker.fusion import fuse_tracks
+from tracker.lidar.water import WaterSurface
 from tracker.obstacle_map import SensorCoverage, bearing_bins, build_obstacle_distances, outline_points
 from tracker.radar.detector import SHORE_KEEP
 from tracker.types import Track
@@ -51,8 +52,6 @@ class PipelineSettings:
     min_distance_m: float = 0.5
     max_distance_m: float = 100.0
     lidar_max_range_m: float = 100.0
-    min_height_above_water_m: float = 0.15
-    water_z_m: float = 0.0  # body z (down positive) of the water line
     radar_fov_rad: float = np.radians(120.0)
     radar_yaw_rad: float = 0.0
     radar_max_range_m: float = 50.0
@@ -87,14 +86,6 @@ def _timed(timings: dict[str, float], key: str, fn: Callable[[], Any]) -> Any:
     return out
 
 
-def level_z(xyz_body: np.ndarray, roll: float, pitch: float) -> np.ndarray:
-    """Body FRD z -> gravity-down z of a yaw-free level frame, to judge heights on a rolling boat."""
-    if roll == 0.0 and pitch == 0.0:
-        return xyz_body[:, 2]
-    r = rotation_matrices(np.array([roll]), np.array([pitch]), np.array([0.0]))[0]
-    return xyz_body @ r[2]
-
-
 IDENTITY = (np.zeros(3), 0.0, 0.0, 0.0)
 
 
@@ -118,6 +109,10 @@ class PerceptionPipeline:
         self._lidar_tracks: list[Track] = []
         self._radar_tracks: list[Track] = []
         self.skipped_no_pose = 0
+        cfg = self.lidar_preprocess_config
+        # The water surface is a body-relative estimate: it survives a change of world frame.
+        self.water = WaterSurface(cfg.water if cfg is not None else None)
+        self.last_preprocess: Any = None
 
     def reset_tracks(self) -> None:
         """Start the trackers afresh (tracks, maps), keeping the world frame: after a failed cycle, whose partial
@@ -221,7 +216,6 @@ class PerceptionPipeline:
     def _lidar(self, scan: LidarScan, ego: EgoSource | None, ego_ok: bool) -> tuple[np.ndarray, int]:
         from tracker.lidar.preprocess import preprocess
 
-        s = self.settings
         if ego_ok:
             assert ego is not None
             (pos, roll, pitch, yaw), index = sample_poses(ego, scan.t)
@@ -231,25 +225,27 @@ class PerceptionPipeline:
         else:
             (pos, roll, pitch, yaw), index = IDENTITY, None
             known = np.ones(scan.n_points, dtype=bool)
+        cfg = self.lidar_preprocess_config
         if not known.all():
-            # Pose lost (autopilot silent): obstacles still come from the body frame, tracking waits.
-            pos_b, roll_b, pitch_b, yaw_b = np.zeros(3), 0.0, 0.0, 0.0
-            pre = preprocess(scan.xyz, pos_b, roll_b, pitch_b, yaw_b, self.lidar_preprocess_config)
+            # Pose lost (autopilot silent): obstacles still come from the body frame, tracking waits. The water
+            # surface fit absorbs up to max_tilt of the attitude it no longer knows.
+            pre = preprocess(scan.xyz, np.zeros(3), 0.0, 0.0, 0.0, cfg, water=self.water, t=scan.stamp)
             track_points = None
             self.skipped_no_pose += 1
         else:
-            pre = preprocess(scan.xyz, pos, roll, pitch, yaw, self.lidar_preprocess_config, pose_index=index)
+            pre = preprocess(scan.xyz, pos, roll, pitch, yaw, cfg, pose_index=index, water=self.water, t=scan.stamp)
             track_points = pre.points_world
-        body = np.compress(pre.keep, scan.xyz, axis=0)
-        r0, p0 = (float(np.nanmean(roll)), float(np.nanmean(pitch))) if ego_ok and known.any() else (0.0, 0.0)
-        above = level_z(body, r0, p0) < s.water_z_m - s.min_height_above_water_m
+        self.last_preprocess = pre
+        # One classification for the obstacle array and the tracker: each return's own attitude, the measured
+        # water surface and the sea margin (tracker/lidar/water.py).
+        solid_body = np.compress(pre.keep, scan.xyz[:, :2], axis=0)
         if self.lidar_tracker is not None and track_points is not None:
             own = _pose_now(ego, ego_ok, scan.stamp)
             own_pos, own_yaw = (own[0][:2], own[3]) if own is not None else (np.zeros(2), 0.0)
             self._lidar_tracks = self.lidar_tracker.step(
                 track_points, scan.stamp, own_pos, own_yaw, point_times=scan.t[pre.keep]
             )
-        return np.compress(above, body[:, :2], axis=0), int(above.sum())
+        return solid_body, int(solid_body.shape[0])
 
     # ---- radar ----------------------------------------------------------------------------------------------
     def _radar(self, frame: RadarFrame, ego: EgoSource | None, ego_ok: bool) -> np.ndarray:

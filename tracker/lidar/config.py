@@ -41,6 +41,40 @@ def _positive(owner: object, *names: str, allow_zero: bool = False) -> None:
 
 
 @dataclass
+class WaterConfig:
+    """The water surface estimated from the LiDAR's water returns, and the sea-state margin (ours; see
+    tracker/lidar/water.py). Heights are above the configured waterline at the body origin, up positive, m."""
+
+    enabled: bool = True
+    # A return is solid only this high above the estimated surface, at least: [output] min_height_above_water_m.
+    margin_floor: float = 0.15
+    margin_max: float = 1.0  # above this the sea hides anything that matters to a small USV anyway
+    margin_quantile: float = 0.995  # of the water returns' distance from the fitted plane: the crests
+    margin_pad: float = 0.05  # m over the crests: range noise (2 cm) and the crests between revolutions
+    search_window: float = 1.0  # m either side of the current surface where water returns are looked for
+    fit_min_range: float = 2.0  # m, horizontal
+    fit_max_range: float = 50.0  # m; beyond, a 0.1 deg attitude error is already 9 cm
+    min_returns: int = 150  # inliers needed to accept a fit
+    min_sectors: int = 6  # of 36 bearing sectors the inliers must cover: a quay or a hull covers fewer
+    max_spread: float = 0.3  # m, robust sigma of the inliers: sea state 3 (Hs 1.25 m) is 0.31; hull sides 0.4-0.6
+    max_offset: float = 0.6  # m of heave plus waterline error the fit may take
+    max_tilt: float = math.radians(2.0)  # attitude error the fit may absorb
+    memory_s: float = 10.0  # an estimate holds this long without a new accepted fit
+
+    def __post_init__(self) -> None:
+        _positive(self, "margin_floor", "margin_max", "search_window", "fit_max_range", "min_returns")
+        _positive(
+            self, "margin_pad", "fit_min_range", "max_spread", "max_offset", "max_tilt", "memory_s", allow_zero=True
+        )
+        if not 0.5 <= self.margin_quantile <= 1.0:
+            raise ConfigError(f"WaterConfig.margin_quantile: must be within [0.5, 1], got {self.margin_quantile!r}")
+        if self.margin_floor > self.margin_max:
+            raise ConfigError(f"WaterConfig.margin_floor: {self.margin_floor} is above margin_max {self.margin_max}")
+        if self.min_sectors < 1:
+            raise ConfigError(f"WaterConfig.min_sectors: must be >= 1, got {self.min_sectors!r}")
+
+
+@dataclass
 class PreprocessConfig:
     """Sec. 2.1 "pre-processing": which returns may belong to objects on the water (limits are ours)."""
 
@@ -60,6 +94,7 @@ class PreprocessConfig:
     spray_min_neighbours: int = 3
     # Within this horizontal range every return must have neighbours, whatever its height: bow spray flies (ours).
     spray_near_range: float = 8.0
+    water: WaterConfig = field(default_factory=WaterConfig)
 
     def __post_init__(self) -> None:
         _positive(self, "max_range", "spray_radius")

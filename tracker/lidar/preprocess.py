@@ -10,13 +10,14 @@ pose for all); output world NED. Heights are "above the water surface", up posit
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from tracker.ego import PoseTable
 from tracker.grouping import expand_groups, group_keys
 from tracker.lidar.config import PreprocessConfig
+from tracker.lidar.water import WaterEstimate, WaterSurface
 
 log = logging.getLogger(__name__)
 
@@ -30,6 +31,8 @@ class PreprocessResult:
     n_own_boat: int = 0
     n_height: int = 0  # outside [min_height, max_height] above the water
     n_spray: int = 0  # low and isolated: water surface or spray
+    n_water: int = 0  # within the sea margin of the estimated water surface
+    water: WaterEstimate = field(default_factory=WaterEstimate)
 
 
 _EXACT_BELOW = 10  # cube counts under 10x the minimum get an exact ball count (dense surfaces never need one)
@@ -103,12 +106,17 @@ def preprocess(
     yaw: np.ndarray | float,
     config: PreprocessConfig | None = None,
     pose_index: np.ndarray | None = None,
+    water: WaterSurface | None = None,
+    t: float = 0.0,
 ) -> PreprocessResult:
     """Filter one revolution and move it to the world frame.
 
     ``position_ned`` is (3,) or (K, 3): the body origin in world NED; ``roll``, ``pitch``, ``yaw`` are scalars or
     (K,) arrays (radians, body->NED, aerospace Z-Y-X). Point i takes pose ``pose_index[i]``, or, without
-    ``pose_index``, pose i (K = N) or the one pose for all.
+    ``pose_index``, pose i (K = N) or the one pose for all. With ``water`` (kept by the caller across
+    revolutions, ``t`` the revolution's time), heights are taken above the water surface estimated from this
+    revolution's own water returns and the sea margin follows the measured sea state; without it the configured
+    waterline and ``cfg.water.margin_floor`` apply.
     """
     cfg = config or PreprocessConfig()
     xyz = np.asarray(xyz_body, dtype=float).reshape(-1, 3)
@@ -132,23 +140,34 @@ def preprocess(
 
     idx = np.flatnonzero(keep)
     world, pos_down = poses.body_to_world(np.take(xyz, idx, axis=0), idx)
-    height = (pos_down + cfg.origin_height_above_water) - world[:, 2]
+    # Height above the configured waterline at the body origin, in the level frame of each point's own attitude
+    # (world z relative to the body origin: the autopilot's own altitude, GPS or baro, never enters).
+    height = cfg.origin_height_above_water - (world[:, 2] - pos_down)
+    bx, by = np.take(x, idx), np.take(y, idx)
+    estimate = water.update(bx, by, height, t) if water is not None else WaterEstimate(margin=cfg.water.margin_floor)
+    if estimate.measured:
+        height = height - estimate.surface(bx, by)
+    margin = estimate.margin
 
-    in_height = (height >= cfg.min_height) & (height <= cfg.max_height)
-    n_height = int(np.count_nonzero(~in_height))
+    in_band = (height >= cfg.min_height) & (height <= cfg.max_height)
+    n_height = int(np.count_nonzero(~in_band))
+    # At or below the surface plus the sea margin: water (a crest, a trough, a slick), never an obstacle.
+    solid = in_band & (height > margin)
+    n_water = int(np.count_nonzero(in_band & ~solid))
 
     # Spray suspects: low returns anywhere, and any return near the boat, where a real hull gives dense returns
-    # (0.2 deg steps are centimetres apart at a few metres) but bow spray gives lone points in mid-air.
+    # (0.2 deg steps are centimetres apart at a few metres) but bow spray gives lone points in mid-air. The low band
+    # rises with the sea margin: crests above it are the ones most likely to leave stragglers.
+    low_top = cfg.spray_max_height + margin - cfg.water.margin_floor
     r2_kept = r2[idx]
     near = r2_kept < cfg.spray_near_range**2
-    low = in_height & ((height < cfg.spray_max_height) | near)
+    low = solid & ((height < low_top) | near)
     spray = np.zeros(idx.size, dtype=bool)
     if np.any(low):
-        # Neighbours among the kept returns within reach of a suspect (a low return next to a hull is hull),
+        # Neighbours among the solid returns within reach of a suspect (a low return next to a hull is hull),
         # counted without itself.
-        reach = in_height & (
-            (height < cfg.spray_max_height + cfg.spray_radius)
-            | (r2_kept < (cfg.spray_near_range + cfg.spray_radius) ** 2)
+        reach = solid & (
+            (height < low_top + cfg.spray_radius) | (r2_kept < (cfg.spray_near_range + cfg.spray_radius) ** 2)
         )
         reach_idx = np.flatnonzero(reach)
         reach_pts = np.take(world, reach_idx, axis=0)
@@ -166,7 +185,7 @@ def preprocess(
         spray[np.flatnonzero(low)] = verdict
     n_spray = int(np.count_nonzero(spray))
 
-    good = in_height & ~spray
+    good = solid & ~spray
     keep[idx[~good]] = False
     n_nonfinite = n - int(np.count_nonzero(finite))
     if n_nonfinite:
@@ -179,4 +198,6 @@ def preprocess(
         n_own_boat=n_own,
         n_height=n_height,
         n_spray=n_spray,
+        n_water=n_water,
+        water=estimate,
     )

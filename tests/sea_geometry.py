@@ -1,0 +1,93 @@
+"""Exact VLP-16 geometry over a sea surface, for tests: which firings meet the water, and where.
+
+Independent of the simulator's ray caster, so a test built on it checks the daemon against plain geometry: the
+16 lasers of vlp16.md §3 (elevations and vertical offsets) fired every 0.2 deg, from a sensor mounted on a boat
+with a given roll, pitch and yaw, meeting a water plane (or a surface ``elevation(north, east)``) below.
+
+Frames: sensor FLU -> body FRD through the mount; body FRD -> world NED with R = Rz(yaw) Ry(pitch) Rx(roll). The
+body origin sits ``origin_height`` above the mean water (world z = -origin_height); world z of the water is 0.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from drivers.mount import FLU_TO_FRD, Mount
+from tracker.ego import rotation_matrices
+
+ELEVATION_DEG = np.array([-15, 1, -13, 3, -11, 5, -9, 7, -7, 9, -5, 11, -3, 13, -1, 15], float)
+VERTICAL_OFFSET_M = (
+    np.array([11.2, -0.7, 9.7, -2.2, 8.1, -3.7, 6.6, -5.1, 5.1, -6.6, 3.7, -8.1, 2.2, -9.7, 0.7, -11.2]) * 1e-3
+)
+RING_OF_LASER = np.argsort(np.argsort(ELEVATION_DEG)).astype(np.uint8)  # 0 = lowest beam
+
+
+@dataclass(frozen=True)
+class WaterReturns:
+    xyz_body: np.ndarray  # (N, 3) body FRD, m
+    t: np.ndarray  # (N,) firing time, s
+    ring: np.ndarray  # (N,) uint8
+    xyz_world: np.ndarray  # (N, 3) world NED, m
+    wall: np.ndarray  # (N,) index of the wall hit, -1 for the water
+
+
+def revolution_over_water(
+    mount: Mount,
+    attitude: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    yaw: float = 0.3,
+    origin_height: float = 0.0,
+    elevation: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+    max_range: float = 100.0,
+    step_deg: float = 0.2,
+    t0: float = 0.0,
+    walls: tuple[tuple[tuple[float, float], tuple[float, float], float], ...] = (),
+) -> WaterReturns:
+    """Every firing of one 10 Hz revolution that meets the water within ``max_range`` returns, where it meets it.
+
+    ``attitude(t)`` gives (roll, pitch) at the firing times; ``elevation(north, east)`` the wave height above the mean
+    (up positive), solved along each ray by fixed-point iteration (it converges for the gentle slopes used here).
+    ``walls`` are vertical faces from the mean water up to a top height: ((north, east), (north, east), top); a
+    firing that meets one before the water returns from the wall.
+    """
+    az = np.radians(np.arange(0.0, 360.0, step_deg))
+    n_az = az.size
+    a, laser = np.meshgrid(az, np.arange(16), indexing="ij")
+    a, laser = a.ravel(), laser.ravel()
+    t = t0 + np.repeat(np.arange(n_az) / n_az * 0.1, 16) + laser * 2.304e-6
+    el = np.radians(ELEVATION_DEG[laser])
+    d_flu = np.stack([np.cos(el) * np.cos(a), -np.cos(el) * np.sin(a), np.sin(el)], axis=-1)
+    o_flu = np.zeros_like(d_flu)
+    o_flu[:, 2] = VERTICAL_OFFSET_M[laser]
+    to_body = mount.rotation @ FLU_TO_FRD
+    d_body = d_flu @ to_body.T
+    o_body = o_flu @ to_body.T + mount.translation
+    roll, pitch = attitude(t)
+    r = rotation_matrices(np.broadcast_to(roll, t.shape), np.broadcast_to(pitch, t.shape), np.full(t.shape, yaw))
+    d_world = np.einsum("nij,nj->ni", r, d_body)
+    o_world = np.einsum("nij,nj->ni", r, o_body)
+    o_world[:, 2] -= origin_height
+    down = d_world[:, 2] > 1e-6
+    lam = np.where(down, -o_world[:, 2] / np.where(down, d_world[:, 2], 1.0), np.inf)
+    if elevation is not None:
+        for _ in range(30):
+            p = o_world[down] + lam[down, None] * d_world[down]
+            lam[down] = (-elevation(p[:, 0], p[:, 1]) - o_world[down, 2]) / d_world[down, 2]
+    wall = np.full(t.size, -1)
+    for k, (p0, p1, top) in enumerate(walls):
+        e = np.subtract(p1, p0, dtype=float)
+        nrm = np.array([e[1], -e[0]]) / np.hypot(*e)
+        den = d_world[:, :2] @ nrm
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mu = ((np.asarray(p0, float) - o_world[:, :2]) @ nrm) / den
+        p = o_world + mu[:, None] * d_world
+        along = ((p[:, :2] - np.asarray(p0, float)) @ e) / (e @ e)
+        on = (den != 0) & (mu > 0.5) & (mu < lam) & (along >= 0) & (along <= 1) & (-p[:, 2] >= 0) & (-p[:, 2] <= top)
+        lam = np.where(on, mu, lam)
+        wall[on] = k
+    hit = (down | (wall >= 0)) & (lam > 0.5) & (lam * np.hypot(d_body[:, 0], d_body[:, 1]) <= max_range)
+    xyz_body = o_body[hit] + lam[hit, None] * d_body[hit]
+    xyz_world = o_world[hit] + lam[hit, None] * d_world[hit]
+    return WaterReturns(xyz_body, t[hit], RING_OF_LASER[laser[hit]], xyz_world, wall[hit])

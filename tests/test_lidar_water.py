@@ -1,0 +1,56 @@
+"""The water-surface estimate: found from water returns, never from hulls or a quay, forgotten when stale."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tracker.lidar.config import WaterConfig
+from tracker.lidar.water import WaterSurface
+
+
+def ring_of_water(rng: np.random.Generator, n: int, offset: float, amplitude: float) -> tuple[np.ndarray, ...]:
+    bearing = rng.uniform(-math.pi, math.pi, n)
+    r = rng.uniform(6.0, 30.0, n)
+    x, y = r * np.cos(bearing), r * np.sin(bearing)
+    h = offset + 0.01 * x - 0.005 * y + amplitude * np.sin(0.6 * x + 0.3 * y)
+    return x, y, h
+
+
+def test_plane_offset_tilt_and_margin_from_water_returns() -> None:
+    rng = np.random.default_rng(1)
+    x, y, h = ring_of_water(rng, 4000, offset=-0.2, amplitude=0.25)
+    est = WaterSurface().update(x, y, h, t=5.0)
+    assert est.measured and est.t == 5.0
+    assert est.offset == pytest.approx(-0.2, abs=0.03)
+    assert est.slope_x == pytest.approx(0.01, abs=0.003) and est.slope_y == pytest.approx(-0.005, abs=0.003)
+    # crests 0.25 m: the margin is the crest height plus the 5 cm pad, within 3 cm
+    assert est.margin == pytest.approx(0.30, abs=0.03)
+
+
+def test_a_quay_and_hulls_are_not_taken_for_water() -> None:
+    rng = np.random.default_rng(2)
+    surface = WaterSurface()
+    # A quay face along 40 m at 20 m to starboard: 3000 returns from 0 to 1 m, in 4 sectors of 10 deg.
+    x = rng.uniform(-5.0, 5.0, 3000)
+    quay = (x, np.full(3000, 20.0), rng.uniform(0.0, 1.0, 3000))
+    assert not surface.update(*quay, t=1.0).measured
+    # Hull sides all round at 15 m, 0-1.3 m high: many sectors, but spread over a metre, not a thin layer.
+    b = rng.uniform(-math.pi, math.pi, 3000)
+    hulls = (15.0 * np.cos(b), 15.0 * np.sin(b), rng.uniform(0.0, 1.3, 3000))
+    assert not surface.update(*hulls, t=1.1).measured
+    assert surface.refused == 1 and surface.accepted == 0
+    assert surface.current(1.1).margin == WaterConfig().margin_floor
+
+
+def test_an_estimate_holds_for_its_memory_then_the_waterline_returns() -> None:
+    rng = np.random.default_rng(3)
+    surface = WaterSurface(WaterConfig(memory_s=2.0))
+    x, y, h = ring_of_water(rng, 3000, offset=0.3, amplitude=0.1)
+    surface.update(x, y, h, t=10.0)
+    empty = np.zeros(0)
+    assert surface.update(empty, empty, empty, t=11.9).offset == pytest.approx(0.3, abs=0.03)
+    after = surface.update(empty, empty, empty, t=12.1)
+    assert not after.measured and after.offset == 0.0 and after.margin == 0.15

@@ -1,0 +1,130 @@
+"""A boat rolling and pitching over the sea: water returns never become obstacles or clusters.
+
+The daemon's pipeline is built exactly as `usv-tracker run` builds it (`pipeline_for` on the shipped defaults), and
+the revolution comes from plain geometry (tests/sea_geometry.py), not from the simulator: every firing of a VLP-16
+1.6 m above the water that meets the water returns from it, the worst case of a choppy surface.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from daemon.config import Config
+from daemon.runner import pipeline_for
+from drivers.frames import EgoPose, LidarScan
+from drivers.mount import Mount
+from tests.sea_geometry import revolution_over_water
+from tracker.obstacle_map import UNKNOWN
+
+ROLL, PITCH, YAW = math.radians(5.0), math.radians(3.0), 0.3
+MOUNT = Mount(z=-1.6)
+
+
+class SteadyEgo:
+    """The autopilot's pose: at the origin, heading YAW, attitude from ``attitude(t)``."""
+
+    epoch = 1
+    available = True
+
+    def __init__(self, attitude) -> None:
+        self.attitude = attitude
+
+    def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        times = np.asarray(times, float)
+        roll, pitch = self.attitude(times)
+        n = times.size
+        return np.zeros((n, 3)), np.broadcast_to(roll, (n,)) * 1.0, np.broadcast_to(pitch, (n,)) * 1.0, np.full(n, YAW)
+
+    def at(self, t: float) -> EgoPose:
+        roll, pitch = self.attitude(np.array([t]))
+        return EgoPose(t, np.zeros(3), np.zeros(3), float(np.ravel(roll)[0]), float(np.ravel(pitch)[0]), YAW)
+
+
+def steady(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return np.full(np.shape(t), ROLL), np.full(np.shape(t), PITCH)
+
+
+def rolling(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """5 deg of roll over a 4 s period, 3 deg of pitch over 3 s: the attitude turns 0.8 deg within one sweep."""
+    t = np.asarray(t, float)
+    return ROLL * np.sin(2 * math.pi * t / 4.0 + 0.3), PITCH * np.sin(2 * math.pi * t / 3.0 + 1.0)
+
+
+def _pipeline():
+    config = Config()
+    config.lidar.mount.z = MOUNT.z
+    config.radar.enabled = False
+    return pipeline_for(config)
+
+
+def _scan(ret, stamp: float) -> LidarScan:
+    n = ret.t.size
+    return LidarScan(
+        stamp=stamp,
+        stamp_device=stamp,
+        xyz=ret.xyz_body,
+        intensity=np.full(n, 4.0, np.float32),
+        ring=ret.ring,
+        t=ret.t,
+    )
+
+
+@pytest.mark.parametrize("attitude", [steady, rolling], ids=["rolled-5-pitched-3", "rolling"])
+def test_flat_sea_under_a_tilted_boat_gives_no_obstacle_and_no_cluster(attitude) -> None:
+    pipeline = _pipeline()
+    ego = SteadyEgo(attitude)
+    for k in range(3):  # three revolutions: the tracker would confirm a track on the third
+        ret = revolution_over_water(MOUNT, attitude, yaw=YAW, t0=0.1 * k)
+        # the geometry is the worst case the issue describes: thousands of water returns between 6 and 30 m
+        assert ret.t.size > 5000
+        horizontal = np.hypot(ret.xyz_body[:, 0], ret.xyz_body[:, 1])
+        assert np.count_nonzero((horizontal > 6) & (horizontal < 30)) > 1000
+        out = pipeline.step(0.1 * k + 0.1, _scan(ret, 0.1 * k + 0.1), [], ego)
+        obstacle = out.distances_cm <= 10000
+        assert not obstacle.any(), f"revolution {k}: obstacle bins {np.flatnonzero(obstacle).tolist()}"
+        assert pipeline.lidar_tracker.last_clusters == []
+        assert out.tracks == []
+    assert np.all((out.distances_cm == 10001) | (out.distances_cm == UNKNOWN))
+
+
+def chop(north: np.ndarray, east: np.ndarray) -> np.ndarray:
+    """Three wave trains, crests up to +-0.3 m about the mean water."""
+    return (
+        0.15 * np.sin(0.52 * north + 0.31 * east + 0.4)
+        + 0.10 * np.sin(-0.35 * north + 0.80 * east + 2.0)
+        + 0.05 * np.sin(1.30 * north - 0.90 * east + 1.1)
+    )
+
+
+def test_choppy_heaving_sea_gives_no_obstacle_and_a_low_hull_in_it_still_does() -> None:
+    """Crests +-0.3 m, the boat heaved 0.2 m up (which the autopilot does not report) and rolling: the water is
+    found from its own returns, and a hull 0.8 m high at 20 m on the 45 deg bearing stays an obstacle."""
+    pipeline = _pipeline()
+    ego = SteadyEgo(rolling)
+    bearing = math.radians(45.0) + YAW  # world bearing of the body's 45 deg
+    centre = 20.0 * np.array([math.cos(bearing), math.sin(bearing)])
+    along = np.array([-math.sin(bearing), math.cos(bearing)])
+    wall = (tuple(centre - 1.5 * along), tuple(centre + 1.5 * along), 0.8)
+    for k in range(4):
+        water_only = k < 3
+        ret = revolution_over_water(
+            MOUNT, rolling, yaw=YAW, origin_height=0.2, elevation=chop, t0=0.1 * k, walls=() if water_only else (wall,)
+        )
+        out = pipeline.step(0.1 * k + 0.1, _scan(ret, 0.1 * k + 0.1), [], ego)
+        pre = pipeline.last_preprocess
+        obstacle = np.flatnonzero(out.distances_cm <= 10000)
+        if water_only:
+            assert obstacle.tolist() == [], f"revolution {k}"
+            assert pipeline.lidar_tracker.last_clusters == []
+            assert out.tracks == []
+        else:
+            # the sea state was measured: crests of 0.3 m give a margin of 0.3-0.45 m
+            assert pre.water.measured and 0.3 <= pre.water.margin <= 0.45
+            assert pre.water.offset == pytest.approx(-0.2, abs=0.05)  # the mean water, 0.2 m below the waterline
+            # the hull's face spans bearings 40.7-49.3 deg, bins 8-10, at 20.0-20.1 m
+            assert obstacle.tolist() == [8, 9, 10]
+            np.testing.assert_allclose(out.distances_cm[obstacle] / 100.0, 20.05, atol=0.1)
+            assert len(pipeline.lidar_tracker.last_clusters) == 1

@@ -1,0 +1,129 @@
+"""The water surface around the boat, estimated from the LiDAR's own water returns, and the sea-state margin.
+
+Why not the hull's waterline alone: the water 20 m away is not at the waterline. The boat heaves, waves stand
++-0.3 m around it, and an attitude off by half a degree puts the water 0.17 m high or low at 20 m. A tilted VLP-16
+meets the water with its lower beams at 6-30 m and a choppy surface returns some of those firings; those returns
+are the best measurement of where the water is. So each revolution:
+
+1. candidates: returns within ``search_window`` of the current surface estimate, at ``fit_min_range``..
+   ``fit_max_range`` horizontally;
+2. a plane h = a + b x + c y (heights up, body x forward / y starboard) fitted by least squares, re-fitted three
+   times on the returns within 3 robust sigmas of the last fit. The plane takes the heave and the waterline's
+   offset (a, up to ``max_offset``) and a small attitude error (b, c, up to ``max_tilt``);
+3. accepted only if it rests on water, not on a few hulls or a quay: at least ``min_returns`` inliers spread over
+   ``min_sectors`` of 36 bearing sectors, with a robust spread below ``max_spread`` (hull sides spread their
+   returns evenly over a metre; a water surface is a thin layer);
+4. the sea-state margin: the ``margin_quantile`` of the inliers' distance from the plane (the crests) plus
+   ``margin_pad``, between ``margin_floor`` and ``margin_max``. A return counts as solid only above the surface
+   plus this margin.
+
+Without enough water returns (calm water returns almost nothing), the last accepted estimate holds for
+``memory_s`` seconds, then the configured waterline with the floor margin applies again.
+
+Frames: body FRD points rotated by the pose's roll and pitch into a yaw-free level frame; heights up positive, m,
+relative to the configured waterline at the body origin.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from tracker.lidar.config import WaterConfig
+
+N_SECTORS = 36
+_SUBSAMPLE = 6000  # candidates used for the fit; a plane of 3 unknowns needs no more
+
+
+@dataclass(frozen=True)
+class WaterEstimate:
+    """h_surface(x, y) = offset + slope_x x + slope_y y (m, up); a return is solid above it plus ``margin``."""
+
+    offset: float = 0.0
+    slope_x: float = 0.0
+    slope_y: float = 0.0
+    margin: float = 0.15
+    t: float = -math.inf  # when it was last measured (host s); -inf = the configured waterline
+    n_inliers: int = 0
+    spread: float = 0.0  # robust sigma of the inliers about the plane, m
+
+    @property
+    def measured(self) -> bool:
+        return math.isfinite(self.t)
+
+    def surface(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return self.offset + self.slope_x * x + self.slope_y * y
+
+
+class WaterSurface:
+    """Keeps the newest accepted estimate; ``update`` once per revolution, ``current`` for the margin in force."""
+
+    def __init__(self, config: WaterConfig | None = None) -> None:
+        self.config = config or WaterConfig()
+        self.estimate = self._prior()
+        self.accepted = 0
+        self.refused = 0
+
+    def _prior(self) -> WaterEstimate:
+        return WaterEstimate(margin=self.config.margin_floor)
+
+    def current(self, t: float) -> WaterEstimate:
+        e = self.estimate
+        if e.measured and t - e.t > self.config.memory_s:
+            self.estimate = e = self._prior()
+        return e
+
+    def update(self, x: np.ndarray, y: np.ndarray, height: np.ndarray, t: float) -> WaterEstimate:
+        """Fit the surface to this revolution's returns (level-frame x, y and height above the configured
+        waterline) and return the estimate to classify them with."""
+        cfg = self.config
+        prev = self.current(t)
+        if not cfg.enabled:
+            return prev
+        r2 = x * x + y * y
+        cand = (r2 >= cfg.fit_min_range**2) & (r2 <= cfg.fit_max_range**2)
+        cand &= np.abs(height - prev.surface(x, y)) <= cfg.search_window
+        idx = np.flatnonzero(cand)
+        if idx.size < cfg.min_returns:
+            return prev
+        if idx.size > _SUBSAMPLE:
+            idx = idx[:: idx.size // _SUBSAMPLE + 1]
+        cx, cy, ch = x[idx], y[idx], height[idx]
+        sectors = np.unique(np.floor((np.arctan2(cy, cx) + math.pi) * (N_SECTORS / (2 * math.pi))).astype(np.int64))
+        if sectors.size < cfg.min_sectors:
+            return prev
+        design = np.stack([np.ones_like(cx), cx, cy], axis=1)
+        inlier = np.ones(cx.size, dtype=bool)
+        coef = np.zeros(3)
+        sigma = 0.0
+        for _ in range(4):
+            if np.count_nonzero(inlier) < cfg.min_returns:
+                self.refused += 1
+                return prev
+            a = design[inlier]
+            coef = np.linalg.lstsq(a, ch[inlier], rcond=None)[0]
+            res = ch - design @ coef
+            sigma = 1.4826 * float(np.median(np.abs(res[inlier] - np.median(res[inlier]))))
+            inlier = np.abs(res) <= max(3.0 * sigma, 0.05)
+        n_in = int(np.count_nonzero(inlier))
+        tilt = math.tan(cfg.max_tilt)
+        in_sectors = np.unique(
+            np.floor((np.arctan2(cy[inlier], cx[inlier]) + math.pi) * (N_SECTORS / (2 * math.pi))).astype(np.int64)
+        ).size
+        if (
+            n_in < cfg.min_returns
+            or in_sectors < cfg.min_sectors
+            or sigma > cfg.max_spread
+            or abs(coef[0]) > cfg.max_offset
+            or abs(coef[1]) > tilt
+            or abs(coef[2]) > tilt
+        ):
+            self.refused += 1
+            return prev
+        crest = float(np.quantile(np.abs(res[inlier]), cfg.margin_quantile))
+        margin = min(max(crest + cfg.margin_pad, cfg.margin_floor), cfg.margin_max)
+        self.estimate = WaterEstimate(float(coef[0]), float(coef[1]), float(coef[2]), margin, t, n_in, sigma)
+        self.accepted += 1
+        return self.estimate
