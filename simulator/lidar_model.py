@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drivers.mount import FLU_TO_FRD, Mount
-from simulator.scene import LABEL_CLUTTER, Scene, wrap_angle
+from simulator.scene import LABEL_CLUTTER, LABEL_RAIN, LABEL_WATER, Scene, wrap_angle
 
 log = logging.getLogger(__name__)
 
@@ -99,6 +99,8 @@ class _Firings:
     distance: np.ndarray  # (R,) inf = no hit
     label: np.ndarray  # (R,)
     reflectivity: np.ndarray  # (R,) base reflectivity of what was hit, after the incidence falloff
+    water: np.ndarray  # (R,) distance to the sea surface where it comes before any solid, else inf
+    grazing: np.ndarray  # (R,) rad below the horizon the ray meets the water at (0 for rays that do not)
 
 
 class Vlp16Model:
@@ -106,7 +108,10 @@ class Vlp16Model:
 
     ``spray_rate`` is the mean number of spurious water/spray returns per second (a few per revolution at 600 rpm),
     placed 0.8..``spray_max_range`` m out on downward beams. ``dropout`` is the probability that a genuine return is
-    lost (dark or wet surfaces). Packet times are on a fixed grid, t = k * 1327.104 us of the simulation clock, and
+    lost (dark or wet surfaces); ``laser_dropout`` that one laser returns nothing for a whole batch of packets
+    (0.1 s: a wet or fouled window); ``packet_loss`` that a data packet never arrives. The scene's sea
+    (simulator/sea.py) decides what the water and the rain return: a firing that meets the water before any solid
+    ends there, returning from it with the sea's probability for its grazing angle. Packet times are on a fixed grid, t = k * 1327.104 us of the simulation clock, and
     the randomness of a packet depends only on ``seed`` and its number, so the stream is reproducible however the
     caller slices ``packets()``.
     """
@@ -126,11 +131,15 @@ class Vlp16Model:
         azimuth0_deg: float = 0.0,
         device_clock_offset_s: float = 0.0,
         batch_packets: int = 76,
+        laser_dropout: float = 0.0,
+        packet_loss: float = 0.0,
     ) -> None:
         if not 300 <= rpm <= 1200:
             raise ValueError(f"VLP-16 rpm must be 300..1200, got {rpm}")
-        if not 0 <= dropout < 1:
-            raise ValueError("dropout must be in [0, 1)")
+        if not (0 <= dropout < 1 and 0 <= laser_dropout < 1 and 0 <= packet_loss < 1):
+            raise ValueError("dropout, laser_dropout and packet_loss must be in [0, 1)")
+        self.laser_dropout = float(laser_dropout)
+        self.packet_loss = float(packet_loss)
         self.scene = scene
         self.mount = mount if mount is not None else scene.lidar_mount
         self.rpm = float(rpm)
@@ -177,6 +186,8 @@ class Vlp16Model:
         for k in range(k_lo, k_hi):
             batch, i = divmod(k, self.batch_packets)
             data = self._batch(batch)
+            if data["lost"][i]:
+                continue
             yield PacketContent(
                 t=float(data["t"][i]),
                 block_azimuth_cdeg=data["azimuth"][i].copy(),
@@ -251,6 +262,7 @@ class Vlp16Model:
             distance[idx] = r
             label[idx] = LABEL_CLUTTER
             refl[idx] = rng.uniform(1.0, 8.0, len(idx))
+        lost = self._sea_and_faults(batch, f, distance, label, refl)
         valid = np.isfinite(distance) & (distance >= self.min_range) & (distance <= self.max_range)
         distance = np.where(valid, distance, 0.0)
         label = np.where(valid, label, LABEL_NONE)
@@ -267,9 +279,42 @@ class Vlp16Model:
             "reflectivity": refl.reshape(n, 12, 32),
             "label": label.reshape(n, 12, 32),
             "timestamp": device_us,
+            "lost": lost,
         }
         self._cache = (batch, data)
         return data
+
+    def _sea_and_faults(
+        self, batch: int, f: _Firings, distance: np.ndarray, label: np.ndarray, refl: np.ndarray
+    ) -> np.ndarray:
+        """Water and rain returns, dead lasers (in place); returns which packets of the batch are lost.
+
+        Drawn from a stream of their own, so a calm, dry, faultless scene keeps the packets it always had."""
+        sea = self.scene.sea
+        n = self.batch_packets
+        rng = np.random.default_rng([self.seed, batch % (1 << 62), 0x5EA])
+        water = np.isfinite(f.water)
+        if water.any() and sea.water_return_at_10deg > 0:
+            back = water & (rng.random(water.size) < sea.water_return_probability(f.grazing))
+            distance[back] = f.water[back] + rng.normal(0.0, self.range_noise_m, int(back.sum()))
+            label[back] = LABEL_WATER
+            refl[back] = rng.uniform(1.0, 12.0, int(back.sum()))
+        if sea.rain_rate > 0:
+            n_rain = rng.poisson(sea.rain_rate * n * PACKET_PERIOD_S)
+            ray = rng.integers(0, distance.size, n_rain)
+            # density falling as r^-0.5 from 1 m out: r = (1 + u (sqrt(R) - 1))^2
+            r = (1.0 + rng.random(n_rain) * (math.sqrt(sea.rain_max_range) - 1.0)) ** 2
+            nearer = r < distance[ray]
+            ray, r = ray[nearer], r[nearer]
+            distance[ray] = r
+            label[ray] = LABEL_RAIN
+            refl[ray] = rng.uniform(0.0, 8.0, ray.size)
+        if self.laser_dropout > 0:
+            dead = rng.random(16) < self.laser_dropout
+            off = dead[f.laser]
+            distance[off] = np.inf
+            label[off] = LABEL_NONE
+        return rng.random(n) < self.packet_loss if self.packet_loss > 0 else np.zeros(n, dtype=bool)
 
     def _fire(self, first_packet: int, n_packets: int) -> _Firings:
         """Cast every ray of packets first_packet .. first_packet + n_packets - 1 against the scene (no noise)."""
@@ -288,13 +333,23 @@ class Vlp16Model:
         d_world = _rotate_body_to_world(d_body, poses.roll, poses.pitch, poses.yaw)
         o_world = _rotate_body_to_world(o_body, poses.roll, poses.pitch, poses.yaw)
         o_world[:, :2] += poses.position
+        o_world[:, 2] += poses.down
 
         distance = np.full(n_rays, np.inf)
         label = np.full(n_rays, LABEL_NONE, dtype=np.int64)
         refl = np.zeros(n_rays)
         if n_rays:
             self._cast(packet_t, o_world, d_world, distance, label, refl)
-        return _Firings(first_packet, packet_t, t, laser, azimuth, o_world, d_world, distance, label, refl)
+        # The sea: a firing that meets the water before any solid ends there (a crest hides a low hull behind it).
+        water = self.scene.sea.water_distance(o_world, d_world, t) if n_rays else np.zeros(0)
+        first = water < distance
+        distance[first] = np.inf
+        label[first] = LABEL_NONE
+        water = np.where(first, water, np.inf)
+        grazing = np.where(first, np.arcsin(np.clip(d_world[:, 2], 0.0, 1.0)), 0.0)
+        return _Firings(
+            first_packet, packet_t, t, laser, azimuth, o_world, d_world, distance, label, refl, water, grazing
+        )
 
     def _cast(
         self,

@@ -25,6 +25,7 @@ import numpy as np
 
 from drivers.frames import EgoPose
 from drivers.mount import Mount
+from simulator.sea import Sea
 
 MAX_VERTICES = 5  # pentagon hull; boxes are padded with a repeated vertex (a zero-length, inert edge)
 
@@ -32,6 +33,8 @@ MAX_VERTICES = 5  # pentagon hull; boxes are padded with a repeated vertex (a ze
 LABEL_CLUTTER = -1  # LiDAR water/spray returns, radar sea clutter
 LABEL_GHOST = -2  # radar multipath
 LABEL_SHORE = -3  # quay walls and the land behind them
+LABEL_WATER = -4  # LiDAR returns from the sea surface
+LABEL_RAIN = -5  # LiDAR returns from rain drops
 
 
 def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
@@ -344,6 +347,8 @@ class OwnBoat:
     pitch_amplitude: float = 0.0
     pitch_period: float = 3.7
     wave_phase: float = 0.0
+    heave_amplitude: float = 0.0  # m, body origin up and down with the waves
+    heave_period: float = 4.0
 
     def attitude(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         roll = self.roll_amplitude * np.sin(2 * math.pi * t / self.roll_period + self.wave_phase)
@@ -354,13 +359,14 @@ class OwnBoat:
         t = np.atleast_1d(np.asarray(t, float))
         s = self.trajectory.state(t)
         roll, pitch = self.attitude(t)
-        return OwnPoses(t, s.position, s.velocity, roll, pitch, s.heading, s.yaw_rate)
+        down = -self.heave_amplitude * np.sin(2 * math.pi * t / self.heave_period + 0.7)
+        return OwnPoses(t, s.position, s.velocity, roll, pitch, s.heading, s.yaw_rate, down)
 
     def pose(self, t: float) -> EgoPose:
         p = self.poses(t)
         return EgoPose(
             t=float(t),
-            position=np.array([p.position[0, 0], p.position[0, 1], 0.0]),
+            position=np.array([p.position[0, 0], p.position[0, 1], float(p.down[0])]),
             velocity=np.array([p.velocity[0, 0], p.velocity[0, 1], 0.0]),
             roll=float(p.roll[0]),
             pitch=float(p.pitch[0]),
@@ -371,7 +377,7 @@ class OwnBoat:
 
 @dataclass(frozen=True)
 class OwnPoses:
-    """Own-boat poses at many times; the body origin sits on the water line (down = 0)."""
+    """Own-boat poses at many times; the body origin sits on the water line, heaved to world z = ``down``."""
 
     t: np.ndarray  # (T,)
     position: np.ndarray  # (T, 2) north, east
@@ -380,10 +386,11 @@ class OwnPoses:
     pitch: np.ndarray
     yaw: np.ndarray
     yaw_rate: np.ndarray
+    down: np.ndarray  # (T,) world z of the body origin, m (negative: heaved up)
 
     @property
     def position_ned(self) -> np.ndarray:
-        return np.concatenate([self.position, np.zeros((len(self.t), 1))], axis=1)
+        return np.concatenate([self.position, self.down[:, None]], axis=1)
 
 
 @dataclass(frozen=True)
@@ -413,6 +420,7 @@ class Scene:
     lidar_mount: Mount = field(default_factory=lambda: Mount(x=0.0, z=-1.6))
     radar_mount: Mount = field(default_factory=lambda: Mount(x=1.2, z=-0.9))
     description: str = ""
+    sea: Sea = field(default_factory=Sea)
 
     @property
     def n_vessels(self) -> int:

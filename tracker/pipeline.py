@@ -56,8 +56,6 @@ class PipelineSettings:
     radar_yaw_rad: float = 0.0
     radar_max_range_m: float = 50.0
     fusion_gate_m: float = 3.0
-    # A hull hidden behind another stays an obstacle this long; beyond it a prediction is a guess, not an obstacle.
-    coast_outline_s: float = 1.0
     # A radar-only track this close while the LiDAR is delivering is sea clutter or a ghost: any hull this near
     # gives the LiDAR hundreds of returns (it would be a fused track). Farther out, or with the LiDAR blind, the
     # radar's own tracks are obstacles.
@@ -168,7 +166,10 @@ class PerceptionPipeline:
         own = _pose_now(ego, ego_ok, t)
         if own is not None:
             # Returns measured this cycle are the truth about a hull; an estimated outline is only added where the
-            # sensors did not see the track this cycle (coasting through an occlusion) or saw it sparsely (radar).
+            # LiDAR did not sweep the track's bearing this cycle (a partial sweep) or the radar saw it sparsely. A
+            # LiDAR track coasting behind an occluder adds nothing: the occluder is nearer in those bins; and a
+            # coasting prediction elsewhere (a quay piece taken for a vessel, a lost track) put false obstacles
+            # round the boat in waves.
             lidar_sees = t - self._last_lidar_t <= self.freshness_s
             swept = self._lidar_coverage.bins() if lidar_sees else np.zeros(72, dtype=bool)
             outlines = [
@@ -176,10 +177,7 @@ class PerceptionPipeline:
                 for tr in tracks
                 if tr.confirmed
                 and (
-                    (
-                        tr.source != "radar"
-                        and (0 < tr.time_since_update <= s.coast_outline_s or not _swept(tr, own, swept))
-                    )
+                    (tr.source != "radar" and not _swept(tr, own, swept))
                     or (tr.source == "radar" and not (lidar_sees and _within(tr, own, s.radar_only_min_range_m)))
                 )
             ]
@@ -229,19 +227,46 @@ class PerceptionPipeline:
         if not known.all():
             # Pose lost (autopilot silent): obstacles still come from the body frame, tracking waits. The water
             # surface fit absorbs up to max_tilt of the attitude it no longer knows.
-            pre = preprocess(scan.xyz, np.zeros(3), 0.0, 0.0, 0.0, cfg, water=self.water, t=scan.stamp)
+            pre = preprocess(
+                scan.xyz,
+                np.zeros(3),
+                0.0,
+                0.0,
+                0.0,
+                cfg,
+                water=self.water,
+                t=scan.stamp,
+                ring=scan.ring,
+                point_t=scan.t,
+            )
             track_points = None
             self.skipped_no_pose += 1
         else:
-            pre = preprocess(scan.xyz, pos, roll, pitch, yaw, cfg, pose_index=index, water=self.water, t=scan.stamp)
+            pre = preprocess(
+                scan.xyz,
+                pos,
+                roll,
+                pitch,
+                yaw,
+                cfg,
+                pose_index=index,
+                water=self.water,
+                t=scan.stamp,
+                ring=scan.ring,
+                point_t=scan.t,
+            )
             track_points = pre.points_world
         self.last_preprocess = pre
         # One classification for the obstacle array and the tracker: each return's own attitude, the measured
-        # water surface and the sea margin (tracker/lidar/water.py).
-        solid_body = np.compress(pre.keep, scan.xyz[:, :2], axis=0)
+        # water surface and the sea margin (tracker/lidar/water.py). The array takes horizontal ranges: world
+        # returns turned into the boat's heading at the end of the sweep (a rolled body frame would put a return
+        # 1 m above the sensor 9 cm off at 5 deg; each return's own pose also undoes the boat's motion in the sweep).
+        own = _pose_now(ego, ego_ok, scan.stamp) if track_points is not None else IDENTITY
+        own_pos, own_yaw = (own[0][:2], own[3]) if own is not None else (np.zeros(2), 0.0)
+        if own is None:  # the pose at the sweep's end is unknown though each return's was: the sweep's last pose
+            own_pos, own_yaw = np.asarray(pos, float).reshape(-1, 3)[-1, :2], float(np.ravel(yaw)[-1])
+        solid_body = world_to_body_2d(pre.points_world[:, :2], own_pos, own_yaw)
         if self.lidar_tracker is not None and track_points is not None:
-            own = _pose_now(ego, ego_ok, scan.stamp)
-            own_pos, own_yaw = (own[0][:2], own[3]) if own is not None else (np.zeros(2), 0.0)
             self._lidar_tracks = self.lidar_tracker.step(
                 track_points, scan.stamp, own_pos, own_yaw, point_times=scan.t[pre.keep]
             )

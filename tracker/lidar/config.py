@@ -54,15 +54,22 @@ class WaterConfig:
     search_window: float = 1.0  # m either side of the current surface where water returns are looked for
     fit_min_range: float = 2.0  # m, horizontal
     fit_max_range: float = 50.0  # m; beyond, a 0.1 deg attitude error is already 9 cm
-    min_returns: int = 150  # inliers needed to accept a fit
+    min_returns: int = 400  # inliers needed to accept a fit: a rough sea gives thousands, a few decks hundreds
+    # Water returns come mostly from the steep beams close in; decks of boats 20-40 m off are a thin layer too.
+    max_median_range: float = 20.0
     min_sectors: int = 6  # of 36 bearing sectors the inliers must cover: a quay or a hull covers fewer
+    min_rings: int = 3  # lasers that each carry min_ring_share of the inliers: one beam along a quay is not water
+    min_ring_share: float = 0.05
+    max_ring_disagreement: float = 0.2  # m between the carrying lasers' median heights; a quay's are 0.5 m apart
     max_spread: float = 0.3  # m, robust sigma of the inliers: sea state 3 (Hs 1.25 m) is 0.31; hull sides 0.4-0.6
-    max_offset: float = 0.6  # m of heave plus waterline error the fit may take
+    max_offset: float = 0.45  # m of heave plus waterline error the fit may take
     max_tilt: float = math.radians(2.0)  # attitude error the fit may absorb
     memory_s: float = 10.0  # an estimate holds this long without a new accepted fit
 
     def __post_init__(self) -> None:
-        _positive(self, "margin_floor", "margin_max", "search_window", "fit_max_range", "min_returns")
+        _positive(
+            self, "margin_floor", "margin_max", "search_window", "fit_max_range", "min_returns", "max_median_range"
+        )
         _positive(
             self, "margin_pad", "fit_min_range", "max_spread", "max_offset", "max_tilt", "memory_s", allow_zero=True
         )
@@ -70,6 +77,10 @@ class WaterConfig:
             raise ConfigError(f"WaterConfig.margin_quantile: must be within [0.5, 1], got {self.margin_quantile!r}")
         if self.margin_floor > self.margin_max:
             raise ConfigError(f"WaterConfig.margin_floor: {self.margin_floor} is above margin_max {self.margin_max}")
+        if self.min_rings < 1 or not 0.0 <= self.min_ring_share < 1.0:
+            raise ConfigError(
+                f"WaterConfig.min_rings / min_ring_share: need >= 1 and [0, 1), got {self.min_rings!r}, {self.min_ring_share!r}"
+            )
         if self.min_sectors < 1:
             raise ConfigError(f"WaterConfig.min_sectors: must be >= 1, got {self.min_sectors!r}")
 
@@ -94,11 +105,33 @@ class PreprocessConfig:
     spray_min_neighbours: int = 3
     # Within this horizontal range every return must have neighbours, whatever its height: bow spray flies (ours).
     spray_near_range: float = 8.0
+    # Rain and spray: a solid return needs this many of its 8 neighbours in the range image (the firings beside it
+    # on its ring, the lasers above and below) within continuity_abs_tol + continuity_rel_tol * range of its own
+    # range; a drop or a droplet is alone, a surface is not (ours; tracker/lidar/range_image.py). 0 = off.
+    continuity_min_neighbours: int = 1
+    # Within this range rain drops are dense enough (1,500 a revolution) that two happen to lie side by side at the
+    # same range a few dozen times a revolution; there a return needs one neighbour more.
+    continuity_near_range: float = 15.0
+    continuity_abs_tol: float = 0.1  # m
+    continuity_rel_tol: float = 0.02  # of the range: a wall seen at 20 deg steps 0.45 m between firings at 47 m
+    # A return with the laser above or below at the same horizontal range (within these) is on a vertical face: it
+    # never counts as a water return for the surface estimate.
+    vertical_abs_tol: float = 0.15
+    vertical_rel_tol: float = 0.01
     water: WaterConfig = field(default_factory=WaterConfig)
 
     def __post_init__(self) -> None:
         _positive(self, "max_range", "spray_radius")
         _positive(self, "min_range", "spray_min_neighbours", allow_zero=True)
+        _positive(
+            self,
+            "continuity_min_neighbours",
+            "continuity_abs_tol",
+            "continuity_rel_tol",
+            "continuity_near_range",
+            allow_zero=True,
+        )
+        _positive(self, "vertical_abs_tol", "vertical_rel_tol", allow_zero=True)
         if self.min_range >= self.max_range:
             raise ConfigError(f"PreprocessConfig.min_range: {self.min_range} is not below max_range {self.max_range}")
         if self.min_height >= self.max_height:

@@ -17,6 +17,7 @@ import numpy as np
 from tracker.ego import PoseTable
 from tracker.grouping import expand_groups, group_keys
 from tracker.lidar.config import PreprocessConfig
+from tracker.lidar.range_image import RangeImage
 from tracker.lidar.water import WaterEstimate, WaterSurface
 
 log = logging.getLogger(__name__)
@@ -32,6 +33,7 @@ class PreprocessResult:
     n_height: int = 0  # outside [min_height, max_height] above the water
     n_spray: int = 0  # low and isolated: water surface or spray
     n_water: int = 0  # within the sea margin of the estimated water surface
+    n_isolated: int = 0  # alone in the range image: rain drops, spray droplets
     water: WaterEstimate = field(default_factory=WaterEstimate)
 
 
@@ -108,6 +110,8 @@ def preprocess(
     pose_index: np.ndarray | None = None,
     water: WaterSurface | None = None,
     t: float = 0.0,
+    ring: np.ndarray | None = None,
+    point_t: np.ndarray | None = None,
 ) -> PreprocessResult:
     """Filter one revolution and move it to the world frame.
 
@@ -116,7 +120,10 @@ def preprocess(
     ``pose_index``, pose i (K = N) or the one pose for all. With ``water`` (kept by the caller across
     revolutions, ``t`` the revolution's time), heights are taken above the water surface estimated from this
     revolution's own water returns and the sea margin follows the measured sea state; without it the configured
-    waterline and ``cfg.water.margin_floor`` apply.
+    waterline and ``cfg.water.margin_floor`` apply. ``ring`` (laser 0 = lowest, per point) lets the estimate tell
+    water, which every lower beam meets, from one beam's line along a quay face. With ``ring`` and the firing
+    times ``point_t`` the revolution's range image (range_image.py) also drops lone returns (rain, spray) and keeps
+    returns on vertical faces out of the water estimate; without them those two rules are not applied.
     """
     cfg = config or PreprocessConfig()
     xyz = np.asarray(xyz_body, dtype=float).reshape(-1, 3)
@@ -144,7 +151,17 @@ def preprocess(
     # (world z relative to the body origin: the autopilot's own altitude, GPS or baro, never enters).
     height = cfg.origin_height_above_water - (world[:, 2] - pos_down)
     bx, by = np.take(x, idx), np.take(y, idx)
-    estimate = water.update(bx, by, height, t) if water is not None else WaterEstimate(margin=cfg.water.margin_floor)
+    rings = np.take(ring, idx) if ring is not None else None
+    horizontal = np.sqrt(r2)
+    image = RangeImage.build(point_t, ring, horizontal) if ring is not None and point_t is not None else None
+    vertical = None
+    if image is not None:
+        vertical = np.take(image.vertical(horizontal, cfg.vertical_abs_tol, cfg.vertical_rel_tol), idx)
+    estimate = (
+        water.update(bx, by, height, t, rings, vertical)
+        if water is not None
+        else WaterEstimate(margin=cfg.water.margin_floor)
+    )
     if estimate.measured:
         height = height - estimate.surface(bx, by)
     margin = estimate.margin
@@ -154,6 +171,14 @@ def preprocess(
     # At or below the surface plus the sea margin: water (a crest, a trough, a slick), never an obstacle.
     solid = in_band & (height > margin)
     n_water = int(np.count_nonzero(in_band & ~solid))
+    # Rain and spray: alone in the range image (no firing beside it returned at its range).
+    n_isolated = 0
+    if image is not None and cfg.continuity_min_neighbours > 0:
+        neighbours = image.continuous(horizontal, cfg.continuity_abs_tol, cfg.continuity_rel_tol)
+        need = cfg.continuity_min_neighbours + (np.take(r2, idx) < cfg.continuity_near_range**2)
+        alone = solid & (np.take(neighbours, idx) < need)
+        n_isolated = int(np.count_nonzero(alone))
+        solid &= ~alone
 
     # Spray suspects: low returns anywhere, and any return near the boat, where a real hull gives dense returns
     # (0.2 deg steps are centimetres apart at a few metres) but bow spray gives lone points in mid-air. The low band
@@ -199,5 +224,6 @@ def preprocess(
         n_height=n_height,
         n_spray=n_spray,
         n_water=n_water,
+        n_isolated=n_isolated,
         water=estimate,
     )

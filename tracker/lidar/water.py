@@ -11,8 +11,12 @@ are the best measurement of where the water is. So each revolution:
    times on the returns within 3 robust sigmas of the last fit. The plane takes the heave and the waterline's
    offset (a, up to ``max_offset``) and a small attitude error (b, c, up to ``max_tilt``);
 3. accepted only if it rests on water, not on a few hulls or a quay: at least ``min_returns`` inliers spread over
-   ``min_sectors`` of 36 bearing sectors, with a robust spread below ``max_spread`` (hull sides spread their
-   returns evenly over a metre; a water surface is a thin layer);
+   ``min_sectors`` of 36 bearing sectors, carried by ``min_rings`` lasers whose median heights agree within
+   ``max_ring_disagreement`` (water meets every lower beam at the surface's height; a quay face meets several
+   beams at one range, each at its own height), with a robust spread below ``max_spread`` (hull sides spread
+   their returns evenly over a metre; a water surface is a thin layer), and with its inliers' median range within
+   ``max_median_range`` (the steep beams close in return the water most often; decks of boats farther out are a
+   thin layer too);
 4. the sea-state margin: the ``margin_quantile`` of the inliers' distance from the plane (the crests) plus
    ``margin_pad``, between ``margin_floor`` and ``margin_max``. A return counts as solid only above the surface
    plus this margin.
@@ -75,9 +79,18 @@ class WaterSurface:
             self.estimate = e = self._prior()
         return e
 
-    def update(self, x: np.ndarray, y: np.ndarray, height: np.ndarray, t: float) -> WaterEstimate:
+    def update(
+        self,
+        x: np.ndarray,
+        y: np.ndarray,
+        height: np.ndarray,
+        t: float,
+        ring: np.ndarray | None = None,
+        vertical: np.ndarray | None = None,
+    ) -> WaterEstimate:
         """Fit the surface to this revolution's returns (level-frame x, y and height above the configured
-        waterline) and return the estimate to classify them with."""
+        waterline; ``ring`` the laser of each, 0 = lowest; ``vertical`` marks returns on a vertical face, never
+        water) and return the estimate to classify them with."""
         cfg = self.config
         prev = self.current(t)
         if not cfg.enabled:
@@ -85,12 +98,15 @@ class WaterSurface:
         r2 = x * x + y * y
         cand = (r2 >= cfg.fit_min_range**2) & (r2 <= cfg.fit_max_range**2)
         cand &= np.abs(height - prev.surface(x, y)) <= cfg.search_window
+        if vertical is not None:
+            cand &= ~vertical
         idx = np.flatnonzero(cand)
         if idx.size < cfg.min_returns:
             return prev
         if idx.size > _SUBSAMPLE:
             idx = idx[:: idx.size // _SUBSAMPLE + 1]
         cx, cy, ch = x[idx], y[idx], height[idx]
+        cring = ring[idx] if ring is not None else None
         sectors = np.unique(np.floor((np.arctan2(cy, cx) + math.pi) * (N_SECTORS / (2 * math.pi))).astype(np.int64))
         if sectors.size < cfg.min_sectors:
             return prev
@@ -112,8 +128,23 @@ class WaterSurface:
         in_sectors = np.unique(
             np.floor((np.arctan2(cy[inlier], cx[inlier]) + math.pi) * (N_SECTORS / (2 * math.pi))).astype(np.int64)
         ).size
+        # Water meets every lower beam at its own range, each at the surface's height; a quay face or a row of hulls
+        # meets several beams at one range, each at its own height. So the beams carrying the fit must agree.
+        rings_ok = True
+        if cring is not None:
+            r_in = cring[inlier].astype(np.int64)
+            per_ring = np.bincount(r_in, minlength=16)
+            carrying = np.flatnonzero(per_ring >= cfg.min_ring_share * n_in)
+            rings_ok = carrying.size >= cfg.min_rings
+            if rings_ok:
+                res_in = res[inlier]
+                bias = [float(np.median(res_in[r_in == k])) for k in carrying]
+                rings_ok = max(bias) - min(bias) <= cfg.max_ring_disagreement
+        near_enough = float(np.median(np.hypot(cx[inlier], cy[inlier]))) <= cfg.max_median_range if n_in else False
         if (
             n_in < cfg.min_returns
+            or not rings_ok
+            or not near_enough
             or in_sectors < cfg.min_sectors
             or sigma > cfg.max_spread
             or abs(coef[0]) > cfg.max_offset
