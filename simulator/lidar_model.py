@@ -109,7 +109,8 @@ class Vlp16Model:
     ``spray_rate`` is the mean number of spurious water/spray returns per second (a few per revolution at 600 rpm),
     placed 0.8..``spray_max_range`` m out on downward beams. ``dropout`` is the probability that a genuine return is
     lost (dark or wet surfaces); ``laser_dropout`` that one laser returns nothing for a whole batch of packets
-    (0.1 s: a wet or fouled window); ``packet_loss`` that a data packet never arrives. The scene's sea
+    (0.1 s: a wet or fouled window); ``packet_loss`` that a data packet never arrives. Each of these not given
+    is taken from ``scene.conditions``. The scene's sea
     (simulator/sea.py) decides what the water and the rain return: a firing that meets the water before any solid
     ends there, returning from it with the sea's probability for its grazing angle. Packet times are on a fixed grid, t = k * 1327.104 us of the simulation clock, and
     the randomness of a packet depends only on ``seed`` and its number, so the stream is reproducible however the
@@ -123,17 +124,23 @@ class Vlp16Model:
         rpm: float = 600.0,
         range_noise_m: float = 0.02,
         seed: int = 0,
-        spray_rate: float = 30.0,
+        spray_rate: float | None = None,
         spray_max_range: float = 5.0,
-        max_range: float = 100.0,
+        max_range: float | None = None,
         min_range: float = 0.5,
-        dropout: float = 0.0,
+        dropout: float | None = None,
         azimuth0_deg: float = 0.0,
         device_clock_offset_s: float = 0.0,
         batch_packets: int = 76,
-        laser_dropout: float = 0.0,
-        packet_loss: float = 0.0,
+        laser_dropout: float | None = None,
+        packet_loss: float | None = None,
     ) -> None:
+        c = scene.conditions  # a value not given is the scene's own
+        spray_rate = c.lidar_spray_rate if spray_rate is None else spray_rate
+        max_range = c.lidar_max_range if max_range is None else max_range
+        dropout = c.lidar_dropout if dropout is None else dropout
+        laser_dropout = c.lidar_laser_dropout if laser_dropout is None else laser_dropout
+        packet_loss = c.lidar_packet_loss if packet_loss is None else packet_loss
         if not 300 <= rpm <= 1200:
             raise ValueError(f"VLP-16 rpm must be 300..1200, got {rpm}")
         if not (0 <= dropout < 1 and 0 <= laser_dropout < 1 and 0 <= packet_loss < 1):

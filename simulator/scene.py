@@ -408,6 +408,18 @@ class Prisms:
     reflectivity: np.ndarray  # (P,) LiDAR reflectivity 0..255
 
 
+@dataclass(frozen=True)
+class SensorConditions:
+    """What the day does to the sensors, beyond the sea (sea.py): the sensor models take these as their defaults,
+    so a scene carries its own weather and faults into every place that simulates it."""
+
+    lidar_max_range: float = 100.0  # m; rain and fog cut it (a VLP-16 in heavy rain: about 40 m)
+    lidar_dropout: float = 0.0  # chance a genuine return is lost (wet, dark surfaces)
+    lidar_laser_dropout: float = 0.0  # chance a laser returns nothing for 0.1 s (a wet or fouled window)
+    lidar_packet_loss: float = 0.0  # chance a data packet never arrives
+    lidar_spray_rate: float = 30.0  # spurious low returns per second close to the boat
+
+
 @dataclass
 class Scene:
     """Everything in the harbour, plus the sensor mounts a scenario suggests for its own boat."""
@@ -421,6 +433,7 @@ class Scene:
     radar_mount: Mount = field(default_factory=lambda: Mount(x=1.2, z=-0.9))
     description: str = ""
     sea: Sea = field(default_factory=Sea)
+    conditions: SensorConditions = field(default_factory=SensorConditions)
 
     @property
     def n_vessels(self) -> int:
