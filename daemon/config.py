@@ -158,7 +158,13 @@ class OutputConfig:
     min_distance_m: float = 0.5
     max_distance_m: float = 100.0
     no_data_timeout_s: float = 0.5  # both autopilots time a proximity sensor out after 0.5 s
-    min_height_above_water_m: float = 0.15  # lidar returns lower than this are water/spray, not obstacles
+    # The least height above the water surface a LiDAR return must have to be solid; the measured sea state raises
+    # it (tracker/lidar/water.py).
+    min_height_above_water_m: float = 0.15
+    # "Clear" is sent only where a solid this tall above the water would have been returned by a live sensor all the
+    # way from clear_inner_m (0: min_distance_m) out to max_distance_m; elsewhere "unknown" (README: coverage).
+    min_obstacle_height_m: float = 0.5
+    clear_inner_m: float = 0.0
     tracks_out: str = ""  # JSON lines, one per tick
     record_dir: str = ""  # raw captures of every source, for replay at the desk
     health_interval_s: float = 5.0
@@ -178,6 +184,12 @@ class OutputConfig:
             out.append("max_distance_m: must be below 655 m (OBSTACLE_DISTANCE carries uint16 centimetres)")
         if self.no_data_timeout_s <= 0:
             out.append("no_data_timeout_s: must be > 0")
+        if not (math.isfinite(self.min_height_above_water_m) and self.min_height_above_water_m > 0):
+            out.append(f"min_height_above_water_m: {self.min_height_above_water_m} must be > 0")
+        if not (math.isfinite(self.min_obstacle_height_m) and self.min_obstacle_height_m > 0):
+            out.append(f"min_obstacle_height_m: {self.min_obstacle_height_m} must be > 0")
+        if not (math.isfinite(self.clear_inner_m) and 0 <= self.clear_inner_m < self.max_distance_m):
+            out.append(f"clear_inner_m: {self.clear_inner_m} must be within [0, max_distance_m) (0 = min_distance_m)")
         if not (math.isfinite(self.ais_interval_s) and self.ais_interval_s >= 0):
             out.append(f"ais_interval_s: {self.ais_interval_s} must be >= 0 (0 = no AIS_VESSEL)")
         if self.ais_max_tracks < 1:

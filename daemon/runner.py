@@ -136,6 +136,10 @@ def pipeline_for(config: Config) -> PerceptionPipeline:
         radar_yaw_rad=math.radians(config.radar.mount.yaw),
         radar_max_range_m=config.radar.max_range_m,
         lidar_mount=config.lidar.mount.to_mount(),
+        min_obstacle_height_m=config.output.min_obstacle_height_m,
+        clear_inner_m=config.output.clear_inner_m or None,
+        lidar_origin_height_above_water_m=-config.boat.water_z_m,
+        radar_height_m=config.boat.water_z_m - config.radar.mount.z,
     )
     lidar, radar, preprocess = tracker_factories(config)
     return PerceptionPipeline(

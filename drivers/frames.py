@@ -35,6 +35,10 @@ class LidarScan:
     # "nothing there" within its sweep.
     sweep_start: float = 0.0
     sweep_extent: float = 2 * math.pi
+    # Sensor azimuths (rad, clockwise from the sensor's forward) each received data packet swept: (P, 2) start and
+    # extent. A lost packet leaves a 4.8 deg hole in which nothing was measured, not "nothing there". None when
+    # unknown (scans not built from packets).
+    packet_sweeps: np.ndarray | None = None
 
     @property
     def n_points(self) -> int:

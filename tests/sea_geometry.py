@@ -44,13 +44,15 @@ def revolution_over_water(
     step_deg: float = 0.2,
     t0: float = 0.0,
     walls: tuple[tuple[tuple[float, float], tuple[float, float], float], ...] = (),
+    water_returns: bool = True,
 ) -> WaterReturns:
     """Every firing of one 10 Hz revolution that meets the water within ``max_range`` returns, where it meets it.
 
     ``attitude(t)`` gives (roll, pitch) at the firing times; ``elevation(north, east)`` the wave height above the mean
     (up positive), solved along each ray by fixed-point iteration (it converges for the gentle slopes used here).
     ``walls`` are vertical faces from the mean water up to a top height: ((north, east), (north, east), top); a
-    firing that meets one before the water returns from the wall.
+    firing that meets one before the water returns from the wall. ``water_returns=False`` is calm water: a firing
+    that meets the water returns nothing.
     """
     az = np.radians(np.arange(0.0, 360.0, step_deg))
     n_az = az.size
@@ -87,7 +89,9 @@ def revolution_over_water(
         on = (den != 0) & (mu > 0.5) & (mu < lam) & (along >= 0) & (along <= 1) & (-p[:, 2] >= 0) & (-p[:, 2] <= top)
         lam = np.where(on, mu, lam)
         wall[on] = k
-    hit = (down | (wall >= 0)) & (lam > 0.5) & (lam * np.hypot(d_body[:, 0], d_body[:, 1]) <= max_range)
+    hit = (
+        ((down & water_returns) | (wall >= 0)) & (lam > 0.5) & (lam * np.hypot(d_body[:, 0], d_body[:, 1]) <= max_range)
+    )
     xyz_body = o_body[hit] + lam[hit, None] * d_body[hit]
     xyz_world = o_world[hit] + lam[hit, None] * d_world[hit]
     return WaterReturns(xyz_body, t[hit], RING_OF_LASER[laser[hit]], xyz_world, wall[hit])

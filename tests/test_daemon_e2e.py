@@ -87,9 +87,10 @@ def test_obstacle_distance_reaches_autopilot_at_10_hz_with_the_vessel_in_its_bin
         assert abs(int(d[6]) - NEAR_FACE_M * 100) <= NEAR_TOL_CM, d[4:9]
         # the hull spans about +-9 deg around 30 deg: bins 4..8 are obstacles, all nearer than its far corners
         assert np.all(d[4:9] < 2100), d[4:9]
-        # everything else is looked at and clear (the LiDAR covers all round)
-        clear = np.r_[0:3, 10:72]
-        assert np.all(d[clear] == 10001), {int(j): int(d[j]) for j in clear if d[j] != 10001}
+        # Nothing else is an obstacle, and nothing is claimed clear: the LiDAR 1.6 m up cannot see a 0.5 m solid
+        # within 4 m of it (its lowest beam passes over), and the radar reaches 50 of the 100 m.
+        rest = np.r_[0:3, 10:72]
+        assert np.all(d[rest] == 65535), {int(j): int(d[j]) for j in rest if d[j] != 65535}
         assert ap.proximity_health() == "Good"
 
 
@@ -124,6 +125,10 @@ def test_radar_only_leaves_uncovered_bearings_unknown() -> None:
     with SimulationRun(settings, scene=one_box_scene()) as sim:
         config = config_for_simulation(sim)
         config.lidar.enabled = False
+        # The radar vouches out to its 50 m; with the array's range at 40 m and the blind 2 m next to the hull
+        # accepted (its elevation beam passes over a 0.5 m solid nearer than 1.5 m), its wedge can be sent clear.
+        config.output.max_distance_m = 40.0
+        config.output.clear_inner_m = 2.0
         with running(sim, config):
             ap = sim.autopilot
             assert ap is not None
@@ -131,12 +136,12 @@ def test_radar_only_leaves_uncovered_bearings_unknown() -> None:
             d = np.asarray(ap.obstacle_distances()[-1].distances)
             # the radar (fov 120 deg about the bow) covers bins 60..71 and 0..12
             assert np.all(d[13:60] == 65535), d[13:60]
-            assert d[66] == 10001 and d[0] == 10001
+            assert d[66] == 4001 and d[0] == 4001
             # The box at 30 deg, seen by the radar 1.2 m forward of the body origin, reaches the array as a confirmed
             # radar track. ROTracker's state has no heading, so its box is north/east-aligned: each obstacle bin lies
             # between the nearest point of the hull's axis-aligned bounding box (minus 30 cm of radar noise) and the
             # farthest point of the hull (plus 25 cm): never farther than the hull, possibly nearer (cautious side).
-            obstacle_bins = np.flatnonzero(d <= 10000)
+            obstacle_bins = np.flatnonzero(d <= 4000)
             assert set(obstacle_bins) <= {3, 4, 5, 6, 7, 8, 9}, obstacle_bins
             assert 6 in obstacle_bins
             near_box, _ = hull_range_per_bin(axis_aligned=True)

@@ -8,7 +8,6 @@ import numpy as np
 
 from tracker.obstacle_map import (
     UNKNOWN,
-    SensorCoverage,
     build_obstacle_distances,
     nearest_per_bin,
     outline_points,
@@ -34,34 +33,40 @@ def test_bin_centres_and_edges() -> None:
 
 
 def test_values_obstacle_clear_unknown() -> None:
-    lidar_all_round = SensorCoverage(0.0, 2 * math.pi, 100.0)
-    pts = np.vstack([polar(0.0, 25.0), polar(0.0, 30.0), polar(90.0, 0.2), polar(180.0, 150.0)])
-    d = build_obstacle_distances([pts], [lidar_all_round], min_distance_m=0.5, max_distance_m=100.0)
+    pts = np.vstack([polar(0.0, 25.0), polar(0.0, 30.0), polar(90.0, 0.2), polar(180.0, 150.0), polar(270.0, 60.0)])
+    clear_to = np.full(72, 100.0)  # vouched out to max_distance all round ...
+    clear_to[50:60] = 99.0  # ... except bins 50-59, vouched only to 99 m
+    d = build_obstacle_distances([pts], clear_to, min_distance_m=0.5, max_distance_m=100.0)
     assert d.dtype == np.uint16 and d.shape == (72,)
     assert d[0] == 2500  # nearest of two returns
     assert d[18] == 50  # closer than min_distance: clamped to min, never dropped as "0"
-    assert d[36] == 10001  # beyond max range: covered and clear
+    assert d[36] == 10001  # beyond max range: vouched and clear
     assert (d[[1, 5, 40, 71]] == 10001).all()
+    assert (d[[50, 53, 59]] == UNKNOWN).all()  # not vouched to max_distance: unknown, never clear
+    assert d[54] == 6000  # a returned solid is an obstacle whatever the coverage says
 
 
-def test_radar_only_covers_its_wedge() -> None:
-    radar_ahead = SensorCoverage(0.0, math.radians(120.0), 50.0)
-    d = build_obstacle_distances([polar(30.0, 20.0)], [radar_ahead], 0.5, 100.0)
+def test_clear_only_where_vouched_to_max_distance() -> None:
+    # the radar's wedge (bins 60..71, 0..12) vouched to 40 m, the rest nowhere
+    clear_to = np.zeros(72)
+    clear_to[np.r_[60:72, 0:13]] = 40.0
+    d = build_obstacle_distances([polar(30.0, 20.0)], clear_to, 0.5, 40.0)
     assert d[6] == 2000
-    assert d[0] == 10001 and d[12] == 10001  # 60 deg: edge of the wedge, covered
+    assert d[0] == 4001 and d[12] == 4001 and d[60] == 4001
     assert d[13] == UNKNOWN and d[36] == UNKNOWN and d[59] == UNKNOWN
-    assert d[60] == 10001  # -60 deg
+    d = build_obstacle_distances([polar(30.0, 20.0)], clear_to, 0.5, 100.0)  # vouched to 40 of 100 m
+    assert d[6] == 2000 and np.count_nonzero(d == UNKNOWN) == 71
 
 
 def test_no_sensor_no_clear_bins() -> None:
-    d = build_obstacle_distances([], [], 0.5, 100.0)
+    d = build_obstacle_distances([], np.zeros(72), 0.5, 100.0)
     assert (d == UNKNOWN).all()
 
 
 def test_hull_outline_marks_every_bin_it_spans() -> None:
     # A 10 m wide hull broadside 20 m ahead spans atan(5/20) = 14 deg either side: bins 69..71, 0..3.
     corners = np.array([[20.0, -5.0], [20.0, 5.0], [24.0, 5.0], [24.0, -5.0]])
-    d = build_obstacle_distances([outline_points(corners)], [SensorCoverage(0, 2 * math.pi, 100)], 0.5, 100.0)
+    d = build_obstacle_distances([outline_points(corners)], np.full(72, 100.0), 0.5, 100.0)
     for j in (69, 70, 71, 0, 1, 2, 3):
         assert d[j] < 2100, j
     assert d[0] == 2000

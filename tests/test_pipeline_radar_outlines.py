@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from drivers.frames import LidarScan, RadarFrame
+from tracker.obstacle_map import UNKNOWN
 from tracker.pipeline import PerceptionPipeline
 from tracker.types import Track
 
@@ -41,7 +42,7 @@ def run(tracks: list[Track], lidar: bool) -> np.ndarray:
 
 def test_near_radar_only_track_is_not_an_obstacle_while_the_lidar_sees() -> None:
     d = run([radar_track(6.0, 0.0)], lidar=True)
-    assert d[0] == 10001  # the LiDAR looked there and saw nothing: clutter, not a hull
+    assert d[0] == UNKNOWN  # the LiDAR looked there and saw nothing: clutter, not a hull
 
 
 def test_near_radar_only_track_counts_when_the_lidar_is_blind() -> None:

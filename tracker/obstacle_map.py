@@ -5,8 +5,9 @@ Bins are in the body frame (FRD): bin j is centred on the bearing 5*j degrees cl
 
 Values follow the message's semantics, which the autopilots act on differently (see specs/mavlink-obstacles.md):
   * an obstacle: its range in cm, clamped to [max(min_distance, 1), max_distance];
-  * a bearing some live sensor covers with nothing in range: max_distance + 1 ("looked, clear");
-  * a bearing no live sensor covers: 65535 ("unknown") — never "clear" where we simply have no data.
+  * a bearing where the live sensors vouch that any solid out to max_distance would have been returned, and none
+    was: max_distance + 1 ("looked, clear"; tracker/lidar/coverage.py says how far each bearing is vouched for);
+  * every other bearing: 65535 ("unknown") — never "clear" where a solid could have gone unseen.
 """
 
 from __future__ import annotations
@@ -85,24 +86,27 @@ def outline_points(corners_fwd_stbd: np.ndarray, spacing: float = 0.25) -> np.nd
 def to_distances_cm(
     nearest_m: np.ndarray, covered: np.ndarray, min_distance_m: float, max_distance_m: float
 ) -> np.ndarray:
-    """Metres per bin + coverage mask -> the uint16 array OBSTACLE_DISTANCE carries."""
+    """Metres per bin + the bins vouched clear -> the uint16 array OBSTACLE_DISTANCE carries: an obstacle wherever
+    one was returned within max_distance, else clear where vouched, else unknown."""
     max_cm = round(max_distance_m * 100)
     min_cm = max(round(min_distance_m * 100), 1)
     out = np.full(N_BINS, UNKNOWN, dtype=np.uint16)
     out[covered] = max_cm + 1
-    hit = covered & (nearest_m <= max_distance_m)
+    hit = nearest_m <= max_distance_m
     out[hit] = np.clip(np.rint(nearest_m[hit] * 100), min_cm, max_cm).astype(np.uint16)
     return out
 
 
 def build_obstacle_distances(
     solid_points_fwd_stbd: list[np.ndarray],
-    coverages: list[SensorCoverage],
+    clear_to_m: np.ndarray,
     min_distance_m: float,
     max_distance_m: float,
 ) -> np.ndarray:
     """Fuse every source of solid returns (LiDAR points, radar points, track hull outlines, shore) into one array.
 
+    ``clear_to_m`` (72,) says per bin how far out the live sensors vouch that a solid would have been returned; a
+    bin with no solid is "clear" (max_distance + 1) only when that reaches max_distance, else "unknown" (65535).
     One message carries everything: ArduPilot resets its whole proximity boundary on each OBSTACLE_DISTANCE, so
     separate partial arrays per sensor would overwrite each other.
     """
@@ -110,9 +114,6 @@ def build_obstacle_distances(
     for pts in solid_points_fwd_stbd:
         if pts is not None and len(pts):
             nearest = np.minimum(nearest, nearest_per_bin(np.asarray(pts, float)[:, :2]))
-    covered = np.zeros(N_BINS, dtype=bool)
-    for cov in coverages:
-        covered |= cov.bins()
-    # A return is real even where the coverage model says the sensor should not see (e.g. a wide radar beam edge).
-    covered |= np.isfinite(nearest) & (nearest <= max_distance_m)
-    return to_distances_cm(nearest, covered, min_distance_m, max_distance_m)
+    # A returned solid is an obstacle wherever it is, whatever the coverage model says the sensor should see.
+    vouched = np.asarray(clear_to_m, float) >= max_distance_m - 1e-6
+    return to_distances_cm(nearest, vouched, min_distance_m, max_distance_m)

@@ -22,7 +22,15 @@ from drivers.frames import EgoPose, LidarScan, RadarFrame
 from drivers.mount import Mount
 from tracker.ego import sample_poses, world_to_body_2d
 from tracker.fusion import fuse_tracks
-from tracker.lidar.water import WaterSurface
+from tracker.lidar.coverage import (
+    SUB_BEARINGS,
+    band_intervals,
+    beam_elevations_level,
+    bin_bearings,
+    reach_from,
+    swept_bins,
+)
+from tracker.lidar.water import WaterEstimate, WaterSurface
 from tracker.obstacle_map import SensorCoverage, bearing_bins, build_obstacle_distances, outline_points
 from tracker.radar.detector import SHORE_KEEP
 from tracker.types import Track
@@ -61,6 +69,14 @@ class PipelineSettings:
     # radar's own tracks are obstacles.
     radar_only_min_range_m: float = 15.0
     lidar_mount: Mount = field(default_factory=Mount)
+    # Coverage (tracker/lidar/coverage.py): "clear" is sent only for a bin where a solid this tall above the water
+    # would have been returned all the way from clear_inner_m (None: min_distance_m) out to max_distance_m.
+    min_obstacle_height_m: float = 0.5
+    clear_inner_m: float | None = None
+    lidar_origin_height_above_water_m: float = 0.0  # body origin above the waterline: -[boat] water_z_m
+    radar_height_m: float = 0.9  # radar above the waterline
+    # Half the AWR1843BOOST's elevation beam: a low solid nearer than (height - obstacle) / tan(this) passes under it.
+    radar_half_vfov_rad: float = np.radians(15.0)
 
 
 @dataclass
@@ -75,6 +91,9 @@ class PerceptionOutput:
     n_radar_points: int = 0
     timings_ms: dict[str, float] = field(default_factory=dict)
     solid_points_body: np.ndarray | None = None  # (M, 2) fwd/stbd, for pictures
+    # (72,) m per bin: out to where the live sensors vouch that a solid min_obstacle_height_m tall would have been
+    # returned (0: nowhere). A bin is sent "clear" only when this reaches max_distance_m.
+    clear_to_m: np.ndarray = field(default_factory=lambda: np.zeros(72))
 
 
 def _timed(timings: dict[str, float], key: str, fn: Callable[[], Any]) -> Any:
@@ -99,6 +118,7 @@ class PerceptionPipeline:
         self._last_lidar_t = -np.inf
         self._last_radar_t = -np.inf
         self._lidar_coverage = SensorCoverage(0.0, 2 * np.pi, self.settings.lidar_max_range_m)
+        self._lidar_bands = _no_bands()  # newest revolution's beam bands per bearing (lo, hi)
         self._lidar_solid = np.empty((0, 2))  # newest revolution's solid returns, body (fwd, stbd)
         self._radar_solid = np.empty((0, 2))  # newest radar frame's solid returns
         self._epoch: int | None = None
@@ -143,6 +163,7 @@ class PerceptionPipeline:
             self._last_lidar_t = max(self._last_lidar_t, scan.stamp)
             self._lidar_coverage = lidar_coverage(scan, s)
             self._lidar_solid = np.empty((0, 2))
+            self._lidar_bands = _no_bands()  # an empty revolution returned nothing: it vouches for nothing
             if scan.n_points:
                 self._lidar_solid, n_lidar = _timed(timings, "lidar", lambda: self._lidar(scan, ego, ego_ok))
         for frame in radar_frames:
@@ -187,15 +208,11 @@ class PerceptionPipeline:
             if outlines:
                 solid.append(world_to_body_2d(np.concatenate(outlines), own[0][:2], own[3]))
 
-        coverages = []
-        if lidar_fresh:
-            coverages.append(self._lidar_coverage)
-        if radar_fresh:
-            coverages.append(SensorCoverage(s.radar_yaw_rad, s.radar_fov_rad, s.radar_max_range_m))
+        clear_to = _timed(timings, "coverage", lambda: self._clear_to(lidar_fresh, radar_fresh))
         distances = _timed(
             timings,
             "obstacle_map",
-            lambda: build_obstacle_distances(solid, coverages, s.min_distance_m, s.max_distance_m),
+            lambda: build_obstacle_distances(solid, clear_to, s.min_distance_m, s.max_distance_m),
         )
         return PerceptionOutput(
             t=t,
@@ -208,7 +225,27 @@ class PerceptionPipeline:
             n_radar_points=n_radar,
             timings_ms=timings,
             solid_points_body=np.concatenate(solid) if solid else np.empty((0, 2)),
+            clear_to_m=clear_to,
         )
+
+    def _clear_to(self, lidar_fresh: bool, radar_fresh: bool) -> np.ndarray:
+        """(72,) m per bin out to which the live sensors vouch for "no solid": the union of the LiDAR's beam bands
+        and the radar's field of view, walked outward without a gap from the inner edge; judged at three bearings
+        per bin, the worst kept."""
+        s = self.settings
+        los, his = [], []
+        if lidar_fresh:
+            los.append(self._lidar_bands[0])
+            his.append(self._lidar_bands[1])
+        if radar_fresh:
+            lo, hi = _radar_band(s)
+            los.append(lo)
+            his.append(hi)
+        if not los:
+            return np.zeros(72)
+        inner = s.min_distance_m if s.clear_inner_m is None else s.clear_inner_m
+        reach = reach_from(np.concatenate(los, axis=1), np.concatenate(his, axis=1), inner, s.max_distance_m)
+        return reach.reshape(72, SUB_BEARINGS.size).min(axis=1)
 
     # ---- LiDAR ----------------------------------------------------------------------------------------------
     def _lidar(self, scan: LidarScan, ego: EgoSource | None, ego_ok: bool) -> tuple[np.ndarray, int]:
@@ -266,6 +303,14 @@ class PerceptionPipeline:
         if own is None:  # the pose at the sweep's end is unknown though each return's was: the sweep's last pose
             own_pos, own_yaw = np.asarray(pos, float).reshape(-1, 3)[-1, :2], float(np.ravel(yaw)[-1])
         solid_body = world_to_body_2d(pre.points_world[:, :2], own_pos, own_yaw)
+        roll_pt, pitch_pt = (
+            (np.broadcast_to(roll, (scan.n_points,)), np.broadcast_to(pitch, (scan.n_points,)))
+            if index is None or not known.all()
+            else (np.asarray(roll)[index], np.asarray(pitch)[index])
+        )
+        if not known.all():
+            roll_pt = pitch_pt = np.zeros(scan.n_points)
+        self._lidar_bands = lidar_bands(scan, roll_pt, pitch_pt, pre.water, self.settings)
         if self.lidar_tracker is not None and track_points is not None:
             self._lidar_tracks = self.lidar_tracker.step(
                 track_points, scan.stamp, own_pos, own_yaw, point_times=scan.t[pre.keep]
@@ -289,6 +334,51 @@ class PerceptionPipeline:
         last = getattr(self.radar_tracker, "last", None)
         shore = [c.points_body[:, :2] for c in (last.clusters if last is not None else []) if c.shore != SHORE_KEEP]
         return np.concatenate(shore) if shore else np.empty((0, 2))
+
+
+def _no_bands() -> tuple[np.ndarray, np.ndarray]:
+    n = 72 * SUB_BEARINGS.size
+    return np.full((n, 1), np.inf), np.full((n, 1), -np.inf)
+
+
+def lidar_bands(
+    scan: LidarScan, roll: np.ndarray, pitch: np.ndarray, water: WaterEstimate, s: PipelineSettings
+) -> tuple[np.ndarray, np.ndarray]:
+    """(216, 16) ranges where each beam would return a solid of min_obstacle_height_m at each judged bearing,
+    placed with the roll and pitch at which its bin was swept, above the measured water surface; empty for bins the
+    received packets did not sweep or that returned nothing at all."""
+    bearings = bin_bearings()
+    point_bin = bearing_bins(scan.xyz[:, :2])
+    count = np.bincount(point_bin, minlength=72)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        roll_bin = np.nan_to_num(np.bincount(point_bin, weights=roll, minlength=72) / count)
+        pitch_bin = np.nan_to_num(np.bincount(point_bin, weights=pitch, minlength=72) / count)
+    live = count > 0
+    if scan.packet_sweeps is not None:
+        live &= swept_bins(scan.packet_sweeps, s.lidar_mount.yaw)
+    per = SUB_BEARINGS.size
+    elevation, origin_up = beam_elevations_level(
+        bearings, np.repeat(roll_bin, per), np.repeat(pitch_bin, per), s.lidar_mount
+    )
+    # the surface's own tilt along each bearing lowers or raises it under the beams
+    tilt = water.slope_x * np.cos(bearings) + water.slope_y * np.sin(bearings)
+    elevation = np.arctan(np.tan(elevation) - tilt[:, None])
+    height = origin_up + s.lidar_origin_height_above_water_m - water.offset
+    lo, hi = band_intervals(elevation, height, water.margin, s.min_obstacle_height_m, s.lidar_max_range_m)
+    dead = ~np.repeat(live, per)
+    lo[dead], hi[dead] = np.inf, -np.inf
+    return lo, hi
+
+
+def _radar_band(s: PipelineSettings) -> tuple[np.ndarray, np.ndarray]:
+    """(216, 1) the radar's covered ranges per judged bearing: from where its elevation beam reaches a low solid's
+    top out to its range, inside its horizontal field of view."""
+    bearings = bin_bearings()
+    inside = np.abs(np.angle(np.exp(1j * (bearings - s.radar_yaw_rad)))) <= s.radar_fov_rad / 2
+    near = max(s.radar_height_m - s.min_obstacle_height_m, 0.0) / np.tan(s.radar_half_vfov_rad)
+    lo = np.where(inside, near, np.inf)[:, None]
+    hi = np.where(inside, s.radar_max_range_m, -np.inf)[:, None]
+    return lo, hi
 
 
 def lidar_coverage(scan: LidarScan, s: PipelineSettings) -> SensorCoverage:

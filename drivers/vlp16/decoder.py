@@ -511,7 +511,17 @@ class ScanAssembler:
             pps_locked=self.pps_locked,
             sweep_start=sweep_start,
             sweep_extent=sweep_extent,
+            packet_sweeps=_packet_sweeps(packets),
         )
         self.stats.scans += 1
         self.stats.points += scan.n_points
         return scan
+
+
+def _packet_sweeps(packets: list[_Packet]) -> np.ndarray:
+    """(P, 2) sensor azimuth start and extent (rad) of each packet's firings: block 0 to block 11 plus one block
+    step (the last block's second sequence reaches about that far)."""
+    first = np.array([p.header.first_azimuth_cdeg for p in packets], dtype=np.float64)
+    last = np.array([p.header.last_azimuth_cdeg for p in packets], dtype=np.float64)
+    span = np.mod(last - first, AZIMUTH_UNITS)
+    return np.radians(np.stack([first, span * (12.0 / 11.0)], axis=1) / 100.0)

@@ -118,6 +118,12 @@ class PreprocessConfig:
     # never counts as a water return for the surface estimate.
     vertical_abs_tol: float = 0.15
     vertical_rel_tol: float = 0.01
+    # Returns within the sea margin that came in shallower than this, with this many range-image neighbours, are a
+    # solid's foot, not water (water at grazing incidence returns almost nothing; preprocess says why). 0 = off.
+    grazing_solid_max: float = math.radians(2.0)
+    grazing_solid_min_neighbours: int = 2
+    # The LiDAR's origin in the body frame (FRD, m): the daemon fills it from [lidar] mount.
+    sensor_origin: tuple[float, float, float] = (0.0, 0.0, -1.0)
     water: WaterConfig = field(default_factory=WaterConfig)
 
     def __post_init__(self) -> None:
@@ -131,7 +137,10 @@ class PreprocessConfig:
             "continuity_near_range",
             allow_zero=True,
         )
-        _positive(self, "vertical_abs_tol", "vertical_rel_tol", allow_zero=True)
+        _positive(self, "vertical_abs_tol", "vertical_rel_tol", "grazing_solid_max", allow_zero=True)
+        _positive(self, "grazing_solid_min_neighbours", allow_zero=True)
+        if len(self.sensor_origin) != 3:
+            raise ConfigError(f"PreprocessConfig.sensor_origin: needs 3 numbers (x, y, z), got {self.sensor_origin!r}")
         if self.min_range >= self.max_range:
             raise ConfigError(f"PreprocessConfig.min_range: {self.min_range} is not below max_range {self.max_range}")
         if self.min_height >= self.max_height:

@@ -34,6 +34,7 @@ class PreprocessResult:
     n_spray: int = 0  # low and isolated: water surface or spray
     n_water: int = 0  # within the sea margin of the estimated water surface
     n_isolated: int = 0  # alone in the range image: rain drops, spray droplets
+    n_grazing: int = 0  # within the sea margin but solid: a line of returns at a grazing angle (see preprocess)
     water: WaterEstimate = field(default_factory=WaterEstimate)
 
 
@@ -172,13 +173,33 @@ def preprocess(
     solid = in_band & (height > margin)
     n_water = int(np.count_nonzero(in_band & ~solid))
     # Rain and spray: alone in the range image (no firing beside it returned at its range).
-    n_isolated = 0
+    n_isolated = n_grazing = 0
     if image is not None and cfg.continuity_min_neighbours > 0:
-        neighbours = image.continuous(horizontal, cfg.continuity_abs_tol, cfg.continuity_rel_tol)
+        neighbours = np.take(image.continuous(horizontal, cfg.continuity_abs_tol, cfg.continuity_rel_tol), idx)
         need = cfg.continuity_min_neighbours + (np.take(r2, idx) < cfg.continuity_near_range**2)
-        alone = solid & (np.take(neighbours, idx) < need)
+        alone = solid & (neighbours < need)
         n_isolated = int(np.count_nonzero(alone))
         solid &= ~alone
+        # Calm water is a mirror: a firing that meets it, above all at a grazing angle, does not return. So while
+        # the water is not returning (no surface measured this revolution or lately), a return within the sea
+        # margin that came in shallower than grazing_solid_max, in a line of returns at its range, is the foot of a
+        # solid the beam met before the water: a quay 80 m off seen only by the lowest beam. Once the water does
+        # return, a line of water returns at grazing incidence is possible and nothing in the margin is trusted.
+        if cfg.grazing_solid_max > 0 and not estimate.measured:
+            sx, sy, sz = cfg.sensor_origin
+            sensor_up = cfg.origin_height_above_water - poses.level_z(np.array([[sx, sy, sz]]), idx)
+            drop = sensor_up - height
+            grazing = np.arctan2(drop, np.take(horizontal, idx))
+            rescued = (
+                in_band
+                & ~solid
+                & (height > 0.0)
+                & (grazing < cfg.grazing_solid_max)
+                & (neighbours >= cfg.grazing_solid_min_neighbours)
+            )
+            n_grazing = int(np.count_nonzero(rescued))
+            solid |= rescued
+            n_water -= n_grazing
 
     # Spray suspects: low returns anywhere, and any return near the boat, where a real hull gives dense returns
     # (0.2 deg steps are centimetres apart at a few metres) but bow spray gives lone points in mid-air. The low band
@@ -225,5 +246,6 @@ def preprocess(
         n_spray=n_spray,
         n_water=n_water,
         n_isolated=n_isolated,
+        n_grazing=n_grazing,
         water=estimate,
     )

@@ -1,0 +1,128 @@
+"""Coverage: how far out each bearing is vouched for, from the VLP-16's beams, the mount, the attitude and the sea;
+and the low, sparse, grazing returns of real solids reaching the bins."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from daemon.config import Config
+from daemon.runner import pipeline_for
+from drivers.frames import LidarScan
+from drivers.mount import Mount
+from tests.sea_geometry import revolution_over_water
+from tests.test_sea_state import SteadyEgo
+from tracker.lidar.coverage import band_intervals, beam_elevations_level, swept_bins, vouched_range
+from tracker.obstacle_map import UNKNOWN
+
+MOUNT = Mount(z=-1.6)
+
+
+def level_elevations(n: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    return beam_elevations_level(np.zeros(n), np.zeros(n), np.zeros(n), MOUNT)
+
+
+def test_the_beams_bands_for_a_half_metre_solid_from_1_6_m() -> None:
+    el, up = level_elevations()
+    assert up[0] == pytest.approx(1.6)
+    lo, hi = band_intervals(el, up, margin=0.15, obstacle_height=0.5, max_range=100.0)
+    deg = np.round(np.degrees(el[0])).astype(int)
+    band = {int(d): (float(a), float(b)) for d, a, b in zip(deg, lo[0], hi[0], strict=True)}
+    # beam at -e deg: between (1.6 - 0.5) / tan e and (1.6 - 0.15) / tan e
+    for e in (1, 3, 5, 7, 15):
+        t = math.tan(math.radians(e))
+        assert band[-e] == pytest.approx((1.1 / t, 1.45 / t), abs=1e-6)
+    # the -3 deg beam leaves the band at 27.7 m and the -1 deg beam enters it at 63.0 m: the blind 30-63 m
+    assert band[-3][1] == pytest.approx(27.67, abs=0.01) and band[-1][0] == pytest.approx(63.02, abs=0.01)
+    assert band[1][0] > band[1][1]  # upward beams never come down to a 0.5 m solid
+
+
+def test_vouched_only_without_a_gap_from_the_inner_edge() -> None:
+    el, up = level_elevations()
+    # below 4.1 m the lowest beam passes over a 0.5 m solid: nothing is vouched from 0.5 m
+    assert vouched_range(el, up, 0.15, 0.5, inner=0.5, max_range=100.0)[0] == 0.0
+    # from 4.2 m the -15 .. -7 deg bands overlap up to 11.81 m, where the -7 and -5 deg bands leave a gap
+    assert vouched_range(el, up, 0.15, 0.5, inner=4.2, max_range=100.0)[0] == pytest.approx(
+        1.45 / math.tan(math.radians(7))
+    )
+    # a sea margin of 0.5 m leaves no band at all
+    assert vouched_range(el, up, 0.5, 0.5, inner=4.2, max_range=100.0)[0] == 0.0
+
+
+def test_roll_tilts_the_bands_bearing_by_bearing() -> None:
+    bearings = np.radians([0.0, 90.0, 270.0])
+    roll = np.full(3, math.radians(5.0))  # rolled to starboard: the starboard beams dip 5 deg, the port ones rise
+    el, up = beam_elevations_level(bearings, roll, np.zeros(3), MOUNT)
+    np.testing.assert_allclose(
+        np.degrees(el[1]),
+        np.degrees(np.radians([-15, 1, -13, 3, -11, 5, -9, 7, -7, 9, -5, 11, -3, 13, -1, 15])) - 5.0,
+        atol=0.02,
+    )
+    np.testing.assert_allclose(np.degrees(el[2]) - np.degrees(el[1]), 10.0, atol=0.05)
+    v = vouched_range(el, up, 0.15, 0.5, inner=4.2, max_range=100.0)
+    # to starboard every beam dips 5 deg: the chain of bands from 4.2 m runs down the beams to the -3 deg one (at
+    # -8 deg), which leaves the band at (1.6 cos 5 deg - 0.15) / tan 8 deg before the -1 deg one (at -6) enters it
+    assert v[1] == pytest.approx((1.6 * math.cos(math.radians(5)) - 0.15) / math.tan(math.radians(8)), rel=0.005)
+    assert v[2] == 0.0  # to port the lowest beam is at -10 deg: over a 0.5 m solid until 6.2 m
+
+
+def test_a_lost_packet_leaves_its_bins_unswept() -> None:
+    step = math.radians(360.0 / 75.4)  # 600 rpm: a packet sweeps 4.77 deg
+    starts = np.arange(76) * step
+    sweeps = np.stack([starts, np.full(76, step)], axis=1)
+    assert swept_bins(sweeps, 0.0).all()
+    lost = np.delete(sweeps, 10, axis=0)  # the packet from 47.7 to 52.5 deg
+    swept = swept_bins(lost, 0.0)
+    assert np.flatnonzero(~swept).tolist() == [10]  # bin 10 spans 47.5-52.5 deg
+
+
+def _pipeline():
+    config = Config()
+    config.lidar.mount.z = MOUNT.z
+    config.radar.enabled = False
+    return pipeline_for(config)
+
+
+def _scan(ret, stamp: float) -> LidarScan:
+    n = ret.t.size
+    return LidarScan(stamp, stamp, ret.xyz_body, np.full(n, 30.0, np.float32), ret.ring, ret.t)
+
+
+def _one_revolution(walls, pitch_deg: float = 0.0):
+    pitch = math.radians(pitch_deg)
+
+    def attitude(t):
+        return np.zeros(np.shape(t)), np.full(np.shape(t), pitch)
+
+    pipeline = _pipeline()
+    ret = revolution_over_water(MOUNT, attitude, yaw=0.0, walls=walls, water_returns=False)
+    out = pipeline.step(0.1, _scan(ret, 0.1), [], SteadyEgo(attitude))
+    return out, ret, pipeline
+
+
+def test_a_quay_at_80_m_seen_only_by_the_lowest_beam_at_grazing_incidence_is_an_obstacle() -> None:
+    # A quay 1 m high across the bow at 80 m: only the -1 deg beam meets it, 0.2 m above the water ahead and down to
+    # the water itself at 92 m (30 deg off the bow): inside the 0.15 m sea margin from 83 m out, but a line of
+    # returns at 1 deg of grazing, which calm water does not give.
+    out, ret, pipeline = _one_revolution((((80.0, -50.0), (80.0, 50.0), 1.0),))
+    assert set(np.unique(ret.ring[ret.wall >= 0]).tolist()) == {7}  # ring 7 = the -1 deg beam
+    assert pipeline.last_preprocess.n_grazing > 100
+    d = out.distances_cm
+    bins = np.r_[66:72, 0:7]  # bearings within 32.5 deg of the bow: where the beam meets the quay before the water
+    for j in bins:
+        off = abs(5.0 * (j if j < 36 else j - 72))
+        expect = 80.0 / math.cos(math.radians(max(off - 2.5, 0.0)))  # the bin's nearest edge
+        assert abs(int(d[j]) - expect * 100) <= 0.01 * expect * 100 + 30, (j, int(d[j]), expect)
+    others = np.setdiff1d(np.arange(72), bins)
+    assert np.all(d[others] == UNKNOWN)  # nothing returned and nothing vouched
+
+
+def test_a_low_hull_at_50_m_caught_by_one_beam_is_an_obstacle() -> None:
+    # A 0.5 m hull 50 m ahead, 4 m wide; the bow pitched 0.5 deg down puts the -1 deg beam at 0.29 m on its side.
+    out, ret, pipeline = _one_revolution((((50.0, -2.0), (50.0, 2.0), 0.5),), pitch_deg=-0.5)
+    assert 5 <= np.count_nonzero(ret.wall >= 0) <= 30  # a sparse line of returns from one beam
+    assert pipeline.last_preprocess.n_isolated == 0
+    d = out.distances_cm
+    assert abs(int(d[0]) - 5000) <= 30, int(d[0])

@@ -1,0 +1,136 @@
+"""How far out each bearing is vouched for: a solid of a given height there would have been returned.
+
+A VLP-16 1.6 m above the water cannot see a 0.5 m-high hull between about 30 and 63 m: the -3 deg beam has passed
+below 0.5 m by 28 m and the -1 deg beam only comes down to 0.5 m at 63 m. Nor anything below its lowest beam close
+in: the -15 deg beam is still 1.06 m up at 2 m. And the water hides the lowest part of every solid: a return within
+the sea margin of the surface is taken for water (water.py). So "nothing returned" means "clear" only at ranges
+where some beam crosses the band between the sea margin and the obstacle height.
+
+For each bearing the 16 beams are placed with the boat's roll and pitch at the time the bearing was swept; beam k
+at horizontal range r is h_s + r tan(e_k) above the water (h_s the sensor's height above the estimated surface,
+e_k the beam's elevation in the level frame). It covers the ranges where that height lies in [margin, height]. The
+bearing is vouched out to the end of the covered stretch that starts at ``inner`` (the own hull's edge): a gap
+anywhere before it could hide a solid, so coverage beyond a gap does not count.
+
+A bearing is vouched for only where the sensor is known to have measured: the received packets swept it and it
+returned something (a sector that returned nothing at all may be a fouled window, not open water).
+
+Frames: sensor FLU -> sensor FRD -> body FRD (mount) -> level (roll, pitch); bearings clockwise from the bow, rad.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drivers.mount import FLU_TO_FRD, Mount
+from drivers.vlp16.packet import LASER_ELEVATION_RAD
+from tracker.ego import rotation_matrices
+
+
+def beam_elevations_level(
+    bearings: np.ndarray, roll: np.ndarray, pitch: np.ndarray, mount: Mount
+) -> tuple[np.ndarray, np.ndarray]:
+    """Elevation (rad, up positive) in the level frame of each of the 16 beams fired toward each body bearing,
+    (B, 16), and the sensor origin's height above the body origin in the level frame, (B,) m."""
+    b = np.asarray(bearings, float)
+    # The sensor azimuth that points along body bearing b: through the mount's yaw (its roll and pitch tilt the
+    # beams, which the full rotation below carries; the azimuth shift they add is a fraction of a degree).
+    az = b - mount.yaw  # sensor-FRD azimuth, clockwise
+    cos_e, sin_e = np.cos(LASER_ELEVATION_RAD), np.sin(LASER_ELEVATION_RAD)
+    # sensor FLU direction of a firing at FRD azimuth az: (cos e cos az, -cos e sin az, sin e)
+    d_flu = np.stack(
+        [
+            cos_e[None, :] * np.cos(az)[:, None],
+            -cos_e[None, :] * np.sin(az)[:, None],
+            np.broadcast_to(sin_e, (b.size, 16)),
+        ],
+        axis=-1,
+    )
+    d_body = d_flu @ (mount.rotation @ FLU_TO_FRD).T  # (B, 16, 3)
+    level = rotation_matrices(np.asarray(roll, float), np.asarray(pitch, float), np.zeros(b.size))  # (B, 3, 3)
+    d_level = np.einsum("bij,bkj->bki", level, d_body)
+    elevation = -np.arcsin(np.clip(d_level[..., 2], -1.0, 1.0))
+    origin_up = -np.einsum("bj,j->b", level[:, 2, :], mount.translation)
+    return elevation, origin_up
+
+
+def band_intervals(
+    elevation: np.ndarray, sensor_height: np.ndarray, margin: float, obstacle_height: float, max_range: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(B, K) start and end of the horizontal ranges where each beam (level-frame ``elevation``, rad; the sensor
+    ``sensor_height`` above the water surface, (B,) m) lies between ``margin`` and ``obstacle_height`` above the
+    water, capped at ``max_range``. An empty interval has start > end."""
+    elevation = np.atleast_2d(elevation)
+    h_s = np.asarray(sensor_height, float).reshape(-1, 1)
+    if obstacle_height <= margin:
+        return np.full(elevation.shape, np.inf), np.full(elevation.shape, -np.inf)
+    slope = np.tan(elevation)  # height change per metre of horizontal range
+    flat = np.abs(slope) < 1e-12
+    safe = np.where(flat, 1.0, slope)
+    r_top = (obstacle_height - h_s) / safe  # where the beam's height is obstacle_height
+    r_low = (margin - h_s) / safe  # and where it is the margin
+    down = slope < 0
+    # falling beam: in the band from r_top to r_low (if it starts above the margin at all); rising: r_low to r_top
+    lo = np.where(down, r_top, r_low)
+    hi = np.where(down, r_low, r_top)
+    inside_at_sensor = (h_s >= margin) & (h_s <= obstacle_height)
+    lo = np.where(flat, np.where(inside_at_sensor, 0.0, np.inf), np.maximum(lo, 0.0))
+    hi = np.where(flat, np.where(inside_at_sensor, np.inf, -np.inf), np.minimum(hi, max_range))
+    return lo, hi
+
+
+def reach_from(lo: np.ndarray, hi: np.ndarray, inner: float, max_range: float) -> np.ndarray:
+    """(B,) end of the stretch from ``inner`` outward that the intervals [lo, hi] (B, K) cover without a gap; 0 when
+    no interval covers ``inner`` itself (then nothing is vouched for)."""
+    order = np.argsort(lo, axis=1)
+    lo_s = np.take_along_axis(lo, order, axis=1)
+    hi_s = np.take_along_axis(hi, order, axis=1)
+    reach = np.full(lo.shape[0], float(inner))
+    # sorted by start, an interval extends the reach only if it starts within it; a loop over the few intervals,
+    # vectorised over bearings
+    for k in range(lo_s.shape[1]):
+        joins = lo_s[:, k] <= reach + 1e-9
+        reach = np.where(joins, np.maximum(reach, hi_s[:, k]), reach)
+    reach = np.minimum(reach, max_range)
+    return np.where(reach > inner + 1e-9, reach, 0.0)
+
+
+def vouched_range(
+    elevation: np.ndarray,
+    sensor_height: np.ndarray,
+    margin: float,
+    obstacle_height: float,
+    inner: float,
+    max_range: float,
+) -> np.ndarray:
+    """(B,) range out to which a solid ``obstacle_height`` tall would have been returned, per bearing: the end of
+    the stretch from ``inner`` that the beams' bands [margin, obstacle_height] cover without a gap; 0 when the
+    stretch does not even start at ``inner`` (nothing is vouched for)."""
+    lo, hi = band_intervals(elevation, sensor_height, margin, obstacle_height, max_range)
+    return reach_from(lo, hi, inner, max_range)
+
+
+SUB_BEARINGS = np.array([-2.0, 0.0, 2.0])  # deg about each bin's centre where coverage is judged (the worst wins)
+N_BINS = 72
+
+
+def bin_bearings() -> np.ndarray:
+    """(72 * 3,) body bearings, rad: three per 5-degree bin, the bin's centre and 2 deg either side."""
+    return np.radians((np.arange(N_BINS)[:, None] * 5.0 + SUB_BEARINGS[None, :]).ravel())
+
+
+def swept_bins(packet_sweeps: np.ndarray, mount_yaw: float, min_share: float = 0.95) -> np.ndarray:
+    """(72,) bool: bins whose bearings the received packets swept (at least ``min_share`` of each). A lost packet
+    leaves 4.8 deg unmeasured. Sensor azimuths are clockwise from the sensor's forward; body bearing = azimuth +
+    the mount's yaw."""
+    cells = 3600  # 0.1 deg
+    start = np.floor(np.mod(packet_sweeps[:, 0] + mount_yaw, 2 * np.pi) * (cells / (2 * np.pi))).astype(np.int64)
+    length = np.ceil(np.clip(packet_sweeps[:, 1], 0.0, 2 * np.pi) * (cells / (2 * np.pi))).astype(np.int64)
+    edge = np.zeros(2 * cells + 1)
+    np.add.at(edge, start, 1.0)
+    np.add.at(edge, np.minimum(start + length, 2 * cells), -1.0)
+    run = np.cumsum(edge)[: 2 * cells]
+    covered = (run[:cells] + run[cells:]) > 0
+    # bin j spans bearings 5j - 2.5 .. 5j + 2.5 deg: cells shifted by 25 so that bin 0 is one block of 50
+    share = np.roll(covered, 25).reshape(N_BINS, 50).mean(axis=1)
+    return share >= min_share
