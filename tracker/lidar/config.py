@@ -50,6 +50,8 @@ class WaterConfig:
     margin_floor: float = 0.15
     margin_max: float = 1.0  # above this the sea hides anything that matters to a small USV anyway
     margin_quantile: float = 0.995  # of the water returns' distance from the fitted plane: the crests
+    crest_sigmas: float = 5.0  # the water layer whose quantile is taken: within this many robust sigmas
+    margin_sigmas: float = 3.0  # the crests reach at least this many robust sigmas of the water returns
     margin_pad: float = 0.05  # m over the crests: range noise (2 cm) and the crests between revolutions
     search_window: float = 1.0  # m either side of the current surface where water returns are looked for
     fit_min_range: float = 2.0  # m, horizontal
@@ -70,6 +72,7 @@ class WaterConfig:
         _positive(
             self, "margin_floor", "margin_max", "search_window", "fit_max_range", "min_returns", "max_median_range"
         )
+        _positive(self, "crest_sigmas", "margin_sigmas")
         _positive(
             self, "margin_pad", "fit_min_range", "max_spread", "max_offset", "max_tilt", "memory_s", allow_zero=True
         )

@@ -17,7 +17,8 @@ are the best measurement of where the water is. So each revolution:
    their returns evenly over a metre; a water surface is a thin layer), and with its inliers' median range within
    ``max_median_range`` (the steep beams close in return the water most often; decks of boats farther out are a
    thin layer too);
-4. the sea-state margin: the ``margin_quantile`` of the inliers' distance from the plane (the crests) plus
+4. the sea-state margin: the ``margin_quantile`` of the water layer's distance from the plane (the crests; the
+   layer is the returns within ``crest_sigmas`` robust sigmas of it), at least ``margin_sigmas`` robust sigmas, plus
    ``margin_pad``, between ``margin_floor`` and ``margin_max``. A return counts as solid only above the surface
    plus this margin.
 
@@ -153,7 +154,12 @@ class WaterSurface:
         ):
             self.refused += 1
             return prev
-        crest = float(np.quantile(np.abs(res[inlier]), cfg.margin_quantile))
+        # The crests: the fit's 3-sigma inliers leave out the highest of them, so the quantile is taken over the
+        # whole water layer (within crest_sigmas of the plane), which still leaves out decks and hull sides above.
+        layer = np.abs(res) <= max(cfg.crest_sigmas * sigma, 0.05)
+        # The returns under-sample the crests (a beam meets a crest's face, seldom its top), so the sea's own spread
+        # sets a floor: a Gaussian sea's crests reach about 3 sigma (Rayleigh crests: 1 in 100 above 3 sigma).
+        crest = max(float(np.quantile(np.abs(res[layer]), cfg.margin_quantile)), cfg.margin_sigmas * sigma)
         margin = min(max(crest + cfg.margin_pad, cfg.margin_floor), cfg.margin_max)
         self.estimate = WaterEstimate(float(coef[0]), float(coef[1]), float(coef[2]), margin, t, n_in, sigma)
         self.accepted += 1
