@@ -151,7 +151,16 @@ class RadarTracker:
             return self.step(frame.xyz, frame.doppler, frame.snr, frame.stamp, np.zeros(2), 0.0, None, 0.0)
         vel = np.asarray(pose.velocity, float)[:2] if use_pose_velocity else None
         return self.step(
-            frame.xyz, frame.doppler, frame.snr, frame.stamp, pose.position[:2], pose.yaw, vel, pose.yaw_rate
+            frame.xyz,
+            frame.doppler,
+            frame.snr,
+            frame.stamp,
+            pose.position[:2],
+            pose.yaw,
+            vel,
+            pose.yaw_rate,
+            roll=pose.roll,
+            pitch=pose.pitch,
         )
 
     def step(
@@ -164,12 +173,16 @@ class RadarTracker:
         yaw: float,
         velocity: np.ndarray | None = None,
         yaw_rate: float = 0.0,
+        *,
+        roll: float = 0.0,
+        pitch: float = 0.0,
     ) -> list[Track]:
         """One radar frame at time ``t`` (s).
 
         ``points_body`` (n, 3) body FRD, ``doppler`` (n,) m/s positive receding, ``snr`` (n,) dB or None; own
         ``position`` (2,) world N/E, ``yaw`` (rad, 0 north, clockwise), ``velocity`` (2,) world N/E over ground or
-        None (then estimated from the static returns' Doppler), ``yaw_rate`` (rad/s). Returns every live track.
+        None (then estimated from the static returns' Doppler), ``yaw_rate`` (rad/s); ``roll`` and ``pitch`` (rad)
+        tilt the returns before they are laid on the water. Returns every live track.
         """
         pos = np.asarray(position, float).reshape(-1)[:2]
         if not (math.isfinite(t) and np.all(np.isfinite(pos)) and math.isfinite(yaw)):
@@ -184,7 +197,11 @@ class RadarTracker:
         if velocity is not None and not np.all(np.isfinite(np.asarray(velocity, float))):
             velocity = None
         yaw_rate = float(yaw_rate) if math.isfinite(float(yaw_rate)) else 0.0
-        out = self.detector.detect(points_body, doppler, snr, t, pos, float(yaw), velocity, yaw_rate, update_map=False)
+        if not (math.isfinite(roll) and math.isfinite(pitch)):
+            roll = pitch = 0.0
+        out = self.detector.detect(
+            points_body, doppler, snr, t, pos, float(yaw), velocity, yaw_rate, update_map=False, roll=roll, pitch=pitch
+        )
         self.last = out
         frame_dt = t - self.t_last if math.isfinite(self.t_last) else 0.0
         self.t_last = t
