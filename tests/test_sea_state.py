@@ -121,8 +121,9 @@ def test_choppy_heaving_sea_gives_no_obstacle_and_a_low_hull_in_it_still_does() 
             assert pipeline.lidar_tracker.last_clusters == []
             assert out.tracks == []
         else:
-            # the sea state was measured: crests of 0.3 m give a margin of 0.3-0.45 m
-            assert pre.water.measured and 0.3 <= pre.water.margin <= 0.45
+            # the sea state was measured: the margin covers the 0.3 m crests, and 3 sigmas of the sea (0.13 m) plus
+            # the 5 cm pad by at most 3 cm
+            assert pre.water.measured and 0.3 <= pre.water.margin <= 0.48
             assert pre.water.offset == pytest.approx(-0.2, abs=0.05)  # the mean water, 0.2 m below the waterline
             # the hull's face spans bearings 40.7-49.3 deg, bins 8-10, at 20.0-20.1 m
             assert obstacle.tolist() == [8, 9, 10]

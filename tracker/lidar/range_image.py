@@ -50,28 +50,28 @@ class RangeImage:
         image[seq + 1, ring_i + 2] = horizontal_range
         return cls(seq, ring_i, image)
 
-    def _count(self, r: np.ndarray, offsets: list[tuple[int, int]], tol: np.ndarray) -> np.ndarray:
-        """For each return: how many cells at (sequence, ring) ``offsets`` hold a range within ``tol`` of its own."""
-        rows, cols = self.seq + 1, self.ring + 2
-        n_rows, n_cols = self.image.shape
-        count = np.zeros(r.size, dtype=np.int64)
-        for ds, dr in offsets:
-            rr, cc = rows + ds, cols + dr
-            inside = (rr >= 0) & (rr < n_rows) & (cc >= 0) & (cc < n_cols)
-            other = np.full(r.size, np.nan)
-            other[inside] = self.image[rr[inside], cc[inside]]
-            with np.errstate(invalid="ignore"):
-                count += np.abs(other - r) <= tol
-        return count
+    def _count(self, r: np.ndarray, offsets: list[tuple[int, int]], abs_tol: float, rel_tol: float) -> np.ndarray:
+        """For each return: how many cells at (sequence, ring) ``offsets`` hold a range within abs_tol + rel_tol x
+        its own. One gather of (N, offsets) cells: the padding (one row, two columns each side) keeps every
+        offset of at most one sequence and two rings inside the image, so no bounds are checked."""
+        ds = np.array([o[0] for o in offsets], dtype=np.int64)
+        dr = np.array([o[1] for o in offsets], dtype=np.int64)
+        flat = (
+            (self.seq + 1)[:, None] * self.image.shape[1] + (self.ring + 2)[:, None] + (ds * self.image.shape[1] + dr)
+        )
+        other = np.take(self.image.ravel(), flat)
+        with np.errstate(invalid="ignore"):
+            near = np.abs(other - r[:, None]) <= (abs_tol + rel_tol * r)[:, None]
+        return np.count_nonzero(near, axis=1)
 
     def continuous(self, r: np.ndarray, abs_tol: float, rel_tol: float) -> np.ndarray:
         """(N,) neighbours among the 8 around each return (the firings beside it on its ring, and the lasers above
         and below within one sequence) at a range within abs_tol + rel_tol * r of its own."""
         offsets = [(ds, dr) for ds in (-1, 0, 1) for dr in (-1, 0, 1) if (ds, dr) != (0, 0)]
-        return self._count(r, offsets, abs_tol + rel_tol * r)
+        return self._count(r, offsets, abs_tol, rel_tol)
 
     def vertical(self, r: np.ndarray, abs_tol: float, rel_tol: float) -> np.ndarray:
         """(N,) bool: a laser one or two rings above or below, within one sequence, returned at the same horizontal
         range (within abs_tol + rel_tol * r): the return lies on a vertical face."""
         offsets = [(ds, dr) for ds in (-1, 0, 1) for dr in (-2, -1, 1, 2)]
-        return self._count(r, offsets, abs_tol + rel_tol * r) > 0
+        return self._count(r, offsets, abs_tol, rel_tol) > 0

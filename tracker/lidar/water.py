@@ -39,7 +39,7 @@ import numpy as np
 from tracker.lidar.config import WaterConfig
 
 N_SECTORS = 36
-_SUBSAMPLE = 6000  # candidates used for the fit; a plane of 3 unknowns needs no more
+_SUBSAMPLE = 2500  # candidates used for the fit: a plane of 3 unknowns and a 0.995 quantile need no more
 
 
 @dataclass(frozen=True)
@@ -108,8 +108,8 @@ class WaterSurface:
             idx = idx[:: idx.size // _SUBSAMPLE + 1]
         cx, cy, ch = x[idx], y[idx], height[idx]
         cring = ring[idx] if ring is not None else None
-        sectors = np.unique(np.floor((np.arctan2(cy, cx) + math.pi) * (N_SECTORS / (2 * math.pi))).astype(np.int64))
-        if sectors.size < cfg.min_sectors:
+        sector = np.floor((np.arctan2(cy, cx) + math.pi) * (N_SECTORS / (2 * math.pi))).astype(np.int64)
+        if np.count_nonzero(np.bincount(sector, minlength=N_SECTORS + 1)) < cfg.min_sectors:
             return prev
         design = np.stack([np.ones_like(cx), cx, cy], axis=1)
         inlier = np.ones(cx.size, dtype=bool)
@@ -120,15 +120,14 @@ class WaterSurface:
                 self.refused += 1
                 return prev
             a = design[inlier]
-            coef = np.linalg.lstsq(a, ch[inlier], rcond=None)[0]
+            # normal equations: 3 x 3, well conditioned (x, y within 50 m, a few thousand returns)
+            coef = np.linalg.solve(a.T @ a, a.T @ ch[inlier])
             res = ch - design @ coef
             sigma = 1.4826 * float(np.median(np.abs(res[inlier] - np.median(res[inlier]))))
             inlier = np.abs(res) <= max(3.0 * sigma, 0.05)
         n_in = int(np.count_nonzero(inlier))
         tilt = math.tan(cfg.max_tilt)
-        in_sectors = np.unique(
-            np.floor((np.arctan2(cy[inlier], cx[inlier]) + math.pi) * (N_SECTORS / (2 * math.pi))).astype(np.int64)
-        ).size
+        in_sectors = np.count_nonzero(np.bincount(sector[inlier], minlength=N_SECTORS + 1))
         # Water meets every lower beam at its own range, each at the surface's height; a quay face or a row of hulls
         # meets several beams at one range, each at its own height. So the beams carrying the fit must agree.
         rings_ok = True
