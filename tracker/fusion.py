@@ -16,27 +16,30 @@ from tracker.types import Track
 
 
 def fuse_tracks(lidar: list[Track], radar: list[Track], gate_m: float = 3.0) -> list[Track]:
-    """LiDAR tracks first (ids kept), each absorbing the radar tracks within its footprint plus ``gate_m``."""
-    out: list[Track] = []
-    used = np.zeros(len(radar), dtype=bool)
+    """LiDAR tracks (ids kept), each absorbing the confirmed radar tracks for which it is the nearest confirmed
+    LiDAR track whose footprint plus ``gate_m`` reaches them. Nearest, not first: a radar track between two moored
+    boats belongs to the one it lies on, whichever the LiDAR tracker listed first."""
+    if not lidar or not radar:
+        return [*lidar, *radar]
+    lidar_pos = np.array([t.position for t in lidar]).reshape(-1, 2)
     radar_pos = np.array([r.position for r in radar]).reshape(-1, 2)
-    for lt in lidar:
-        if not lt.confirmed or not radar:
+    d = np.hypot(*(radar_pos[None, :, :] - lidar_pos[:, None, :]).transpose(2, 0, 1))  # (L, R)
+    reach = np.array([0.5 * max(t.length, t.width) + gate_m for t in lidar])
+    ok = (d <= reach[:, None]) & np.array([t.confirmed for t in lidar])[:, None]
+    ok &= np.array([r.confirmed for r in radar])[None, :]
+    owner = np.where(ok.any(axis=0), np.argmin(np.where(ok, d, np.inf), axis=0), -1)  # (R,) LiDAR index or -1
+    out: list[Track] = []
+    for i, lt in enumerate(lidar):
+        mine = np.flatnonzero(owner == i)
+        if mine.size == 0:
             out.append(lt)
             continue
-        reach = 0.5 * max(lt.length, lt.width) + gate_m
-        d = np.hypot(*(radar_pos - lt.position).T)
-        near = (d <= reach) & ~used & np.array([r.confirmed for r in radar])
-        if not near.any():
-            out.append(lt)
-            continue
-        used |= near
         fused = replace(lt, source="fused")
         if not lt.speed_valid:
             # The LiDAR has not settled a speed yet; a radar track on the same hull has Doppler behind it.
-            best = int(np.flatnonzero(near)[np.argmin(d[near])])
+            best = int(mine[np.argmin(d[i, mine])])
             if radar[best].speed_valid:
                 fused = replace(fused, velocity=radar[best].velocity.copy())
         out.append(fused)
-    out.extend(r for r, u in zip(radar, used, strict=True) if not u)
+    out.extend(r for r, o in zip(radar, owner, strict=True) if o < 0)
     return out
