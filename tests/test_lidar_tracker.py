@@ -208,3 +208,29 @@ def test_ablation_switches(mode: str, expected_shape: ShapeKind, adaptive_r: boo
     assert tracks[0].shape is expected_shape
     assert np.hypot(*(tracks[0].position - np.asarray(boat.center))) < 2.0
     assert tracks[0].velocity == pytest.approx([2.0, 0.0], abs=0.4)
+
+
+def test_a_spray_clump_in_front_of_a_boat_does_not_blind_its_track() -> None:
+    """A boat 30 m off runs east at 2 m/s, then reverses. Every revolution a clump of 4 returns (spray or a wave top
+    that came through the filters) hangs 12 m off on the boat's bearing. A nearer cluster within a degree used to
+    count as an occluder, and an occluded detection has no weight: the track coasted east through the reversal
+    and was lost. Now the clump changes nothing: the track ends where the same run without it ends."""
+
+    def run(with_clump: bool) -> list[Track]:
+        rng = np.random.default_rng(5)
+        tracker = LidarTracker()
+        for k in range(60):
+            t = k * DT
+            east = -6.0 + 2.0 * t if t < 3.0 else 0.0 - 2.0 * (t - 3.0)
+            boat = SyntheticObject((30.0, east), math.pi / 2, 6.0, 2.5, 1.5, ShapeKind.BOX)
+            points = scan_objects([boat], ORIGIN, range_noise=0.02, rng=rng)
+            b = math.atan2(east, 30.0)
+            clump = np.array([12.0 * math.cos(b), 12.0 * math.sin(b), -0.8]) + rng.normal(0.0, 0.1, (4, 3))
+            tracks = tracker.step(np.vstack([points, clump]) if with_clump else points, t, ORIGIN, 0.0)
+        return near(tracks, boat, 2.0)
+
+    clean, sprayed = run(False), run(True)
+    assert len(clean) == 1 and len(sprayed) == 1
+    np.testing.assert_allclose(sprayed[0].position, clean[0].position, atol=0.05)
+    np.testing.assert_allclose(sprayed[0].velocity, clean[0].velocity, atol=0.05)
+    assert sprayed[0].velocity[1] < -1.0  # westbound: it turned with the boat

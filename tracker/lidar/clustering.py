@@ -52,12 +52,21 @@ class ClusterResult:
         return [c for c, big in zip(self.clusters, self.oversized, strict=True) if not big]
 
 
-def occluded_by_nearer(members: list[int], result: ClusterResult, margin: float, depth: float = 1.0) -> bool:
+def occluders(result: ClusterResult, min_points: int) -> np.ndarray:
+    """(k,) bool: clusters solid enough to hide something behind them. A clump of a few returns (a wave top, a
+    burst of spray that came through the filters) shadows a sliver, not a hull; counting it as an occluder made
+    a boat behind it ignore its own measurement."""
+    return np.array([len(c) >= min_points for c in result.clusters], dtype=bool)
+
+
+def occluded_by_nearer(
+    members: list[int], result: ClusterResult, margin: float, depth: float = 1.0, min_points: int = 1
+) -> bool:
     """Whether the object made of clusters ``members`` touches, in bearing, a cluster clearly in front of it.
 
     Such an object may extend into the nearer one's shadow: its visible extent, and so its fitted centre and size,
     are cut short. ``margin`` (rad) widens the test for the gap the shadow edge leaves; ``depth`` (m) is how much
-    nearer an occluder must be.
+    nearer an occluder must be; an occluder has at least ``min_points`` returns.
     """
     if result.bearing is None or result.bearing_lo is None or result.bearing_hi is None:
         return False
@@ -70,21 +79,21 @@ def occluded_by_nearer(members: list[int], result: ClusterResult, margin: float,
     own_lo, own_hi = span(np.asarray(members))
     lo, hi = float(own_lo.min()), float(own_hi.max())
     r = float(result.min_range[members].min())
-    others = np.setdiff1d(np.flatnonzero(result.min_range < r - depth), members)
+    others = np.setdiff1d(np.flatnonzero((result.min_range < r - depth) & occluders(result, min_points)), members)
     if others.size == 0:
         return False
     o_lo, o_hi = span(others)
     return bool(np.any((o_lo <= hi + margin) & (o_hi >= lo - margin)))
 
 
-def occluded_clusters(result: ClusterResult, margin: float, depth: float = 1.0) -> np.ndarray:
+def occluded_clusters(result: ClusterResult, margin: float, depth: float = 1.0, min_points: int = 1) -> np.ndarray:
     """:func:`occluded_by_nearer` for every single cluster at once: (k,) bool."""
     k = len(result.clusters)
     if k == 0 or result.bearing is None or result.bearing_lo is None or result.bearing_hi is None:
         return np.zeros(k, dtype=bool)
     b, lo, hi = result.bearing, result.bearing_lo, result.bearing_hi
     shift = (b[None, :] - b[:, None] + np.pi) % (2.0 * np.pi) - np.pi  # [i, j]: j's centre seen from i's
-    nearer = result.min_range[None, :] < result.min_range[:, None] - depth
+    nearer = (result.min_range[None, :] < result.min_range[:, None] - depth) & occluders(result, min_points)[None, :]
     touch = (shift + lo[None, :] <= hi[:, None] + margin) & (shift + hi[None, :] >= lo[:, None] - margin)
     return np.any(nearer & touch, axis=1)
 

@@ -172,9 +172,13 @@ class ClusterConfig:
     # An object whose bearing span touches (within this margin) that of a cluster in front of it is partly in its
     # shadow: its extent is cut short (ours; see EkfConfig.occluded_visibility).
     occlusion_margin: float = math.radians(1.0)
+    # A nearer cluster hides something only with at least this many returns (ours): a hull 30 m off gives hundreds,
+    # a wave top or spray clump that passed the filters a handful, and with occluded_visibility = 0 a boat behind
+    # such a clump ignored its own measurement.
+    occluder_min_points: int = 10
 
     def __post_init__(self) -> None:
-        _positive(self, "base_tolerance", "max_tolerance", "grid_cell", "max_clusters", "max_extent")
+        _positive(self, "base_tolerance", "max_tolerance", "grid_cell", "max_clusters", "max_extent", "occluder_min_points")
         _positive(self, "tolerance_per_metre", "occlusion_margin", allow_zero=True)
         if self.min_points < 1:
             raise ConfigError(f"ClusterConfig.min_points: must be >= 1, got {self.min_points}")

@@ -292,9 +292,10 @@ class LidarTracker:
         self.last_detections = detections
         margin, result = self.config.cluster.occlusion_margin, self._cluster_result
         assert result is not None  # set by detect()
-        single = occluded_clusters(result, margin)
+        min_points = self.config.cluster.occluder_min_points
+        single = occluded_clusters(result, margin, min_points=min_points)
         occluded = [
-            bool(single[m[0]]) if len(m) == 1 else occluded_by_nearer(m, result, margin)
+            bool(single[m[0]]) if len(m) == 1 else occluded_by_nearer(m, result, margin, min_points=min_points)
             for m in self._detection_clusters
         ]
         measurements = [self.measurement(d, own, own_yaw, occ) for d, occ in zip(detections, occluded, strict=True)]
