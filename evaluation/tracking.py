@@ -5,7 +5,8 @@ footprint (0 inside it), so a track on the visible half of a 43 m ship detects t
 assignment (motmetrics: keep last frame's pairs while they stay candidates, Hungarian for the rest) minimises the
 distance between track centre and vessel centre, and MOTP is the mean of that centre distance: a track on half a
 ship matches, and its centre error still counts. HOTA's similarity is 1 - footprint distance / match_distance
-(0 beyond), so its loosest threshold is the same gate as CLEAR MOT's.
+(0 beyond): 1 for a centre on the hull, so HOTA scores detection and association, not where on the hull the centre
+lies (MOTP and the position error do that); its loosest threshold (0.05) admits 0.95 of the match distance.
 """
 
 from __future__ import annotations
