@@ -1,4 +1,4 @@
-"""The `usv-tracker` command: run, demo, simulate, decode, check-config."""
+"""The `usv-tracker` command: run, demo, simulate, decode, check-config, evaluate."""
 
 from __future__ import annotations
 
@@ -90,6 +90,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return run_simulator_cli(args)
 
 
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    from evaluation.cli import run
+
+    return run(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="usv-tracker", description=__doc__)
     p.add_argument("-v", "--verbose", action="store_true", help="debug logging")
@@ -136,6 +142,12 @@ def build_parser() -> argparse.ArgumentParser:
     chk = sub.add_parser("check-config", help="check a TOML config; names each bad key and why")
     chk.add_argument("file", type=Path)
     chk.set_defaults(func=cmd_check_config)
+
+    from evaluation.cli import add_arguments
+
+    ev = sub.add_parser("evaluate", help="score a run's --tracks-out against simulator truth or a GNSS reference")
+    add_arguments(ev)
+    ev.set_defaults(func=cmd_evaluate)
     return p
 
 

@@ -22,7 +22,7 @@ from daemon.ais import MMSI_BASE, ais_vessel
 from daemon.buffers import BoundedQueue, LatestSlot
 from daemon.health import CycleStats, RateCounter
 from daemon.sdnotify import SystemdNotifier
-from drivers.frames import LidarScan, RadarFrame
+from drivers.frames import EgoPose, LidarScan, RadarFrame
 from tracker.pipeline import EgoSource, PerceptionOutput, PerceptionPipeline
 
 log = logging.getLogger(__name__)
@@ -112,6 +112,8 @@ class DaemonLoop:
         self.last_output: PerceptionOutput | None = None
         self.on_output: Callable[[PerceptionOutput], None] | None = None
         self.status_text: Callable[[], str] | None = None
+        # World NED -> (lat, lon, alt) or None; the replay sets it (it has no publisher), live uses the publisher's.
+        self.world_to_geodetic: Callable[[np.ndarray], tuple[Any, Any, Any] | None] | None = None
 
     # ---- one cycle -------------------------------------------------------------------------------------------
     def tick(self, t: float) -> PerceptionOutput:
@@ -154,7 +156,18 @@ class DaemonLoop:
             # The loop itself is healthy; systemd must not restart us because a cable is out.
             self.notifier.watchdog()
         if self.tracks_out is not None:
-            self.tracks_out.write(json.dumps(tick_record(out, sent=has_data), separators=(",", ":")) + "\n")
+            own = self.poses.at(out.t) if self.poses is not None and out.ego_available else None
+            origin = self._world_origin() if own is not None else None
+            record = tick_record(out, sent=has_data, own=own, world_origin=origin)
+            self.tracks_out.write(json.dumps(record, separators=(",", ":")) + "\n")
+
+    def _world_origin(self) -> tuple[float, float] | None:
+        """Latitude and longitude (deg) of the world frame's origin, when the autopilot link has anchored it."""
+        to_geodetic = self.world_to_geodetic or getattr(self.publisher, "world_to_geodetic", None)
+        geo = to_geodetic(np.zeros(3)) if to_geodetic is not None else None
+        if geo is None or not (math.isfinite(geo[0]) and math.isfinite(geo[1])):
+            return None
+        return float(geo[0]), float(geo[1])
 
     def _maybe_send_ais(self, out: PerceptionOutput) -> None:
         """The nearest confirmed tracks as AIS_VESSEL, every ais_interval_s, once the world has a lat/lon anchor."""
@@ -382,8 +395,16 @@ def lidar_phase_shift(age: float, period: float) -> float:
     return float(np.clip(-PHASE_GAIN * (age - period / 2), -PHASE_MAX_STEP_S, PHASE_MAX_STEP_S))
 
 
-def tick_record(out: PerceptionOutput, sent: bool) -> dict[str, Any]:
-    """One --tracks-out line: time, tracks and the 72 bins (as sent, or null when withheld)."""
+def tick_record(
+    out: PerceptionOutput, sent: bool, own: EgoPose | None = None, world_origin: tuple[float, float] | None = None
+) -> dict[str, Any]:
+    """One --tracks-out line: time, tracks and the 72 bins (as sent, or null when withheld).
+
+    ``own`` is the own boat's pose the tick used, in the same world frame as the tracks (null in "no ego pose" mode
+    or while the pose is unknown: the tracks are then in no frame a reference can be put in); ``world_origin`` the
+    latitude/longitude of that frame's origin, when the autopilot has given one, so that a GNSS track can be brought
+    into the tracks' frame (usv-tracker evaluate).
+    """
 
     def f(x: float) -> float | None:
         return None if not math.isfinite(x) else round(float(x), 3)
@@ -410,4 +431,10 @@ def tick_record(out: PerceptionOutput, sent: bool) -> dict[str, Any]:
         "obstacle_distance_cm": out.distances_cm.tolist() if sent else None,
         "lidar_fresh": out.lidar_fresh,
         "radar_fresh": out.radar_fresh,
+        "own": None
+        if own is None
+        else {"position_ne": [f(own.position[0]), f(own.position[1])], "yaw_deg": f(math.degrees(own.yaw))},
+        "world_origin_lat_lon": None
+        if world_origin is None
+        else [round(world_origin[0], 8), round(world_origin[1], 8)],
     }

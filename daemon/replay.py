@@ -172,6 +172,8 @@ def run_replay(config: Config, duration_s: float | None = None, fast: bool = Tru
         tracks_out=tracks_file,
         clock=lambda: t_now,
     )
+    if assembler is not None:
+        loop.world_to_geodetic = assembler.world_to_geodetic
     period = 1.0 / o.rate_hz
     summary = ReplaySummary()
     wall0 = time.monotonic()

@@ -4,7 +4,9 @@
   radar.dat           AWR1843 data-port bytes exactly as TI's visualizer saves them, plus radar.dat.times
   autopilot.tlog      MAVLink 2 pose messages as the autopilot streams them (pymavlink's tlog format)
   truth.csv           ground truth of every vessel and of the own boat at 10 Hz
+  returns.csv         per 0.1 s window, what the sensors returned from each vessel and the shore (simulator/returns.py)
   radar.cfg           the chirp profile the radar was "configured" with
+  usv-tracker.toml    the sensor mounts of the scene, for `usv-tracker run --config` (the defaults are another boat's)
 
 All files share one clock: Unix time starting at ``T0_UNIX``, so `usv-tracker run --fast` replays them together.
 """
@@ -23,17 +25,19 @@ from daemon.autopilot_geo import LocalTangentPlane
 from daemon.mavlink_env import mavlink
 from drivers.awr1843.parser import encode_frame
 from drivers.awr1843.timed_capture import TimedCaptureWriter
+from drivers.mount import Mount
 from drivers.vlp16.packet import encode_data_packet, encode_position_packet
 from drivers.vlp16.pcap import PcapWriter
 from simulator.lidar_model import Vlp16Model
 from simulator.radar_model import Awr1843Model
+from simulator.returns import ReturnsRecorder
 from simulator.run import RADAR_PROFILE
 from simulator.scenarios import get_scenario
-from simulator.truth import write_truth_csv
+from simulator.scene import Scene
+from simulator.truth import T0_UNIX, write_truth_csv
 
 log = logging.getLogger(__name__)
 
-T0_UNIX = 1_767_225_600.0  # 2026-01-01 00:00:00 UTC: a fixed epoch keeps the files reproducible
 POSE_RATE_HZ = 20.0
 RADAR_TICKS_PER_S = 200_000_000  # xWR18xx R4F cycle counter
 
@@ -43,16 +47,40 @@ def _tlog_record(t_unix: float, msg: object, mav: object) -> bytes:
     return struct.pack(">Q", int(t_unix * 1e6)) + bytes(buf)
 
 
-def write_captures(scenario: str, out_dir: Path, seconds: float, seed: int = 0) -> dict[str, Path]:
+def mounts_toml(scene: Scene) -> str:
+    """A config holding the scene's sensor mounts: a replay with the default mounts would put every return at the
+    wrong height (the water and solid tests then drop low hulls) and the radar's returns off by the lever arm."""
+
+    def table(m: Mount) -> str:
+        deg = (math.degrees(m.roll), math.degrees(m.pitch), math.degrees(m.yaw))
+        return (
+            f"mount = {{ x = {m.x!r}, y = {m.y!r}, z = {m.z!r}, "
+            f"roll = {deg[0]!r}, pitch = {deg[1]!r}, yaw = {deg[2]!r} }}"
+        )
+
+    return (
+        f"# Sensor mounts of the simulated scene {scene.name!r} (written by `usv-tracker simulate --write`).\n"
+        f"[lidar]\n{table(scene.lidar_mount)}\n\n[radar]\n{table(scene.radar_mount)}\n"
+    )
+
+
+def write_captures(
+    scenario: str, out_dir: Path, seconds: float, seed: int = 0, scene: Scene | None = None
+) -> dict[str, Path]:
+    """Write the named scenario (or ``scene``, a ready-made one, when given) as capture files into ``out_dir``."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    scene = get_scenario(scenario, seed=seed)
+    if scene is None:
+        scene = get_scenario(scenario, seed=seed)
     paths = {
         "lidar": out_dir / "lidar.pcap",
         "radar": out_dir / "radar.dat",
         "autopilot": out_dir / "autopilot.tlog",
         "truth": out_dir / "truth.csv",
+        "returns": out_dir / "returns.csv",
         "profile": out_dir / "radar.cfg",
+        "config": out_dir / "usv-tracker.toml",
     }
+    returns = ReturnsRecorder(scene, seconds)
     # LiDAR: every packet at its own time, a position packet once a second.
     model = Vlp16Model(scene, scene.lidar_mount, seed=seed)
     n_packets = 0
@@ -61,6 +89,7 @@ def write_captures(scenario: str, out_dir: Path, seconds: float, seed: int = 0) 
         for pkt in model.packets(0.0, seconds):
             payload = encode_data_packet(pkt.block_azimuth_cdeg, pkt.distance_m, pkt.reflectivity, pkt.timestamp_us)
             pcap.write_udp(T0_UNIX + pkt.t, payload)
+            returns.add_lidar_packet(model, pkt)
             n_packets += 1
             if pkt.t >= next_position:
                 pcap.write_udp(T0_UNIX + pkt.t, encode_position_packet(pkt.timestamp_us), dst_port=8308, src_port=8308)
@@ -72,6 +101,7 @@ def write_captures(scenario: str, out_dir: Path, seconds: float, seed: int = 0) 
         for k in range(int(seconds / radar.frame_period)):
             t = k * radar.frame_period
             d = radar.frame(t, k)
+            returns.add_radar_frame(d)
             frame = encode_frame(
                 k + 1, d.xyz_ti, d.doppler, d.snr_db, d.noise_db, int(t * RADAR_TICKS_PER_S) & 0xFFFFFFFF
             )
@@ -107,6 +137,8 @@ def write_captures(scenario: str, out_dir: Path, seconds: float, seed: int = 0) 
             if int(t * POSE_RATE_HZ) % int(POSE_RATE_HZ) == 0:
                 tlog.write(_tlog_record(tu, mav.system_time_encode(int(tu * 1e6), ms), mav))
     write_truth_csv(scene, paths["truth"], 0.0, seconds, period=0.1)
+    returns.write(paths["returns"])
+    paths["config"].write_text(mounts_toml(scene))
     log.info(
         "wrote %s: %d LiDAR packets, %d radar frames, %d pose samples, truth at 10 Hz (t0 = %.0f Unix s)",
         out_dir,

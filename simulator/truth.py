@@ -19,6 +19,10 @@ import numpy as np
 from drivers.frames import EgoPose
 from simulator.scene import Scene
 
+# The captures' clock: `simulate --write` stamps every file at this Unix time + scene time, and the truth CSV and
+# returns.csv are in scene time, so an evaluation subtracts it from a replayed run's tick times.
+T0_UNIX = 1_767_225_600.0  # 2026-01-01 00:00:00 UTC: a fixed epoch keeps the files reproducible
+
 CSV_COLUMNS = (
     "t",
     "id",

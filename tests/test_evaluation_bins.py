@@ -1,0 +1,95 @@
+"""Bin scores of `usv-tracker evaluate`: false clear, false obstacle and accuracy on a hand-made returns record."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from evaluation import EvaluationError, evaluate_run
+from tests.evaluation_fixtures import CLEAR, UNKNOWN, tick, track, two_boats, write_returns, write_ticks, write_truth
+
+
+def record(tmp_path: Path) -> None:
+    """Ten windows; both vessels returned in all of them. Nearest returned solid per bin, every window unless said:
+    bin 0 10 m, bin 10 30 m, bin 20 20 m, bin 31 20.5 m, bin 40 10.3 m, bin 50 85 m, bin 60 10 m (even windows)."""
+    write_truth(tmp_path, two_boats(), 2.0)
+    counts = np.zeros((10, 3, 2), int)
+    counts[:, 1:, 0] = 40
+    near = np.full((10, 72), np.inf)
+    for j, r in {0: 10.0, 10: 30.0, 20: 20.0, 31: 20.5, 40: 10.3, 50: 85.0}.items():
+        near[:, j] = r
+    near[::2, 60] = 10.0
+    write_returns(tmp_path / "returns.csv", counts, near)
+
+
+def sent_bins() -> list[int]:
+    b = [CLEAR] * 72
+    b[0] = CLEAR  # solid at 10 m throughout: false clear
+    b[10] = UNKNOWN  # solid at 30 m throughout: false clear (sent unknown)
+    b[20] = 1500  # nearest solid 20 m > 15 m + 0.75 m: false obstacle
+    b[30] = 2000  # nothing in bin 30, 20.5 m in bin 31 <= 20 m + 1 m: not false; not within tolerance either
+    b[40] = 1000  # 10.3 m returned: within max(0.5, 5 %) -> accurate
+    b[5] = 5000  # nothing in bins 4..6: false obstacle
+    # b[50] clear with 85 m returned (beyond 0.8 x 100 m), b[60] clear with a solid in only one window: both fine
+    return b
+
+
+def test_bin_counts_exact(tmp_path: Path) -> None:
+    record(tmp_path)
+    tracks = [track_a_b() for _ in range(9)]
+    ticks = [tick(0.15 + 0.1 * k, tracks[k], sent_bins()) for k in range(9)]  # 0.15 .. 0.95
+    ticks[3]["obstacle_distance_cm"] = None  # 0.45: withheld
+    path = write_ticks(tmp_path / "tracks.jsonl", ticks)
+    b = evaluate_run(tmp_path, path).bins
+    assert b is not None
+    # 0.15 has one window before it (no reference); 0.45 withheld; 7 ticks scored
+    assert (b.ticks_sent, b.ticks_withheld, b.ticks_withheld_with_solid) == (8, 1, 1)
+    assert (b.ticks_without_reference, b.ticks_scored, b.bins_scored) == (1, 7, 7 * 72)
+    assert (b.obstacle_bins, b.clear_bins, b.unknown_bins) == (7 * 4, 7 * 67, 7 * 1)
+    assert b.bins_with_solid == 7 * 5  # bins 0, 10, 20, 31, 40
+    # bins 0 and 31 (the solid beside bin 30's obstacle) were sent clear, bin 10 unknown
+    assert (b.false_clear, b.false_clear_sent_clear, b.false_clear_sent_unknown) == (21, 14, 7)
+    assert b.false_obstacle == 7 * 2  # bins 5 and 20
+    assert b.within_tolerance == 7  # bin 40
+    assert b.false_clear_rate == pytest.approx(3 / 5)
+    assert b.false_obstacle_rate == pytest.approx(0.5)
+    assert b.within_tolerance_share == pytest.approx(0.25)
+
+
+def track_a_b() -> list[dict[str, object]]:
+    return [track(1, 10.0, 0.0), track(2, 0.0, 20.0)]
+
+
+@pytest.mark.parametrize(
+    ("value", "false_obstacle", "accurate"),
+    [
+        (2000, 0, 1),  # at the solid (20 m)
+        (1951, 0, 1),  # 0.49 m nearer: within max(0.5 m, 5 % of 19.51 m = 0.98 m)
+        (1900, 1, 0),  # 1.0 m nearer, beyond its 0.95 m tolerance: nothing returned that near, a false obstacle
+        (2600, 0, 0),  # 6 m beyond the solid: there is an obstacle, nearer than said (inaccurate, not false)
+    ],
+)
+def test_tolerance_edges(tmp_path: Path, value: int, false_obstacle: int, accurate: int) -> None:
+    write_truth(tmp_path, two_boats(), 2.0)
+    near = np.full((10, 72), np.inf)
+    near[:, 20] = 20.0
+    write_returns(tmp_path / "returns.csv", np.full((10, 3, 2), 40), near)
+    bins = [CLEAR] * 72
+    bins[20] = value
+    path = write_ticks(tmp_path / "tracks.jsonl", [tick(0.55, [], bins)])
+    b = evaluate_run(tmp_path, path).bins
+    assert b is not None
+    assert (b.false_obstacle, b.within_tolerance, b.obstacle_bins) == (false_obstacle, accurate, 1)
+
+
+def test_bin_beyond_max_distance_is_an_error(tmp_path: Path) -> None:
+    """A run with max_distance 150 m sends 15001 for clear: scored with 100 m, that must not pass as an obstacle."""
+    record(tmp_path)
+    bins = [15001] * 72
+    path = write_ticks(tmp_path / "tracks.jsonl", [tick(0.55, [], bins)])
+    with pytest.raises(EvaluationError, match="max_distance"):
+        evaluate_run(tmp_path, path)
+    b = evaluate_run(tmp_path, path, max_distance_m=150.0).bins
+    assert b is not None and b.clear_bins == 72 and b.false_clear == 6  # now 85 m is within 0.8 x 150 m as well
