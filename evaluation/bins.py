@@ -81,7 +81,8 @@ def score_bins(
     for t, sent in zip(times, bins_cm, strict=True):
         w = reference_windows(returns, float(t))
         near = returns.nearest[w]  # (W, 72) m, inf where nothing came back
-        solid_everywhere = near.max(axis=0, initial=-np.inf) if w.size else np.full(72, np.inf)
+        # a solid the bin must show: returned inside the bin, not on its edge, in every reference window
+        solid_everywhere = returns.core[w].max(axis=0, initial=-np.inf) if w.size else np.full(72, np.inf)
         has_solid = w.size > 0 and bool(np.any(solid_everywhere < CLEAR_SHARE * max_distance_m))
         if sent is None:
             n["ticks_withheld"] += 1

@@ -13,6 +13,9 @@ that down beside the captures as ``returns.csv``, one row per window [k * 0.1, (
                                     boat's origin, in its level frame at t_end: bin j is centred 5 * j degrees
                                     clockwise from the bow (heading at t_end) and spans +-2.5 degrees; empty where
                                     no solid was returned in that bin
+  core_00 .. core_71                the same from the returns at least EDGE_MARGIN_DEG inside their bin: a hull's
+                                    edge that the daemon, placing its returns at its own instant, puts a tenth of a
+                                    degree into the next bin, is not a miss in this one
 
 A "returned solid" is a LiDAR or radar return labelled as a vessel or the shore; clutter, water, rain and radar
 multipath ghosts never count. LiDAR returns are placed along their true ray at the measured (noisy) distance and
@@ -48,6 +51,8 @@ BIN_WIDTH_RAD = 2 * math.pi / N_BINS
 WINDOW_S = 0.1
 SHORE = "shore"
 BIN_COLUMNS = tuple(f"bin_{j:02d}" for j in range(N_BINS))
+CORE_COLUMNS = tuple(f"core_{j:02d}" for j in range(N_BINS))
+EDGE_MARGIN_DEG = 0.5
 POSE_COLUMNS = ("t_start", "t_end", "own_north", "own_east", "own_yaw")
 
 # (block, channel) of a packet -> laser id and firing offset from the packet's first firing (vlp16.md §4):
@@ -61,6 +66,12 @@ _ELEVATION = np.radians(ELEVATION_DEG)
 def bearing_bin(fwd: np.ndarray, stbd: np.ndarray) -> np.ndarray:
     """Bin of each level-frame (forward, starboard) offset: bin j is centred 5 j deg clockwise from the bow."""
     return np.mod(np.rint(np.arctan2(stbd, fwd) / BIN_WIDTH_RAD).astype(np.int64), N_BINS)
+
+
+def inside_bin(fwd: np.ndarray, stbd: np.ndarray, margin_rad: float) -> np.ndarray:
+    """Whether each offset's bearing lies at least ``margin_rad`` inside its bin (away from both edges)."""
+    frac = np.arctan2(stbd, fwd) / BIN_WIDTH_RAD
+    return np.abs(frac - np.rint(frac)) * BIN_WIDTH_RAD <= BIN_WIDTH_RAD / 2 - margin_rad
 
 
 def solid_columns(n_vessels: int) -> list[str]:
@@ -89,6 +100,7 @@ class ReturnsRecorder:
         self.lidar_counts = np.zeros((self.n_windows, 1 + self.n_vessels), np.int64)
         self.radar_counts = np.zeros((self.n_windows, 1 + self.n_vessels), np.int64)
         self.nearest = np.full((self.n_windows, N_BINS), np.inf)
+        self.core = np.full((self.n_windows, N_BINS), np.inf)
         self._pending: list[PacketContent] = []
         self._lidar: Vlp16Model | None = None
 
@@ -130,7 +142,10 @@ class ReturnsRecorder:
         c, s = np.cos(self.own_yaw[w]), np.sin(self.own_yaw[w])
         fwd = c * rel[:, 0] + s * rel[:, 1]
         stbd = -s * rel[:, 0] + c * rel[:, 1]
-        np.minimum.at(self.nearest, (w, bearing_bin(fwd, stbd)), np.hypot(fwd, stbd))
+        b, r = bearing_bin(fwd, stbd), np.hypot(fwd, stbd)
+        np.minimum.at(self.nearest, (w, b), r)
+        inner = inside_bin(fwd, stbd, math.radians(EDGE_MARGIN_DEG))
+        np.minimum.at(self.core, (w[inner], b[inner]), r[inner])
 
     # -- output --------------------------------------------------------------------------------------------------
     def write(self, path: str | Path) -> int:
@@ -138,12 +153,12 @@ class ReturnsRecorder:
         self.flush()
         with open(path, "w", newline="") as f:
             w = csv.writer(f)
-            w.writerow([*POSE_COLUMNS, *solid_columns(self.n_vessels), *BIN_COLUMNS])
+            w.writerow([*POSE_COLUMNS, *solid_columns(self.n_vessels), *BIN_COLUMNS, *CORE_COLUMNS])
             for k in range(self.n_windows):
                 counts = []
                 for s in range(1 + self.n_vessels):
                     counts += [int(self.lidar_counts[k, s]), int(self.radar_counts[k, s])]
-                bins = ["" if not np.isfinite(r) else f"{r:.3f}" for r in self.nearest[k]]
+                bins = ["" if not np.isfinite(r) else f"{r:.3f}" for r in (*self.nearest[k], *self.core[k])]
                 w.writerow(
                     [
                         f"{k * self.window_s:.6f}",
@@ -185,6 +200,7 @@ class ReturnsTable:
     lidar: np.ndarray  # (W, 1 + V) returns per solid: column 0 the shore, 1 + v vessel v
     radar: np.ndarray  # (W, 1 + V)
     nearest: np.ndarray  # (W, 72) m, inf where nothing was returned
+    core: np.ndarray  # (W, 72) m, the same from returns at least EDGE_MARGIN_DEG inside their bin
     vessel_ids: tuple[int, ...]  # (V,) the ids of columns 1..V
     window_s: float = WINDOW_S
 
@@ -244,16 +260,18 @@ def read_returns_csv(path: str | Path) -> ReturnsTable:
         own_yaw=np.array(out["yaw"], float),
         lidar=np.array(out["lidar"], np.int64).reshape(-1, n_solid),
         radar=np.array(out["radar"], np.int64).reshape(-1, n_solid),
-        nearest=np.array(out["bins"], float).reshape(-1, N_BINS),
+        nearest=np.array(out["bins"], float).reshape(-1, 2 * N_BINS)[:, :N_BINS],
+        core=np.array(out["bins"], float).reshape(-1, 2 * N_BINS)[:, N_BINS:],
         vessel_ids=ids,
     )
 
 
 def _parse_header(path: Path, header: Sequence[str]) -> tuple[int, ...]:
-    n_counts = len(header) - len(POSE_COLUMNS) - N_BINS
+    n_counts = len(header) - len(POSE_COLUMNS) - 2 * N_BINS
     if (
         tuple(header[:5]) != POSE_COLUMNS
-        or tuple(header[-N_BINS:]) != BIN_COLUMNS
+        or tuple(header[-2 * N_BINS : -N_BINS]) != BIN_COLUMNS
+        or tuple(header[-N_BINS:]) != CORE_COLUMNS
         or n_counts < 2
         or n_counts % 2
         or tuple(header[5:7]) != ("lidar_shore", "radar_shore")

@@ -93,3 +93,24 @@ def test_bin_beyond_max_distance_is_an_error(tmp_path: Path) -> None:
         evaluate_run(tmp_path, path)
     b = evaluate_run(tmp_path, path, max_distance_m=150.0).bins
     assert b is not None and b.clear_bins == 72 and b.false_clear == 6  # now 85 m is within 0.8 x 150 m as well
+
+
+def test_a_solid_on_a_bin_edge_is_no_false_clear_there(tmp_path: Path) -> None:
+    """Bin 30's solid was returned only within half a degree of its edge with bin 31 (core empty); the daemon put
+    it in bin 31. Bin 30 sent clear is no false clear; bin 0, whose solid lies inside it, sent clear still is."""
+    write_truth(tmp_path, two_boats(), 2.0)
+    counts = np.zeros((10, 3, 2), int)
+    counts[:, 1:, 0] = 40
+    near = np.full((10, 72), np.inf)
+    near[:, [0, 30, 31]] = 20.0
+    core = near.copy()
+    core[:, 30] = np.inf  # the bin-30 returns all lie on the edge
+    write_returns(tmp_path / "returns.csv", counts, near, core=core)
+    sent = [CLEAR] * 72
+    sent[31] = 2000
+    ticks = [tick(0.25 + 0.1 * k, track_a_b(), sent) for k in range(5)]
+    b = evaluate_run(tmp_path, write_ticks(tmp_path / "tracks.jsonl", ticks)).bins
+    assert b is not None and b.ticks_scored == 5
+    assert b.bins_with_solid == 5 * 2  # bins 0 and 31
+    assert b.false_clear == 5  # bin 0 only
+    assert b.false_obstacle == 0

@@ -105,7 +105,7 @@ def test_written_file_reads_back(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
-        (lambda rows: [*rows[:2], rows[2][:-1], *rows[3:]], "line 3: 80 fields, expected 81"),
+        (lambda rows: [*rows[:2], rows[2][:-1], *rows[3:]], "line 3: 152 fields, expected 153"),
         (lambda rows: [*rows[:3], ["nan", *rows[3][1:]], *rows[4:]], "line 4: 'nan' is not a finite number"),
         (lambda rows: [*rows[:1], [*rows[1][:5], "x", *rows[1][6:]], *rows[2:]], "line 2: invalid literal"),
         (lambda rows: [["t", *rows[0][1:]], *rows[1:]], "line 1: not a returns.csv header"),
@@ -132,3 +132,13 @@ def test_captures_include_returns_and_the_scene_mounts(tmp_path: Path) -> None:
     config = load_config(paths["config"])
     assert config.lidar.mount.to_mount() == scene.lidar_mount
     assert config.radar.mount.to_mount() == scene.radar_mount
+
+
+def test_core_bins_leave_out_returns_within_half_a_degree_of_an_edge() -> None:
+    from simulator.returns import inside_bin
+
+    bearing = np.radians([0.0, 1.9, 2.1, 2.6, 7.1, -2.2, 176.5])
+    inside = inside_bin(np.cos(bearing), np.sin(bearing), math.radians(0.5)).tolist()
+    # bin 0 spans -2.5..2.5 deg: 1.9 is 0.6 inside, 2.1 and -2.2 within 0.5 of its edges; 2.6 is bin 1's edge,
+    # 7.1 lies 0.4 from bin 1's far edge; 176.5 is 1 deg inside bin 35's
+    assert inside == [True, True, False, False, False, False, True]

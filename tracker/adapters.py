@@ -47,7 +47,6 @@ def lidar_tracker_table(config: Any) -> dict[str, Any]:
             "min_range": config.lidar.min_range_m,
             "max_range": config.lidar.max_range_m,
             "water": {"margin_floor": config.output.min_height_above_water_m},
-            "sensor_origin": [config.lidar.mount.x, config.lidar.mount.y, config.lidar.mount.z],
         }
     }
     return _merge(derived, config.tracker.lidar)

@@ -94,13 +94,6 @@ class PoseTable:
         ok &= np.isfinite(self.roll + self.pitch + self.yaw)
         return ok[self.index]
 
-    def level_z(self, xyz_body: np.ndarray, point_idx: np.ndarray) -> np.ndarray:
-        """World down coordinate, relative to the body origin, of body FRD point(s) ``xyz_body`` ((1, 3) for one
-        point shared by all, or (M, 3)) under the attitude of the table's points ``point_idx``, m."""
-        sel = self.index[np.asarray(point_idx, dtype=np.intp)]
-        r = rotation_matrices(self.roll, self.pitch, self.yaw)[:, 2, :]  # (K, 3): the world-down row
-        return np.einsum("mj,mj->m", np.broadcast_to(xyz_body, (sel.size, 3)), np.take(r, sel, axis=0))
-
     def body_to_world(self, xyz_body: np.ndarray, point_idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Points (M, 3) body FRD, which are the table's points ``point_idx``, -> (world NED (M, 3), the body
         origin's world down coordinate at each point (M,)), m."""

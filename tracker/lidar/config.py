@@ -121,12 +121,13 @@ class PreprocessConfig:
     # never counts as a water return for the surface estimate.
     vertical_abs_tol: float = 0.15
     vertical_rel_tol: float = 0.01
-    # Returns within the sea margin that came in shallower than this, with this many range-image neighbours, are a
-    # solid's foot, not water (water at grazing incidence returns almost nothing; preprocess says why). 0 = off.
-    grazing_solid_max: float = math.radians(2.0)
-    grazing_solid_min_neighbours: int = 2
-    # The LiDAR's origin in the body frame (FRD, m): the daemon fills it from [lidar] mount.
-    sensor_origin: tuple[float, float, float] = (0.0, 0.0, -1.0)
+    # In calm water (the water not returning), a return within the sea margin with this many range-image
+    # neighbours is a solid's foot, not water (preprocess says why). 0 = off.
+    foot_min_neighbours: int = 2
+    # The water counts as returning when more than calm_max_near_returns returns within calm_near_range (m) lie in
+    # the sea margin off any vertical face: a rough sea gives hundreds there, solids' feet a few dozen.
+    calm_near_range: float = 15.0
+    calm_max_near_returns: int = 100
     water: WaterConfig = field(default_factory=WaterConfig)
 
     def __post_init__(self) -> None:
@@ -140,10 +141,8 @@ class PreprocessConfig:
             "continuity_near_range",
             allow_zero=True,
         )
-        _positive(self, "vertical_abs_tol", "vertical_rel_tol", "grazing_solid_max", allow_zero=True)
-        _positive(self, "grazing_solid_min_neighbours", allow_zero=True)
-        if len(self.sensor_origin) != 3:
-            raise ConfigError(f"PreprocessConfig.sensor_origin: needs 3 numbers (x, y, z), got {self.sensor_origin!r}")
+        _positive(self, "vertical_abs_tol", "vertical_rel_tol", allow_zero=True)
+        _positive(self, "foot_min_neighbours", "calm_near_range", "calm_max_near_returns", allow_zero=True)
         if self.min_range >= self.max_range:
             raise ConfigError(f"PreprocessConfig.min_range: {self.min_range} is not below max_range {self.max_range}")
         if self.min_height >= self.max_height:
@@ -178,7 +177,9 @@ class ClusterConfig:
     occluder_min_points: int = 10
 
     def __post_init__(self) -> None:
-        _positive(self, "base_tolerance", "max_tolerance", "grid_cell", "max_clusters", "max_extent", "occluder_min_points")
+        _positive(
+            self, "base_tolerance", "max_tolerance", "grid_cell", "max_clusters", "max_extent", "occluder_min_points"
+        )
         _positive(self, "tolerance_per_metre", "occlusion_margin", allow_zero=True)
         if self.min_points < 1:
             raise ConfigError(f"ClusterConfig.min_points: must be >= 1, got {self.min_points}")

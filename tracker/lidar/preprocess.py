@@ -34,7 +34,7 @@ class PreprocessResult:
     n_spray: int = 0  # low and isolated: water surface or spray
     n_water: int = 0  # within the sea margin of the estimated water surface
     n_isolated: int = 0  # alone in the range image: rain drops, spray droplets
-    n_grazing: int = 0  # within the sea margin but solid: a line of returns at a grazing angle (see preprocess)
+    n_grazing: int = 0  # within the sea margin but solid: a solid's foot in calm water (see preprocess)
     water: WaterEstimate = field(default_factory=WaterEstimate)
 
 
@@ -180,34 +180,34 @@ def preprocess(
         alone = solid & (neighbours < need)
         n_isolated = int(np.count_nonzero(alone))
         solid &= ~alone
-        # Calm water is a mirror: a firing that meets it, above all at a grazing angle, does not return. So while
-        # the water is not returning (no surface measured this revolution or lately), a return within the sea
-        # margin that came in shallower than grazing_solid_max, in a line of returns at its range, is the foot of a
-        # solid the beam met before the water: a quay 80 m off seen only by the lowest beam. Once the water does
-        # return, a line of water returns at grazing incidence is possible and nothing in the margin is trusted.
-        if cfg.grazing_solid_max > 0 and not estimate.measured:
-            sx, sy, sz = cfg.sensor_origin
-            sensor_up = cfg.origin_height_above_water - poses.level_z(np.array([[sx, sy, sz]]), idx)
-            drop = sensor_up - height
-            grazing = np.arctan2(drop, np.take(horizontal, idx))
-            rescued = (
-                in_band
-                & ~solid
-                & (height > 0.0)
-                & (grazing < cfg.grazing_solid_max)
-                & (neighbours >= cfg.grazing_solid_min_neighbours)
-            )
+        # Calm water is a mirror: a firing that meets it does not return. So while the water is not returning (no
+        # surface measured, and fewer water-like returns than a fit needs), a return within the sea margin in a
+        # line of returns at its range is the foot of a solid the beam met just before the water: a RIB at 41 m
+        # met by the -1 deg beam 3 cm above its waterline, a quay 80 m off. Once the water does return, a line of
+        # water returns is possible and nothing in the margin is trusted.
+        # The water's activity is judged close in, where a rough sea returns the steep beams by the hundred and
+        # solids' feet are few: low returns within calm_near_range that are not on a vertical face.
+        r2_idx = np.take(r2, idx)
+        near_low = in_band & ~solid & (r2_idx < cfg.calm_near_range**2)
+        if vertical is not None:
+            near_low &= ~vertical
+        calm = not estimate.measured and int(np.count_nonzero(near_low)) < cfg.calm_max_near_returns
+        if cfg.foot_min_neighbours > 0 and calm:
+            rescued = in_band & ~solid & (height > 0.0) & (neighbours >= cfg.foot_min_neighbours)
             n_grazing = int(np.count_nonzero(rescued))
             solid |= rescued
             n_water -= n_grazing
 
-    # Spray suspects: low returns anywhere, and any return near the boat, where a real hull gives dense returns
-    # (0.2 deg steps are centimetres apart at a few metres) but bow spray gives lone points in mid-air. The low band
-    # rises with the sea margin: crests above it are the ones most likely to leave stragglers.
+    # Spray suspects: any return near the boat, where a real hull gives dense returns (0.2 deg steps are
+    # centimetres apart at a few metres) but bow spray gives lone points in mid-air; and low returns, out to where
+    # rain falls dense (continuity_near_range) when the range image judged the rest, everywhere when it did not.
+    # Farther out a low return in a line of returns is kept: a quay 54 m off met by one beam gives two or three
+    # returns 0.4 m up, which this 3-neighbour ball test dropped.
     low_top = cfg.spray_max_height + margin - cfg.water.margin_floor
     r2_kept = r2[idx]
     near = r2_kept < cfg.spray_near_range**2
-    low = solid & ((height < low_top) | near)
+    low_reach = r2_kept < cfg.continuity_near_range**2 if image is not None else True
+    low = solid & (near | ((height < low_top) & low_reach))
     spray = np.zeros(idx.size, dtype=bool)
     if np.any(low):
         # Neighbours among the solid returns within reach of a suspect (a low return next to a hull is hull),
