@@ -64,14 +64,15 @@ def separation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     A lower bound of their distance when positive; when they overlap, minus the smallest push that separates them.
     Written as plain products and sums (no matrix routines), so the result is the same on every machine.
     """
-    na, va = _unit_normals(a)
-    nb, vb = _unit_normals(b)
-    lead = np.broadcast_shapes(a.shape[:-2], b.shape[:-2])
-    axes = np.concatenate([np.broadcast_to(n, lead + n.shape[-2:]) for n in (na, nb)], axis=-2)  # (..., A, 2)
-    valid = np.concatenate([np.broadcast_to(v, lead + v.shape[-1:]) for v in (va, vb)], axis=-1)
-    ax, ay = axes[..., :, None, 0], axes[..., :, None, 1]  # (..., A, 1)
-    pa = ax * a[..., None, :, 0] + ay * a[..., None, :, 1]  # (..., A, Ka)
-    pb = ax * b[..., None, :, 0] + ay * b[..., None, :, 1]
+    return np.maximum(_axis_gaps(a, b), _axis_gaps(b, a))
+
+
+def _axis_gaps(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Largest gap between the projections of a and b onto the edge normals of a."""
+    n, valid = _unit_normals(a)
+    nx, ny = n[..., :, None, 0], n[..., :, None, 1]  # (..., Ka, 1)
+    pa = nx * a[..., None, :, 0] + ny * a[..., None, :, 1]  # (..., Ka, Ka)
+    pb = nx * b[..., None, :, 0] + ny * b[..., None, :, 1]  # (..., Ka, Kb)
     gap = np.maximum(pb.min(-1) - pa.max(-1), pa.min(-1) - pb.max(-1))
     return np.where(valid, gap, -np.inf).max(-1)
 
@@ -127,12 +128,13 @@ class Occupancy:
         normals, offsets = self._stack()[7:]
         return bool(np.any(_edge_distance(points[:, None, :], normals, offsets) < 0.0))
 
-    def admits(self, body: Body) -> bool:
-        """True when ``body`` keeps every placed solid's clearance at every instant of the span."""
+    def admits(self, body: Body, fixed_extra: float = 0.0) -> bool:
+        """True when ``body`` keeps every placed solid's clearance at every instant of the span, and ``fixed_extra``
+        more from the fixed ones."""
         outlines, centres, radii, sweeps, margins, fixed, fixed_margins, normals, offsets = self._stack()
         half = self.step / 2
         if len(fixed):
-            need = fixed_margins + body.sweep * half  # (F,)
+            need = fixed_margins + fixed_extra + body.sweep * half  # (F,)
             d = _edge_distance(body.centre[:, None, :], normals, offsets) - body.radius  # (T, F), <= the distance
             t, j = np.nonzero(d < need)
             if t.size and np.any(separation(body.outline[t], fixed[j]) < need[j]):
