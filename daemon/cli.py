@@ -11,6 +11,11 @@ from daemon.config import DEFAULT_CONFIG_PATH
 
 log = logging.getLogger("usv-tracker")
 
+SCENE_HELP = (
+    "harbour (default), crossing, container, crew_boat, fisher, radar_paper[:static|low|mid|high], dense, or "
+    "random:SEED[:SECONDS], a whole harbour drawn from SEED (seeds 1-100 for tuning, 1001-1100 held out)"
+)
+
 
 def _setup_logging(verbose: bool) -> None:
     logging.basicConfig(
@@ -78,15 +83,41 @@ def cmd_run(args: argparse.Namespace) -> int:
     return run_daemon(config, fast=args.fast, duration_s=args.seconds)
 
 
+def _describe_drawn_scene(name: str, seconds: float) -> bool:
+    """Print what a ``random:SEED`` scene holds (it is known by its seed alone); False for a name that is no scene."""
+    if name.partition(":")[0] != "random":
+        return True
+    from simulator.scenarios import get_scenario
+
+    try:
+        scene = get_scenario(name)
+    except ValueError as exc:
+        log.error("%s", exc)
+        return False
+    print(scene.description, flush=True)
+    if seconds > scene.duration:
+        log.warning(
+            "%s is drawn collision-free for %.0f s; after that vessels hold their last leg and may meet "
+            "(random:SEED:SECONDS draws it for longer)",
+            name,
+            scene.duration,
+        )
+    return True
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     from daemon.demo import run_demo
 
+    if not _describe_drawn_scene(args.scenario, args.seconds):
+        return 2
     return run_demo(seconds=args.seconds, scenario=args.scenario, out_dir=Path(args.out), live_view=not args.quiet)
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     from simulator.run import run_simulator_cli
 
+    if not _describe_drawn_scene(args.scenario, args.seconds):
+        return 2
     return run_simulator_cli(args)
 
 
@@ -118,18 +149,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     demo = sub.add_parser("demo", help="built-in demo: simulator plays sensors and autopilot, the real daemon runs")
     demo.add_argument("--seconds", type=float, default=30.0)
-    demo.add_argument("--scenario", default="harbour")
+    demo.add_argument("--scene", "--scenario", dest="scenario", default="harbour", help=SCENE_HELP)
     demo.add_argument("--out", default="demo-output", help="directory for the summary picture and logs")
     demo.add_argument("--quiet", action="store_true", help="no live view, summary only")
     demo.set_defaults(func=cmd_demo)
 
     sim = sub.add_parser("simulate", help="play sensors and autopilot over loopback, or write capture files")
-    sim.add_argument("--scenario", default="harbour")
+    sim.add_argument("--scene", "--scenario", dest="scenario", default="harbour", help=SCENE_HELP)
     sim.add_argument("--seconds", type=float, default=30.0)
     sim.add_argument("--lidar-port", type=int, default=2368)
     sim.add_argument("--mavlink", default="udpin:127.0.0.1:14550", help="where the simulated autopilot listens")
     sim.add_argument("--write", metavar="DIR", help="write capture files (pcap, .dat, .tlog, truth.csv) instead")
-    sim.add_argument("--seed", type=int, default=0)
+    sim.add_argument("--seed", type=int, default=0, help="seed of the sensors' noise (and of the scene, unless named)")
     sim.set_defaults(func=cmd_simulate)
 
     dec = sub.add_parser("decode", help="decode a capture: a VLP-16 pcap/pcapng or an AWR1843 data-port dump")

@@ -15,6 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from simulator.random_scene import random_scene
 from simulator.scene import OwnBoat, Quay, Scene, Trajectory, Vessel
 
 RADAR_PAPER_SPEEDS = {"static": 0.0, "low": 0.5, "mid": 1.5, "high": 3.0}  # m/s; the paper gives no numbers
@@ -174,16 +175,34 @@ SCENARIOS: dict[str, Callable[..., Scene]] = {
     "fisher": fisher,
     "radar_paper": radar_paper,
     "dense": dense,
+    "random": random_scene,
 }
 
 
 def get_scenario(name: str, seed: int = 0, **params: str) -> Scene:
-    """Build a named scene. ``name`` may carry one parameter after a colon ("radar_paper:high" = speed "high")."""
+    """Build a named scene. ``name`` may carry one parameter after a colon: "radar_paper:high" is speed "high",
+    "random:17" the scene drawn from seed 17 (the name's seed, not ``seed``, which then only seeds the sensors of
+    whoever simulates it) and "random:17:90" the same kind of draw held collision-free for 90 s instead of 60."""
     base, _, arg = name.partition(":")
     if base not in SCENARIOS:
         raise ValueError(f"unknown scenario {name!r}; known: {', '.join(sorted(SCENARIOS))}")
     if arg:
-        if base != "radar_paper":
+        if base == "radar_paper":
+            params = {"speed": arg, **params}
+        elif base == "random":
+            seed_text, _, duration = arg.partition(":")
+            if not seed_text.isdigit() or (duration and not _is_number(duration)):
+                raise ValueError(f"random scenes are named random:SEED or random:SEED:SECONDS, not {name!r}")
+            seed = int(seed_text)
+            if duration:
+                params = {"duration": duration, **params}
+        else:
             raise ValueError(f"scenario {base!r} takes no parameter (got {arg!r})")
-        params = {"speed": arg, **params}
     return SCENARIOS[base](seed, **params)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        return math.isfinite(float(text))
+    except ValueError:
+        return False
