@@ -18,6 +18,7 @@ while in range, and tracks away from it are not scored (they are other boats, no
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -44,18 +45,26 @@ def evaluate_run(
     warmup_s: float = 0.0,
     time_offset_s: float | None = None,
     reference_radius_m: float = 0.0,
+    sensors: Sequence[str] = ("lidar", "radar"),
 ) -> EvaluationResult:
     """Score ``tracks`` (a --tracks-out JSONL file) against ``truth``.
 
     ``truth``: a `simulate --write` directory (its truth.csv, and its returns.csv when there), a truth CSV, or a
     reference boat's GNSS CSV (time, lat, lon). ``returns``: a returns.csv to use instead of the directory's.
     ``time_offset_s``: truth time = tick t + offset; None finds it (see the module's doc). ``reference_radius_m``:
-    a GNSS reference's hull as a disc of this radius round the antenna. Raises EvaluationError for bad input.
+    a GNSS reference's hull as a disc of this radius round the antenna. ``sensors``: the sensors the run had; only
+    their returns decide what was to be tracked and what a bin had to show (a LiDAR-only run is not judged by what
+    the radar returned). Raises EvaluationError for bad input.
     """
     _check_settings(match_distance_m, max_distance_m, min_returns, warmup_s, time_offset_s, reference_radius_m)
     truth_path, returns_path = _resolve(Path(truth), returns)
     reference = detect_truth(truth_path, reference_radius_m)
     table = _read_returns(returns_path) if returns_path is not None and reference.kind == "simulator" else None
+    if table is not None:
+        try:
+            table = table.for_sensors(sensors)
+        except ValueError as exc:
+            raise EvaluationError(str(exc)) from exc
     ticks = read_ticks(tracks)
     notes: list[str] = []
     if returns_path is not None and reference.kind == "gnss":
@@ -174,6 +183,7 @@ def evaluate_run(
             "min_returns": min_returns,
             "warmup_s": warmup_s,
             "reference_radius_m": reference_radius_m,
+            "sensors": list(table.sensors) if table is not None else list(sensors),
         },
         alignment=alignment,
         tracks=scores,

@@ -38,6 +38,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--warmup", type=float, default=0.0, help="s after the first tick that are not scored")
     p.add_argument("--time-offset", type=float, help="s, truth time - tick t (default: found from the files)")
     p.add_argument("--reference-radius", type=float, default=0.0, help="m, a GNSS reference boat's hull as a disc")
+    p.add_argument(
+        "--sensors",
+        default="lidar,radar",
+        help="the sensors the run had (lidar, radar or both, comma-separated): only their returns count",
+    )
     p.add_argument("--json", action="store_true", help="print the result as JSON")
 
 
@@ -56,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
             warmup_s=args.warmup,
             time_offset_s=args.time_offset,
             reference_radius_m=args.reference_radius,
+            sensors=[x.strip() for x in args.sensors.split(",") if x.strip()],
         )
     except EvaluationError as exc:
         print(f"usv-tracker evaluate: {exc}", file=sys.stderr)

@@ -9,13 +9,14 @@ that down beside the captures as ``returns.csv``, one row per window [k * 0.1, (
   own_north, own_east, own_yaw      the own boat's pose at t_end: world NED metres, radians clockwise from north
   lidar_shore, radar_shore          returns from quay walls and the land behind them in the window
   lidar_<id>, radar_<id>            returns from vessel <id> (the truth CSV's id), one pair of columns per vessel
-  bin_00 .. bin_71                  nearest returned solid per bearing bin, horizontal range in metres from the own
-                                    boat's origin, in its level frame at t_end: bin j is centred 5 * j degrees
-                                    clockwise from the bow (heading at t_end) and spans +-2.5 degrees; empty where
-                                    no solid was returned in that bin
-  core_00 .. core_71                the same from the returns at least EDGE_MARGIN_DEG inside their bin: a hull's
+  lidar_bin_00 .. lidar_bin_71      nearest solid the LiDAR returned per bearing bin, horizontal range in metres
+                                    from the own boat's origin, in its level frame at t_end: bin j is centred 5 * j
+                                    degrees clockwise from the bow (heading at t_end) and spans +-2.5 degrees;
+                                    empty where no solid was returned in that bin
+  lidar_core_00 .. lidar_core_71    the same from the returns at least EDGE_MARGIN_DEG inside their bin: a hull's
                                     edge that the daemon, placing its returns at its own instant, puts a tenth of a
                                     degree into the next bin, is not a miss in this one
+  radar_bin_.., radar_core_..       the same for the radar
 
 A "returned solid" is a LiDAR or radar return labelled as a vessel or the shore; clutter, water, rain and radar
 multipath ghosts never count. LiDAR returns are placed along their true ray at the measured (noisy) distance and
@@ -28,7 +29,7 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -50,8 +51,8 @@ N_BINS = 72
 BIN_WIDTH_RAD = 2 * math.pi / N_BINS
 WINDOW_S = 0.1
 SHORE = "shore"
-BIN_COLUMNS = tuple(f"bin_{j:02d}" for j in range(N_BINS))
-CORE_COLUMNS = tuple(f"core_{j:02d}" for j in range(N_BINS))
+SENSORS = ("lidar", "radar")
+BIN_COLUMNS = tuple(f"{s}_{kind}_{j:02d}" for s in SENSORS for kind in ("bin", "core") for j in range(N_BINS))
 EDGE_MARGIN_DEG = 0.5
 POSE_COLUMNS = ("t_start", "t_end", "own_north", "own_east", "own_yaw")
 
@@ -99,8 +100,9 @@ class ReturnsRecorder:
         self.own_yaw = own.yaw if own is not None else np.zeros(0)
         self.lidar_counts = np.zeros((self.n_windows, 1 + self.n_vessels), np.int64)
         self.radar_counts = np.zeros((self.n_windows, 1 + self.n_vessels), np.int64)
-        self.nearest = np.full((self.n_windows, N_BINS), np.inf)
-        self.core = np.full((self.n_windows, N_BINS), np.inf)
+        # (sensor, window, bin): all returns of a bin, and those away from its edges
+        self.nearest = np.full((2, self.n_windows, N_BINS), np.inf)
+        self.core = np.full((2, self.n_windows, N_BINS), np.inf)
         self._pending: list[PacketContent] = []
         self._lidar: Vlp16Model | None = None
 
@@ -114,7 +116,7 @@ class ReturnsRecorder:
 
     def add_radar_frame(self, det: RadarDetections) -> None:
         solid = (det.label >= 0) | (det.label == LABEL_SHORE)
-        self._add(np.full(int(solid.sum()), det.t), det.xyz_world[solid, :2], det.label[solid], self.radar_counts)
+        self._add(np.full(int(solid.sum()), det.t), det.xyz_world[solid, :2], det.label[solid], 1)
 
     def flush(self) -> None:
         if not self._pending:
@@ -128,10 +130,12 @@ class ReturnsRecorder:
         laser = np.broadcast_to(_CHANNEL_LASER, dist.shape)
         keep = (dist > 0) & ((label >= 0) | (label == LABEL_SHORE))
         t, d, lab, las = t_fire[keep], dist[keep], label[keep], laser[keep]
-        self._add(t, _lidar_points_world(model, t, las, d), lab, self.lidar_counts)
+        self._add(t, _lidar_points_world(model, t, las, d), lab, 0)
 
-    def _add(self, t: np.ndarray, ne: np.ndarray, label: np.ndarray, counts: np.ndarray) -> None:
-        """Returns at times ``t`` and world (north, east) positions into their windows."""
+    def _add(self, t: np.ndarray, ne: np.ndarray, label: np.ndarray, sensor: int) -> None:
+        """Returns of ``sensor`` (0 LiDAR, 1 radar) at times ``t`` and world (north, east) positions into their
+        windows."""
+        counts = self.lidar_counts if sensor == 0 else self.radar_counts
         w = np.floor(t / self.window_s + 1e-9).astype(np.int64)
         ok = (w >= 0) & (w < self.n_windows)
         w, ne, label = w[ok], ne[ok], label[ok]
@@ -143,9 +147,9 @@ class ReturnsRecorder:
         fwd = c * rel[:, 0] + s * rel[:, 1]
         stbd = -s * rel[:, 0] + c * rel[:, 1]
         b, r = bearing_bin(fwd, stbd), np.hypot(fwd, stbd)
-        np.minimum.at(self.nearest, (w, b), r)
+        np.minimum.at(self.nearest[sensor], (w, b), r)
         inner = inside_bin(fwd, stbd, math.radians(EDGE_MARGIN_DEG))
-        np.minimum.at(self.core, (w[inner], b[inner]), r[inner])
+        np.minimum.at(self.core[sensor], (w[inner], b[inner]), r[inner])
 
     # -- output --------------------------------------------------------------------------------------------------
     def write(self, path: str | Path) -> int:
@@ -153,12 +157,13 @@ class ReturnsRecorder:
         self.flush()
         with open(path, "w", newline="") as f:
             w = csv.writer(f)
-            w.writerow([*POSE_COLUMNS, *solid_columns(self.n_vessels), *BIN_COLUMNS, *CORE_COLUMNS])
+            w.writerow([*POSE_COLUMNS, *solid_columns(self.n_vessels), *BIN_COLUMNS])
             for k in range(self.n_windows):
                 counts = []
                 for s in range(1 + self.n_vessels):
                     counts += [int(self.lidar_counts[k, s]), int(self.radar_counts[k, s])]
-                bins = ["" if not np.isfinite(r) else f"{r:.3f}" for r in (*self.nearest[k], *self.core[k])]
+                per_sensor = [a for sensor in range(2) for a in (self.nearest[sensor, k], self.core[sensor, k])]
+                bins = ["" if not np.isfinite(r) else f"{r:.3f}" for r in np.concatenate(per_sensor)]
                 w.writerow(
                     [
                         f"{k * self.window_s:.6f}",
@@ -199,17 +204,40 @@ class ReturnsTable:
     own_yaw: np.ndarray  # (W,) rad
     lidar: np.ndarray  # (W, 1 + V) returns per solid: column 0 the shore, 1 + v vessel v
     radar: np.ndarray  # (W, 1 + V)
-    nearest: np.ndarray  # (W, 72) m, inf where nothing was returned
-    core: np.ndarray  # (W, 72) m, the same from returns at least EDGE_MARGIN_DEG inside their bin
+    sensor_nearest: np.ndarray  # (2, W, 72) m per sensor (LiDAR, radar), inf where nothing was returned
+    sensor_core: np.ndarray  # (2, W, 72) m, the same from returns at least EDGE_MARGIN_DEG inside their bin
     vessel_ids: tuple[int, ...]  # (V,) the ids of columns 1..V
     window_s: float = WINDOW_S
+    sensors: tuple[str, ...] = SENSORS  # whose returns count (``for_sensors``)
+
+    def for_sensors(self, sensors: Sequence[str]) -> ReturnsTable:
+        """The record as seen by a run that had only ``sensors`` ("lidar", "radar"): a LiDAR-only run is not
+        judged by what the radar returned."""
+        bad = [s for s in sensors if s not in SENSORS]
+        if bad or not sensors:
+            raise ValueError(f"sensors must be some of {', '.join(SENSORS)}, got {list(sensors)!r}")
+        return replace(self, sensors=tuple(s for s in SENSORS if s in sensors))
+
+    @property
+    def _picked(self) -> list[int]:
+        return [SENSORS.index(s) for s in self.sensors]
+
+    @property
+    def nearest(self) -> np.ndarray:
+        """(W, 72) m: nearest solid the chosen sensors returned per bin."""
+        return self.sensor_nearest[self._picked].min(axis=0)
+
+    @property
+    def core(self) -> np.ndarray:
+        """(W, 72) m: the same from returns away from the bin's edges."""
+        return self.sensor_core[self._picked].min(axis=0)
 
     def returns_of(self, vessel_id: int) -> np.ndarray:
-        """(W,) LiDAR + radar returns of one vessel; zeros for an id the file does not know."""
+        """(W,) returns of one vessel from the chosen sensors; zeros for an id the file does not know."""
         if vessel_id not in self.vessel_ids:
             return np.zeros(self.t_end.shape, np.int64)
         c = 1 + self.vessel_ids.index(vessel_id)
-        return self.lidar[:, c] + self.radar[:, c]
+        return sum(getattr(self, s)[:, c] for s in self.sensors)
 
 
 class ReturnsFormatError(ValueError):
@@ -260,18 +288,18 @@ def read_returns_csv(path: str | Path) -> ReturnsTable:
         own_yaw=np.array(out["yaw"], float),
         lidar=np.array(out["lidar"], np.int64).reshape(-1, n_solid),
         radar=np.array(out["radar"], np.int64).reshape(-1, n_solid),
-        nearest=np.array(out["bins"], float).reshape(-1, 2 * N_BINS)[:, :N_BINS],
-        core=np.array(out["bins"], float).reshape(-1, 2 * N_BINS)[:, N_BINS:],
+        # (W, sensor, kind, 72) -> per sensor (2, W, 72)
+        sensor_nearest=np.array(out["bins"], float).reshape(-1, 2, 2, N_BINS)[:, :, 0].transpose(1, 0, 2),
+        sensor_core=np.array(out["bins"], float).reshape(-1, 2, 2, N_BINS)[:, :, 1].transpose(1, 0, 2),
         vessel_ids=ids,
     )
 
 
 def _parse_header(path: Path, header: Sequence[str]) -> tuple[int, ...]:
-    n_counts = len(header) - len(POSE_COLUMNS) - 2 * N_BINS
+    n_counts = len(header) - len(POSE_COLUMNS) - len(BIN_COLUMNS)
     if (
         tuple(header[:5]) != POSE_COLUMNS
-        or tuple(header[-2 * N_BINS : -N_BINS]) != BIN_COLUMNS
-        or tuple(header[-N_BINS:]) != CORE_COLUMNS
+        or tuple(header[-len(BIN_COLUMNS) :]) != BIN_COLUMNS
         or n_counts < 2
         or n_counts % 2
         or tuple(header[5:7]) != ("lidar_shore", "radar_shore")

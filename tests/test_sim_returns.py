@@ -45,7 +45,7 @@ def test_nearest_per_bin_in_the_level_frame(heading: float, bin_ahead: int, bin_
     south astern or to starboard. Ranges are horizontal, from the own boat's origin."""
     rec, _ = record_lidar(wall_scene(heading), 0.3)
     for k in range(rec.n_windows):
-        near = rec.nearest[k]
+        near = rec.nearest[0, k]  # the LiDAR's
         assert near[bin_ahead] == pytest.approx(19.0, abs=0.01)
         assert near[bin_quay] == pytest.approx(30.0, abs=0.01)
         # the wall's 10 m face spans +-14.7 deg: bins within it see it at 19 / cos(bearing), none beyond 25 m
@@ -69,8 +69,8 @@ def test_counts_and_ranges_match_the_models_own_hits() -> None:
         fwd, stbd = c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]
         expected = np.full(72, np.inf)
         np.minimum.at(expected, bearing_bin(fwd, stbd), np.hypot(fwd, stbd))
-        np.testing.assert_allclose(rec.nearest[k], expected, atol=1e-6)
-    assert rec.radar_counts.sum() == 0
+        np.testing.assert_allclose(rec.nearest[0, k], expected, atol=1e-6)
+    assert rec.radar_counts.sum() == 0 and np.isinf(rec.nearest[1]).all()
 
 
 def test_radar_counts_only_vessels_and_shore() -> None:
@@ -84,9 +84,11 @@ def test_radar_counts_only_vessels_and_shore() -> None:
     )
     rec.add_radar_frame(det)
     assert rec.radar_counts.tolist() == [[0, 0], [1, 2]]  # window 1: shore 1, vessel 0 twice; ghosts/clutter never
-    assert rec.nearest[1, 0] == pytest.approx(10.0)
-    assert rec.nearest[1, 18] == pytest.approx(7.0)
-    assert np.isinf(rec.nearest[0]).all() and np.isinf(np.delete(rec.nearest[1], [0, 18])).all()
+    radar = rec.nearest[1]  # the radar's bins; the LiDAR's stay empty
+    assert radar[1, 0] == pytest.approx(10.0)
+    assert radar[1, 18] == pytest.approx(7.0)
+    assert np.isinf(radar[0]).all() and np.isinf(np.delete(radar[1], [0, 18])).all()
+    assert np.isinf(rec.nearest[0]).all()
 
 
 def test_written_file_reads_back(tmp_path: Path) -> None:
@@ -97,15 +99,19 @@ def test_written_file_reads_back(tmp_path: Path) -> None:
     np.testing.assert_allclose(table.t_end, [0.1, 0.2, 0.3])
     assert table.window_s == pytest.approx(0.1)
     assert table.lidar.tolist() == rec.lidar_counts.tolist()
-    np.testing.assert_allclose(table.nearest, rec.nearest, atol=5e-4)  # written to the millimetre
+    np.testing.assert_allclose(table.sensor_nearest, rec.nearest, atol=5e-4)  # written to the millimetre
+    np.testing.assert_allclose(table.sensor_core, rec.core, atol=5e-4)
+    np.testing.assert_allclose(table.nearest, rec.nearest[0], atol=5e-4)  # both sensors: the radar saw nothing
     assert table.returns_of(0).tolist() == (rec.lidar_counts[:, 1] + rec.radar_counts[:, 1]).tolist()
     assert table.returns_of(7).tolist() == [0, 0, 0]
+    radar_only = table.for_sensors(["radar"])
+    assert np.isinf(radar_only.nearest).all() and radar_only.returns_of(0).tolist() == [0, 0, 0]
 
 
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
-        (lambda rows: [*rows[:2], rows[2][:-1], *rows[3:]], "line 3: 152 fields, expected 153"),
+        (lambda rows: [*rows[:2], rows[2][:-1], *rows[3:]], "line 3: 296 fields, expected 297"),
         (lambda rows: [*rows[:3], ["nan", *rows[3][1:]], *rows[4:]], "line 4: 'nan' is not a finite number"),
         (lambda rows: [*rows[:1], [*rows[1][:5], "x", *rows[1][6:]], *rows[2:]], "line 2: invalid literal"),
         (lambda rows: [["t", *rows[0][1:]], *rows[1:]], "line 1: not a returns.csv header"),
