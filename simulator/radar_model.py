@@ -7,8 +7,13 @@ then adds what makes radar tracking hard on the water (paper 001, §1): sea clut
 (a weaker copy further out on the same bearing) and many returns from the quay, whose Doppler is the own boat's
 motion seen from a fixed wall.
 
-Output is in TI's axes (x right, y boresight, z up), Doppler positive = moving away, as the demo firmware sends it.
-Every frame's randomness depends only on ``seed`` and the frame number, so frames are reproducible in any order.
+Frames: every echo is placed in the world (NED) first; the radar sits where the own boat's full pose puts it (track,
+yaw, roll, pitch and heave, then the mount's lever arm), and its velocity includes the lever arm swinging with the
+roll, pitch and yaw rates and the heave rate. World -> sensor FRD -> TI axes (x right, y boresight, z up) is the
+last step, so a rolling boat's points are placed by the sensor's tilt, exactly as a real sensor reports them.
+Doppler positive = moving away, as the demo firmware sends it. Each value not given to the constructor that the
+scene's ``conditions`` carries (scene.SensorConditions) is taken from there. Every frame's randomness depends only
+on ``seed`` and the frame number, so frames are reproducible in any order.
 """
 
 from __future__ import annotations
@@ -21,10 +26,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from drivers.mount import TI_TO_FRD, Mount
-from simulator.scene import LABEL_CLUTTER, LABEL_GHOST, LABEL_SHORE, Prisms, Scene
+from simulator.scene import LABEL_CLUTTER, LABEL_GHOST, LABEL_SHORE, MAX_VERTICES, Scene
 from tracker.ego import rotation_matrices
 
 log = logging.getLogger(__name__)
+
+_RATE_STEP_S = 1e-3  # half-step of the central differences that give the roll, pitch and heave rates
 
 
 @dataclass(frozen=True)
@@ -48,10 +55,62 @@ class RadarDetections:
 
 
 @dataclass(frozen=True)
-class _SensorPose:
+class SensorPose:
     position: np.ndarray  # (3,) world NED
     rotation: np.ndarray  # (3, 3) sensor-FRD -> world
-    velocity: np.ndarray  # (3,) world, including the lever arm of the own yaw rate
+    velocity: np.ndarray  # (3,) world NED: the boat's, its heave rate, and the lever arm turning with roll, pitch, yaw
+
+
+@dataclass(frozen=True)
+class _SceneAt:
+    """The vessels at one frame time, evaluated once and shared by every echo source."""
+
+    position: np.ndarray  # (V, 2) world (north, east)
+    velocity: np.ndarray  # (V, 2) world
+    heading: np.ndarray  # (V,) rad
+    yaw_rate: np.ndarray  # (V,) rad/s, clockwise positive
+    hulls: np.ndarray  # (V, 5, 2) hull footprints, world (north, east)
+    solids: _Solids  # every prism that can block a sight line
+
+
+@dataclass(frozen=True)
+class _Solids:
+    """Vertical convex prisms in the world: (P, 5, 2) footprints (north, east), heights above the water, owner."""
+
+    vertices: np.ndarray
+    bottom: np.ndarray
+    top: np.ndarray
+    owner: np.ndarray  # vessel index or LABEL_SHORE
+
+
+@dataclass(frozen=True)
+class _Echoes:
+    """Candidate echoes of one frame, before the radar has decided which it detects. World NED."""
+
+    position: np.ndarray  # (N, 3) where the echo appears (a ghost: its apparent position)
+    velocity: np.ndarray  # (N, 3) of that apparent position
+    snr: np.ndarray  # (N,) dB, range loss and fluctuation included
+    label: np.ndarray  # (N,) int
+
+    @property
+    def size(self) -> int:
+        return int(self.snr.shape[0])
+
+    def take(self, keep: np.ndarray) -> _Echoes:
+        return _Echoes(self.position[keep], self.velocity[keep], self.snr[keep], self.label[keep])
+
+    @staticmethod
+    def join(parts: list[_Echoes]) -> _Echoes:
+        return _Echoes(
+            np.concatenate([p.position for p in parts]),
+            np.concatenate([p.velocity for p in parts]),
+            np.concatenate([p.snr for p in parts]),
+            np.concatenate([p.label for p in parts]).astype(np.int64),
+        )
+
+    @staticmethod
+    def empty() -> _Echoes:
+        return _Echoes(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64))
 
 
 class Awr1843Model:
@@ -60,7 +119,8 @@ class Awr1843Model:
     ``snr_at_10m_db`` is the SNR of a 1 m high, face-on hull side at 10 m; it falls with 40 log10(range) and with the
     cosine of the incidence angle. Points below ``snr_threshold_db`` (the CFAR threshold) are not reported, which is
     what limits the range on small boats. ``points_per_metre`` of visible hull side at <= 20 m (fewer further out),
-    1..``max_points_per_vessel`` per vessel.
+    1..``max_points_per_vessel`` per vessel. ``ghost_probability`` and ``snr_loss_db`` default to the scene's
+    ``conditions``.
     """
 
     def __init__(
@@ -87,14 +147,20 @@ class Awr1843Model:
         max_points_per_vessel: int = 10,
         clutter_per_frame: float = 3.0,
         clutter_range: float = 8.0,
-        ghost_probability: float = 0.1,
+        ghost_probability: float | None = None,
         ghost_loss_db: float = 9.0,
         shore_spacing: float = 0.5,
         shore_keep: float = 0.35,
         report_elevation: bool = True,
+        snr_loss_db: float | None = None,
     ) -> None:
+        c = scene.conditions  # a value not given is the scene's own
+        ghost_probability = c.radar_ghost_probability if ghost_probability is None else ghost_probability
+        snr_loss_db = c.radar_snr_loss_db if snr_loss_db is None else snr_loss_db
         if frame_period <= 0 or max_range <= min_range or v_max <= 0:
             raise ValueError("need frame_period > 0, max_range > min_range and v_max > 0")
+        if not 0 <= ghost_probability <= 1:
+            raise ValueError(f"ghost_probability must be in [0, 1], got {ghost_probability}")
         self.scene = scene
         self.mount = mount if mount is not None else scene.radar_mount
         self.fov = math.radians(fov_deg)
@@ -110,6 +176,7 @@ class Awr1843Model:
         self.snr_threshold_db = float(snr_threshold_db)
         self.snr_at_10m_db = float(snr_at_10m_db)
         self.snr_fading_db = float(snr_fading_db)
+        self.snr_loss_db = float(snr_loss_db)
         self.detect_probability = float(detect_probability)
         self.points_per_metre = float(points_per_metre)
         self.max_points_per_vessel = int(max_points_per_vessel)
@@ -122,6 +189,9 @@ class Awr1843Model:
         self._shore = _sample_quay(scene, shore_spacing)
         self._vessel_height = np.array([v.height for v in scene.vessels], float)
         self._vessel_rcs = np.array([v.rcs_scale for v in scene.vessels], float)
+        self._hull_body = np.array([v.outline_body() for v in scene.vessels], float).reshape(-1, MAX_VERTICES, 2)
+        self._prism_body, self._prism_vessel, self._prism_bottom, self._prism_top = _vessel_prisms(scene)
+        self._quay_blocks, self._quay_top = _quay_blocks(scene)
         log.debug(
             "AWR1843 model on %r: +-%.0f deg, %.0f m, %d shore scatterers",
             scene.name,
@@ -146,59 +216,195 @@ class Awr1843Model:
             raise ValueError(f"radar frame time must be finite, got {t}")
         k = round(t / self.frame_period) if frame_index is None else int(frame_index)
         rng = np.random.default_rng([self.seed, k % (1 << 62), 0xA18])
-        pose = self._sensor_pose(t)
-        verts = self.scene.footprints(t)[0] if self.scene.vessels else np.zeros((0, 5, 2))
-        parts = [
-            self._vessel_points(t, verts, pose, rng),
-            self._shore_points(pose, rng),
-            self._clutter_points(pose, rng),
-        ]
-        pw = np.concatenate([p[0] for p in parts])  # world scatter positions (N, 3)
-        vw = np.concatenate([p[1] for p in parts])  # their world velocities (N, 3)
-        snr_extra = np.concatenate([p[2] for p in parts])  # dB relative to the 10 m reference, before range loss
-        label = np.concatenate([p[3] for p in parts]).astype(np.int64)
-        blocked = self._occluded(pose.position, pw, label, self.scene.prisms_at(t))
+        pose = self.sensor_pose(t)
+        at = self._scene_at(t)
+        echoes = _Echoes.join(
+            [self._vessel_echoes(at, pose, rng), self._shore_echoes(pose, rng), self._clutter_echoes(pose, rng)]
+        )
+        echoes, rng_m, az, el = self._detect(echoes, pose, at.solids, rng)
+        ghost_of = np.full(echoes.size, -1, dtype=np.int64)
+        ghosts, src = self._bounce_ghosts(echoes, rng_m, pose, rng)
+        if src.size:
+            g_rng, g_az, g_el = _spherical(self._world_to_ti(ghosts.position, pose))
+            echoes = _Echoes.join([echoes, ghosts])
+            rng_m, az, el = (np.concatenate(x) for x in ((rng_m, g_rng), (az, g_az), (el, g_el)))
+            ghost_of = np.concatenate([ghost_of, src])
+        doppler = self._radial_velocity(echoes, pose)
+        return self._measure(t, k, echoes, rng_m, az, el, doppler, ghost_of, rng)
 
-        frd = (pw - pose.position) @ pose.rotation  # world -> sensor FRD (rotation is orthonormal)
-        ti = frd @ TI_TO_FRD  # sensor FRD -> TI (the axis map is its own inverse)
-        rng_m, az, el = _spherical(ti)
-        with np.errstate(divide="ignore"):
-            los = (pw - pose.position) / rng_m[:, None]
-        doppler = np.sum((vw - pose.velocity) * los, axis=1)
-        snr = snr_extra - 40.0 * np.log10(np.maximum(rng_m, 0.1) / 10.0)
-        snr += rng.normal(0.0, self.snr_fading_db, snr.shape)
-        clutter = label == LABEL_CLUTTER
-        snr[clutter] = rng.uniform(self.snr_threshold_db, self.snr_threshold_db + 8.0, int(clutter.sum()))
+    def sensor_pose(self, t: float) -> SensorPose:
+        """The radar's pose in the world at ``t``: the own boat's full pose (track, yaw, roll, pitch, heave) through
+        the mount. Its velocity adds the heave rate and the lever arm swung by the roll, pitch and yaw rates; those
+        rates are central differences (the attitude is smooth), the yaw taken along its analytic rate so that a
+        heading jump at a waypoint corner does not leak into the velocity."""
+        h = _RATE_STEP_S
+        own = self.scene.own.poses(np.array([t - h, t, t + h]))
+        yaw = own.yaw[1] + own.yaw_rate[1] * np.array([-h, 0.0, h])
+        r_wb = rotation_matrices(own.roll, own.pitch, yaw)  # (3, 3, 3) body FRD -> world NED at t-h, t, t+h
+        lever = r_wb @ self.mount.translation  # (3, 3) mount origin relative to the body origin, world NED
+        position = own.position_ned[1] + lever[1]
+        boat = np.array([own.velocity[1, 0], own.velocity[1, 1], (own.down[2] - own.down[0]) / (2 * h)])
+        swing = (lever[2] - lever[0]) / (2 * h)  # the mount's lever arm turning with the attitude
+        return SensorPose(position, r_wb[1] @ self.mount.rotation, boat + swing)
+
+    # -- the scene at one time --------------------------------------------------------------------------------------
+    def _scene_at(self, t: float) -> _SceneAt:
+        """One evaluation of every vessel's state (the costly part of a frame) and the prisms placed from it."""
+        s = self.scene.vessel_states(t)
+        pos, heading = s.position[0], s.heading[0]
+        hulls = _place(self._hull_body, pos, heading)
+        vessel_prisms = _place(self._prism_body, pos[self._prism_vessel], heading[self._prism_vessel])
+        solids = _Solids(
+            np.concatenate([vessel_prisms, self._quay_blocks]),
+            np.concatenate([self._prism_bottom, np.zeros(self._quay_top.size)]),
+            np.concatenate([self._prism_top, self._quay_top]),
+            np.concatenate([self._prism_vessel, np.full(self._quay_top.size, LABEL_SHORE)]),
+        )
+        return _SceneAt(pos, s.velocity[0], heading, s.yaw_rate[0], hulls, solids)
+
+    # -- echo sources ------------------------------------------------------------------------------------------------
+    def _vessel_echoes(self, at: _SceneAt, pose: SensorPose, rng: np.random.Generator) -> _Echoes:
+        """Points on the hull sides that face the radar."""
+        if at.hulls.shape[0] == 0:
+            return _Echoes.empty()
+        verts = at.hulls
+        a, b = verts, np.roll(verts, -1, axis=1)
+        edge = b - a
+        length = np.hypot(edge[..., 0], edge[..., 1])
+        normal = np.stack([edge[..., 1], -edge[..., 0]], -1) / np.where(length > 0, length, 1.0)[..., None]
+        to_sensor = pose.position[:2] - (a + b) / 2
+        facing = (length > 0) & (np.sum(normal * to_sensor, axis=-1) > 0)
+        facing_len = np.where(facing, length, 0.0)
+        total = facing_len.sum(axis=1)  # (V,)
+        centre = at.position
+        dist = np.hypot(*(centre - pose.position[:2]).T)
+        count = np.rint(self.points_per_metre * total * np.minimum(1.0, 20.0 / np.maximum(dist, 1e-3)))
+        count = np.where(total > 0, np.clip(count, 1, self.max_points_per_vessel), 0).astype(np.int64)
+        n = int(count.sum())
+        if n == 0:
+            return _Echoes.empty()
+        # draw positions uniformly along each vessel's facing sides laid end to end
+        owner = np.repeat(np.arange(len(count)), count)
+        flat_len = facing_len.ravel()
+        cum_end = np.cumsum(flat_len)
+        vessel_start = np.concatenate([[0.0], np.cumsum(total)[:-1]])
+        g = vessel_start[owner] + rng.random(n) * total[owner]
+        e = np.minimum(np.searchsorted(cum_end, g, side="right"), flat_len.size - 1)
+        e = np.where(flat_len[e] > 0, e, np.maximum(e - 1, 0))
+        frac = np.clip((g - (cum_end[e] - flat_len[e])) / np.where(flat_len[e] > 0, flat_len[e], 1.0), 0.0, 1.0)
+        p2 = a.reshape(-1, 2)[e] + frac[:, None] * edge.reshape(-1, 2)[e]
+        height = self._vessel_height[owner] * rng.uniform(0.15, 0.9, n)
+        pw = np.concatenate([p2, -height[:, None]], axis=1)
+        # rigid-body velocity of the scatterer: v + omega x r, omega = yaw_rate about the down axis
+        r = p2 - centre[owner]
+        w = at.yaw_rate[owner]
+        vel = at.velocity[owner] + np.stack([-w * r[:, 1], w * r[:, 0]], -1)
+        vw = np.concatenate([vel, np.zeros((n, 1))], axis=1)
+        los2 = p2 - pose.position[:2]
+        cos_inc = np.abs(np.sum(normal.reshape(-1, 2)[e] * los2, axis=1)) / np.maximum(np.hypot(*los2.T), 1e-6)
+        snr = (
+            self.snr_at_10m_db
+            + 10 * np.log10(np.maximum(self._vessel_height[owner], 0.3) * self._vessel_rcs[owner])
+            + 10 * np.log10(np.maximum(cos_inc, 0.1))
+        )
+        return _Echoes(pw, vw, self._received(snr, pw, pose, rng), owner)
+
+    def _shore_echoes(self, pose: SensorPose, rng: np.random.Generator) -> _Echoes:
+        """Echoes off the quay walls facing the radar; a fixed wall has no Doppler of its own."""
+        pts, normals, heights = self._shore
+        if pts.shape[0] == 0:
+            return _Echoes.empty()
+        to_sensor = pose.position[:2] - pts
+        dist = np.hypot(*to_sensor.T)
+        cos_inc = np.sum(normals * to_sensor, axis=1) / np.maximum(dist, 1e-6)
+        keep = (cos_inc > 0) & (dist <= self.max_range + 1.0) & (rng.random(dist.shape) < self.shore_keep)
+        p2, h, cos_inc = pts[keep], heights[keep], cos_inc[keep]
+        n = p2.shape[0]
+        pw = np.concatenate([p2, -(h * rng.uniform(0.1, 0.95, n))[:, None]], axis=1)
+        snr = self.snr_at_10m_db + 10 * np.log10(np.maximum(h, 0.3)) + 10 * np.log10(np.maximum(cos_inc, 0.1))
+        return _Echoes(pw, np.zeros((n, 3)), self._received(snr, pw, pose, rng), np.full(n, LABEL_SHORE))
+
+    def _clutter_echoes(self, pose: SensorPose, rng: np.random.Generator) -> _Echoes:
+        """Sea clutter: a few near-range echoes off the water, moving slowly with the waves."""
+        n = rng.poisson(self.clutter_per_frame) if self.clutter_per_frame > 0 else 0
+        if n == 0:
+            return _Echoes.empty()
+        az = rng.uniform(-self.fov, self.fov, n)
+        r = rng.uniform(1.0, self.clutter_range, n)
+        d = np.stack([np.cos(az), np.sin(az), np.zeros(n)], -1) @ pose.rotation.T  # sensor FRD -> world
+        d2 = d[:, :2] / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
+        pw = np.concatenate([pose.position[:2] + r[:, None] * d2, np.zeros((n, 1))], axis=1)
+        vw = np.concatenate([rng.normal(0.0, 0.2, (n, 2)), np.zeros((n, 1))], axis=1)
+        snr = rng.uniform(self.snr_threshold_db, self.snr_threshold_db + 8.0, n)
+        return _Echoes(pw, vw, snr, np.full(n, LABEL_CLUTTER))
+
+    def _received(
+        self, snr_10m: np.ndarray, position: np.ndarray, pose: SensorPose, rng: np.random.Generator
+    ) -> np.ndarray:
+        """SNR at the radar of echoes whose SNR at 10 m is ``snr_10m``: R^4 spreading, fading and the day's losses."""
+        rng_m = np.linalg.norm(position - pose.position, axis=1)
+        snr = snr_10m - 40.0 * np.log10(np.maximum(rng_m, 0.1) / 10.0) - self.snr_loss_db
+        return snr + rng.normal(0.0, self.snr_fading_db, snr.shape)
+
+    # -- what the radar makes of them ------------------------------------------------------------------------------
+    def _world_to_ti(self, position: np.ndarray, pose: SensorPose) -> np.ndarray:
+        """World NED points -> sensor FRD (the rotation is orthonormal) -> TI axes (the axis map is its own inverse)."""
+        return ((position - pose.position) @ pose.rotation) @ TI_TO_FRD
+
+    def _detect(
+        self, echoes: _Echoes, pose: SensorPose, solids: _Solids, rng: np.random.Generator
+    ) -> tuple[_Echoes, np.ndarray, np.ndarray, np.ndarray]:
+        """The echoes the radar reports: in its field of view and range, over the CFAR threshold, detected, and not
+        behind a solid. Also their true range, azimuth and elevation in the sensor frame."""
+        rng_m, az, el = _spherical(self._world_to_ti(echoes.position, pose))
+        clutter = echoes.label == LABEL_CLUTTER  # its rate is already a detection rate
         seen = (
-            ~blocked
-            & (rng_m >= self.min_range)
+            (rng_m >= self.min_range)
             & (rng_m <= self.max_range)
             & (np.abs(az) <= self.fov)
             & (np.abs(el) <= self.elevation_fov)
-            & (snr >= self.snr_threshold_db)
-            & ((rng.random(snr.shape) < self.detect_probability) | clutter)
+            & (echoes.snr >= self.snr_threshold_db)
+            & ((rng.random(echoes.size) < self.detect_probability) | clutter)
         )
-        pw, label, rng_m, az, el, doppler, snr = (a[seen] for a in (pw, label, rng_m, az, el, doppler, snr))
-        ghost_of = np.full(label.shape, -1, dtype=np.int64)
+        idx = np.flatnonzero(seen)
+        seen[idx] = ~_blocked(pose.position, echoes.position[idx], echoes.label[idx], solids)
+        return echoes.take(seen), rng_m[seen], az[seen], el[seen]
 
-        # multipath: a weaker echo of a vessel point further out on the same bearing, same Doppler
-        src = np.flatnonzero((label >= 0) & (rng.random(label.shape) < self.ghost_probability))
-        if src.size:
-            g_range = rng_m[src] * rng.uniform(1.25, 1.9, src.size)
-            g_snr = snr[src] - self.ghost_loss_db - 40.0 * np.log10(g_range / rng_m[src]) / 2
-            ok = (g_range <= self.max_range) & (g_snr >= self.snr_threshold_db)
-            src, g_range, g_snr = src[ok], g_range[ok], g_snr[ok]
-            g_pw = pose.position + (pw[src] - pose.position) * (g_range / rng_m[src])[:, None]
-            pw = np.concatenate([pw, g_pw])
-            label = np.concatenate([label, np.full(src.size, LABEL_GHOST)])
-            rng_m = np.concatenate([rng_m, g_range])
-            az, el = np.concatenate([az, az[src]]), np.concatenate([el, el[src]])
-            doppler = np.concatenate([doppler, doppler[src]])
-            snr = np.concatenate([snr, g_snr])
-            ghost_of = np.concatenate([ghost_of, src])
+    def _bounce_ghosts(
+        self, echoes: _Echoes, rng_m: np.ndarray, pose: SensorPose, rng: np.random.Generator
+    ) -> tuple[_Echoes, np.ndarray]:
+        """Multipath: a weaker echo of a detected hull point further out on the same bearing, same velocity."""
+        src = np.flatnonzero((echoes.label >= 0) & (rng.random(echoes.size) < self.ghost_probability))
+        if src.size == 0:
+            return _Echoes.empty(), src
+        g_range = rng_m[src] * rng.uniform(1.25, 1.9, src.size)
+        g_snr = echoes.snr[src] - self.ghost_loss_db - 40.0 * np.log10(g_range / rng_m[src]) / 2
+        ok = (g_range <= self.max_range) & (g_snr >= self.snr_threshold_db)
+        src, g_range, g_snr = src[ok], g_range[ok], g_snr[ok]
+        g_pos = pose.position + (echoes.position[src] - pose.position) * (g_range / rng_m[src])[:, None]
+        ghosts = _Echoes(g_pos, echoes.velocity[src], g_snr, np.full(src.size, LABEL_GHOST))
+        return ghosts, src
 
-        # measurement noise and the radar's own limits
-        n = label.shape[0]
+    def _radial_velocity(self, echoes: _Echoes, pose: SensorPose) -> np.ndarray:
+        """Noise-free radial velocity of each echo relative to the radar, positive = moving away, m/s."""
+        los = echoes.position - pose.position
+        los /= np.maximum(np.linalg.norm(los, axis=1), 1e-9)[:, None]
+        return np.sum((echoes.velocity - pose.velocity) * los, axis=1)
+
+    def _measure(
+        self,
+        t: float,
+        k: int,
+        echoes: _Echoes,
+        rng_m: np.ndarray,
+        az: np.ndarray,
+        el: np.ndarray,
+        doppler: np.ndarray,
+        ghost_of: np.ndarray,
+        rng: np.random.Generator,
+    ) -> RadarDetections:
+        """Measurement noise and the radar's own limits; the points in TI axes, as the firmware sends them."""
+        n = echoes.size
         m_range = rng_m + rng.normal(0.0, self.range_noise_m, n)
         m_az = az + rng.normal(0.0, self.azimuth_noise, n)
         m_el = el + rng.normal(0.0, self.elevation_noise, n) if self.report_elevation else np.zeros(n)
@@ -215,133 +421,83 @@ class Awr1843Model:
             frame_index=k,
             xyz_ti=xyz_ti,
             doppler=m_doppler,
-            snr_db=snr,
+            snr_db=echoes.snr,
             noise_db=noise_db,
-            label=label,
-            xyz_world=pw,
+            label=echoes.label,
+            xyz_world=echoes.position,
             doppler_true=doppler,
             ghost_of=ghost_of,
         )
 
-    # -- point sources ----------------------------------------------------------------------------------------------
-    def _sensor_pose(self, t: float) -> _SensorPose:
-        own = self.scene.own.poses(t)
-        r_wb = rotation_matrices(own.roll, own.pitch, own.yaw)[0]
-        lever = r_wb @ self.mount.translation
-        position = np.array([own.position[0, 0], own.position[0, 1], 0.0]) + lever
-        w = own.yaw_rate[0]
-        velocity = np.array([own.velocity[0, 0] - w * lever[1], own.velocity[0, 1] + w * lever[0], 0.0])
-        return _SensorPose(position, r_wb @ self.mount.rotation, velocity)
 
-    def _vessel_points(
-        self, t: float, verts: np.ndarray, pose: _SensorPose, rng: np.random.Generator
-    ) -> tuple[np.ndarray, ...]:
-        """Points on the hull sides that face the radar: (world xyz, world velocity, snr offset, label)."""
-        if not self.scene.vessels:
-            return _empty()
-        state = self.scene.vessel_states(t)
-        a, b = verts, np.roll(verts, -1, axis=1)
-        edge = b - a
-        length = np.hypot(edge[..., 0], edge[..., 1])
-        normal = np.stack([edge[..., 1], -edge[..., 0]], -1) / np.where(length > 0, length, 1.0)[..., None]
-        to_sensor = pose.position[:2] - (a + b) / 2
-        facing = (length > 0) & (np.sum(normal * to_sensor, axis=-1) > 0)
-        facing_len = np.where(facing, length, 0.0)
-        total = facing_len.sum(axis=1)  # (V,)
-        centre = state.position[0]
-        dist = np.hypot(*(centre - pose.position[:2]).T)
-        count = np.rint(self.points_per_metre * total * np.minimum(1.0, 20.0 / np.maximum(dist, 1e-3)))
-        count = np.where(total > 0, np.clip(count, 1, self.max_points_per_vessel), 0).astype(np.int64)
-        n = int(count.sum())
-        if n == 0:
-            return _empty()
-        # draw positions uniformly along each vessel's facing sides laid end to end
-        owner = np.repeat(np.arange(len(count)), count)
-        flat_len = facing_len.ravel()
-        cum_end = np.cumsum(flat_len)
-        vessel_start = np.concatenate([[0.0], np.cumsum(total)[:-1]])
-        g = vessel_start[owner] + rng.random(n) * total[owner]
-        e = np.minimum(np.searchsorted(cum_end, g, side="right"), flat_len.size - 1)
-        e = np.where(flat_len[e] > 0, e, np.maximum(e - 1, 0))
-        frac = np.clip((g - (cum_end[e] - flat_len[e])) / np.where(flat_len[e] > 0, flat_len[e], 1.0), 0.0, 1.0)
-        p2 = a.reshape(-1, 2)[e] + frac[:, None] * edge.reshape(-1, 2)[e]
-        height = self._vessel_height[owner] * rng.uniform(0.15, 0.9, n)
-        pw = np.concatenate([p2, -height[:, None]], axis=1)
-        # rigid-body velocity of the scatterer: v + omega x r, omega = yaw_rate about the down axis
-        r = p2 - centre[owner]
-        w = state.yaw_rate[0][owner]
-        vel = state.velocity[0][owner] + np.stack([-w * r[:, 1], w * r[:, 0]], -1)
-        vw = np.concatenate([vel, np.zeros((n, 1))], axis=1)
-        los2 = p2 - pose.position[:2]
-        cos_inc = np.abs(np.sum(normal.reshape(-1, 2)[e] * los2, axis=1)) / np.maximum(np.hypot(*los2.T), 1e-6)
-        snr = (
-            self.snr_at_10m_db
-            + 10 * np.log10(np.maximum(self._vessel_height[owner], 0.3) * self._vessel_rcs[owner])
-            + 10 * np.log10(np.maximum(cos_inc, 0.1))
-        )
-        return pw, vw, snr, owner
+def _blocked(origin: np.ndarray, points: np.ndarray, owner: np.ndarray, solids: _Solids) -> np.ndarray:
+    """True where the sight line origin->point passes through a prism (hull, cabin, quay block) of another owner.
 
-    def _shore_points(self, pose: _SensorPose, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
-        """Echoes off the quay walls facing the radar; a fixed wall has no Doppler of its own."""
-        pts, normals, heights = self._shore
-        if pts.shape[0] == 0:
-            return _empty()
-        to_sensor = pose.position[:2] - pts
-        dist = np.hypot(*to_sensor.T)
-        cos_inc = np.sum(normals * to_sensor, axis=1) / np.maximum(dist, 1e-6)
-        keep = (cos_inc > 0) & (dist <= self.max_range + 1.0) & (rng.random(dist.shape) < self.shore_keep)
-        p2, h, cos_inc = pts[keep], heights[keep], cos_inc[keep]
-        n = p2.shape[0]
-        pw = np.concatenate([p2, -(h * rng.uniform(0.1, 0.95, n))[:, None]], axis=1)
-        snr = self.snr_at_10m_db + 10 * np.log10(np.maximum(h, 0.3)) + 10 * np.log10(np.maximum(cos_inc, 0.1))
-        return pw, np.zeros((n, 3)), snr, np.full(n, LABEL_SHORE)
-
-    def _clutter_points(self, pose: _SensorPose, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
-        """Sea clutter: a few near-range echoes off the water, moving slowly with the waves."""
-        n = rng.poisson(self.clutter_per_frame) if self.clutter_per_frame > 0 else 0
-        if n == 0:
-            return _empty()
-        az = rng.uniform(-self.fov, self.fov, n)
-        r = rng.uniform(1.0, self.clutter_range, n)
-        d = np.stack([np.cos(az), np.sin(az), np.zeros(n)], -1) @ pose.rotation.T  # sensor FRD -> world
-        d2 = d[:, :2] / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
-        pw = np.concatenate([pose.position[:2] + r[:, None] * d2, np.zeros((n, 1))], axis=1)
-        vw = np.concatenate([rng.normal(0.0, 0.2, (n, 2)), np.zeros((n, 1))], axis=1)
-        return pw, vw, np.zeros(n), np.full(n, LABEL_CLUTTER)
-
-    @staticmethod
-    def _occluded(sensor: np.ndarray, points: np.ndarray, owner: np.ndarray, prisms: Prisms) -> np.ndarray:
-        """True where the sight line sensor->point passes through a prism (hull, cabin, quay block) of another owner.
-
-        In 3-D: the line crosses a prism's side where its footprint edge is cut, and is blocked only if its height
-        there lies between the prism's bottom and top. A radar 0.9 m up sees a 3 m cabin over a 0.6 m dinghy, and
-        only the low returns of a boat behind a 1 m hull are lost. Sea clutter (a water return) is never blocked.
-        """
-        n = points.shape[0]
-        verts = prisms.vertices[0]  # (P, K, 2) world (north, east)
-        if n == 0 or verts.shape[0] == 0:
-            return np.zeros(n, bool)
-        a = verts.reshape(-1, 2)
-        s = np.roll(verts, -1, axis=1).reshape(-1, 2) - a  # (S, 2) edge vectors
-        k = verts.shape[1]
-        seg_owner, seg_bottom, seg_top = (np.repeat(x, k) for x in (prisms.label, prisms.bottom, prisms.top))
-        r = points[:, :2] - sensor[:2]  # (N, 2)
-        denom = r[:, None, 0] * s[None, :, 1] - r[:, None, 1] * s[None, :, 0]  # cross(r, s)
-        qp = a[None, :, :] - sensor[:2]  # (1, S, 2)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t_ray = (qp[..., 0] * s[None, :, 1] - qp[..., 1] * s[None, :, 0]) / denom
-            u_seg = (qp[..., 0] * r[:, None, 1] - qp[..., 1] * r[:, None, 0]) / denom
-        crosses = (np.abs(denom) > 1e-12) & (t_ray > 0) & (t_ray < 1 - 1e-6) & (u_seg >= 0) & (u_seg <= 1)
-        crosses &= (seg_owner[None, :] != owner[:, None]) & (owner[:, None] != LABEL_CLUTTER)
-        # world z is down: heights above the water are -z
-        h_sensor, h_point = -sensor[2], -points[:, 2]
-        h_cross = h_sensor + np.where(crosses, t_ray, 0.0) * (h_point - h_sensor)[:, None]
-        crosses &= (h_cross >= seg_bottom[None, :]) & (h_cross <= seg_top[None, :])
-        return np.any(crosses, axis=1)
+    ``origin`` is one world NED point (3,) or one per point (N, 3). In 3-D: the line crosses a prism's side where its
+    footprint edge is cut, and is blocked only if its height there lies between the prism's bottom and top. A radar
+    0.9 m up sees a 3 m cabin over a 0.6 m dinghy, and only the low returns of a boat behind a 1 m hull are lost.
+    Sea clutter (a water return) is never blocked.
+    """
+    n = points.shape[0]
+    verts = solids.vertices  # (P, K, 2) world (north, east)
+    if n == 0 or verts.shape[0] == 0:
+        return np.zeros(n, bool)
+    origin = np.broadcast_to(origin, points.shape)
+    a = verts.reshape(-1, 2)
+    s = np.roll(verts, -1, axis=1).reshape(-1, 2) - a  # (S, 2) edge vectors
+    k = verts.shape[1]
+    seg_owner, seg_bottom, seg_top = (np.repeat(x, k) for x in (solids.owner, solids.bottom, solids.top))
+    r = points[:, :2] - origin[:, :2]  # (N, 2)
+    denom = r[:, None, 0] * s[None, :, 1] - r[:, None, 1] * s[None, :, 0]  # cross(r, s)
+    qp = a[None, :, :] - origin[:, None, :2]  # (N, S, 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_ray = (qp[..., 0] * s[None, :, 1] - qp[..., 1] * s[None, :, 0]) / denom
+        u_seg = (qp[..., 0] * r[:, None, 1] - qp[..., 1] * r[:, None, 0]) / denom
+    crosses = (np.abs(denom) > 1e-12) & (t_ray > 0) & (t_ray < 1 - 1e-6) & (u_seg >= 0) & (u_seg <= 1)
+    crosses &= (seg_owner[None, :] != owner[:, None]) & (owner[:, None] != LABEL_CLUTTER)
+    # world z is down: heights above the water are -z
+    h_origin, h_point = -origin[:, 2], -points[:, 2]
+    h_cross = h_origin[:, None] + np.where(crosses, t_ray, 0.0) * (h_point - h_origin)[:, None]
+    crosses &= (h_cross >= seg_bottom[None, :]) & (h_cross <= seg_top[None, :])
+    return np.any(crosses, axis=1)
 
 
-def _empty() -> tuple[np.ndarray, ...]:
-    return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64)
+def _place(body: np.ndarray, position: np.ndarray, heading: np.ndarray) -> np.ndarray:
+    """Vessel body (forward, starboard) outlines (P, K, 2) -> world (north, east), one position (P, 2) and heading
+    (P,) each."""
+    c, s = np.cos(heading)[:, None], np.sin(heading)[:, None]
+    x, y = body[..., 0], body[..., 1]
+    return np.stack([position[:, None, 0] + c * x - s * y, position[:, None, 1] + s * x + c * y], axis=-1)
+
+
+def _vessel_prisms(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each vessel's hull and, above it, its cabin: body outlines (P, 5, 2), vessel index, bottom and top heights."""
+    outlines, owner, bottom, top = [], [], [], []
+    for j, v in enumerate(scene.vessels):  # per vessel, once
+        outlines.append(v.outline_body())
+        owner.append(j)
+        bottom.append(0.0)
+        top.append(v.hull_top)
+        if v.has_cabin:
+            outlines.append(v.cabin_body())
+            owner.append(j)
+            bottom.append(v.hull_top)
+            top.append(v.height)
+    return (
+        np.array(outlines, float).reshape(-1, MAX_VERTICES, 2),
+        np.array(owner, np.int64),
+        np.array(bottom, float),
+        np.array(top, float),
+    )
+
+
+def _quay_blocks(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """The quays' fixed blocks (wall face and land strip): world footprints (Q, 5, 2) and top heights (Q,)."""
+    blocks = [q.blocks() for q in scene.quays]
+    if not blocks:
+        return np.zeros((0, MAX_VERTICES, 2)), np.zeros(0)
+    tops = np.concatenate([np.full(len(b), q.height) for b, q in zip(blocks, scene.quays, strict=True)])
+    return np.concatenate(blocks), tops
 
 
 def _spherical(ti: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

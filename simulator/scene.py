@@ -418,6 +418,9 @@ class SensorConditions:
     lidar_laser_dropout: float = 0.0  # chance a laser returns nothing for 0.1 s (a wet or fouled window)
     lidar_packet_loss: float = 0.0  # chance a data packet never arrives
     lidar_spray_rate: float = 30.0  # spurious low returns per second close to the boat
+    # Radar (simulator/radar_model.py). The defaults keep the calm harbour of the earlier simulator.
+    radar_ghost_probability: float = 0.1  # chance a detected hull return also comes back k times as far (multipath)
+    radar_snr_loss_db: float = 0.0  # two-way loss on every echo: rain, spray or a film of water on the radome
 
 
 @dataclass
