@@ -3,9 +3,10 @@
 This is a phenomenological model, not a ray tracer: a mmWave radar returns a handful of CFAR detections per object,
 mostly from the sides that face it, so each frame samples points on the visible hull edges (more for long and near
 hulls), gives each one the Doppler of the relative motion along the line of sight, an SNR that falls with R^4, and
-then adds what makes radar tracking hard on the water (paper 001, §1): sea clutter near the boat, multipath ghosts
-(a weaker copy further out on the same bearing) and many returns from the quay, whose Doppler is the own boat's
-motion seen from a fixed wall.
+then adds what makes radar tracking hard on the water (paper 001, §1): sea clutter at every range it sees, thicker
+near the boat and on a rougher sea, moving with the waves' orbital motion; multipath ghosts (a weaker copy further
+out on the same bearing); and many returns from the quay, whose Doppler is the own boat's motion seen from a fixed
+wall.
 
 Frames: every echo is placed in the world (NED) first; the radar sits where the own boat's full pose puts it (track,
 yaw, roll, pitch and heave, then the mount's lever arm), and its velocity includes the lever arm swinging with the
@@ -27,11 +28,17 @@ import numpy as np
 
 from drivers.mount import TI_TO_FRD, Mount
 from simulator.scene import LABEL_CLUTTER, LABEL_GHOST, LABEL_SHORE, MAX_VERTICES, Scene
+from simulator.sea import Sea
 from tracker.ego import rotation_matrices
 
 log = logging.getLogger(__name__)
 
 _RATE_STEP_S = 1e-3  # half-step of the central differences that give the roll, pitch and heave rates
+# The window in which SensorConditions states its clutter rates: 1-50 m and +-60 deg (the shipped 50 m profile).
+CLUTTER_REF_RANGES = (1.0, 50.0)
+CLUTTER_REF_HALF_FOV = math.radians(60.0)
+SEA_STATE_3_CREST = 0.3  # m, simulator/sea.py's crest for sea state 3
+_CLUTTER_FOV_MARGIN = 0.15  # rad drawn beyond the field of view, so that a rolled sensor's view is filled too
 
 
 @dataclass(frozen=True)
@@ -119,7 +126,15 @@ class Awr1843Model:
     ``snr_at_10m_db`` is the SNR of a 1 m high, face-on hull side at 10 m; it falls with 40 log10(range) and with the
     cosine of the incidence angle. Points below ``snr_threshold_db`` (the CFAR threshold) are not reported, which is
     what limits the range on small boats. ``points_per_metre`` of visible hull side at <= 20 m (fewer further out),
-    1..``max_points_per_vessel`` per vessel. ``ghost_probability`` and ``snr_loss_db`` default to the scene's
+    1..``max_points_per_vessel`` per vessel.
+
+    Sea clutter: ``clutter_calm`` detections a frame on calm water plus ``clutter_sea_state_3`` times
+    (crest / 0.3 m)^2 of the scene's sea, both counted in the reference window (1-50 m, +-60 deg) and spread over the
+    radar's own field of view and range with an areal density proportional to range^-``clutter_range_exponent``
+    from ``clutter_min_range`` out. Each is ``clutter_snr_excess_db`` (mean, exponential) over the CFAR threshold and
+    moves with the water's orbital velocity plus ``clutter_doppler_spread`` (m/s, each horizontal axis).
+
+    ``clutter_calm``, ``clutter_sea_state_3``, ``ghost_probability`` and ``snr_loss_db`` default to the scene's
     ``conditions``.
     """
 
@@ -145,8 +160,12 @@ class Awr1843Model:
         detect_probability: float = 0.9,
         points_per_metre: float = 1.5,
         max_points_per_vessel: int = 10,
-        clutter_per_frame: float = 3.0,
-        clutter_range: float = 8.0,
+        clutter_calm: float | None = None,
+        clutter_sea_state_3: float | None = None,
+        clutter_range_exponent: float = 2.0,
+        clutter_min_range: float = 1.0,
+        clutter_doppler_spread: float = 0.1,
+        clutter_snr_excess_db: float = 2.0,
         ghost_probability: float | None = None,
         ghost_loss_db: float = 9.0,
         shore_spacing: float = 0.5,
@@ -156,11 +175,17 @@ class Awr1843Model:
     ) -> None:
         c = scene.conditions  # a value not given is the scene's own
         ghost_probability = c.radar_ghost_probability if ghost_probability is None else ghost_probability
+        clutter_calm = c.radar_clutter_calm if clutter_calm is None else clutter_calm
+        clutter_sea_state_3 = c.radar_clutter_sea_state_3 if clutter_sea_state_3 is None else clutter_sea_state_3
         snr_loss_db = c.radar_snr_loss_db if snr_loss_db is None else snr_loss_db
         if frame_period <= 0 or max_range <= min_range or v_max <= 0:
             raise ValueError("need frame_period > 0, max_range > min_range and v_max > 0")
         if not 0 <= ghost_probability <= 1:
             raise ValueError(f"ghost_probability must be in [0, 1], got {ghost_probability}")
+        if min(clutter_calm, clutter_sea_state_3, clutter_doppler_spread, clutter_snr_excess_db) < 0:
+            raise ValueError("clutter rates, Doppler spread and SNR excess must be >= 0")
+        if clutter_min_range <= 0:
+            raise ValueError(f"clutter_min_range must be > 0, got {clutter_min_range}")
         self.scene = scene
         self.mount = mount if mount is not None else scene.radar_mount
         self.fov = math.radians(fov_deg)
@@ -180,8 +205,12 @@ class Awr1843Model:
         self.detect_probability = float(detect_probability)
         self.points_per_metre = float(points_per_metre)
         self.max_points_per_vessel = int(max_points_per_vessel)
-        self.clutter_per_frame = float(clutter_per_frame)
-        self.clutter_range = float(clutter_range)
+        self.clutter_calm = float(clutter_calm)
+        self.clutter_sea_state_3 = float(clutter_sea_state_3)
+        self.clutter_range_exponent = float(clutter_range_exponent)
+        self.clutter_min_range = float(clutter_min_range)
+        self.clutter_doppler_spread = float(clutter_doppler_spread)
+        self.clutter_snr_excess_db = float(clutter_snr_excess_db)
         self.ghost_probability = float(ghost_probability)
         self.ghost_loss_db = float(ghost_loss_db)
         self.report_elevation = report_elevation
@@ -192,6 +221,7 @@ class Awr1843Model:
         self._hull_body = np.array([v.outline_body() for v in scene.vessels], float).reshape(-1, MAX_VERTICES, 2)
         self._prism_body, self._prism_vessel, self._prism_bottom, self._prism_top = _vessel_prisms(scene)
         self._quay_blocks, self._quay_top = _quay_blocks(scene)
+        self._walls = scene.quay_wall_segments()  # (starts, ends), world (north, east)
         log.debug(
             "AWR1843 model on %r: +-%.0f deg, %.0f m, %d shore scatterers",
             scene.name,
@@ -219,7 +249,7 @@ class Awr1843Model:
         pose = self.sensor_pose(t)
         at = self._scene_at(t)
         echoes = _Echoes.join(
-            [self._vessel_echoes(at, pose, rng), self._shore_echoes(pose, rng), self._clutter_echoes(pose, rng)]
+            [self._vessel_echoes(at, pose, rng), self._shore_echoes(pose, rng), self._clutter_echoes(t, pose, rng)]
         )
         echoes, rng_m, az, el = self._detect(echoes, pose, at.solids, rng)
         ghost_of = np.full(echoes.size, -1, dtype=np.int64)
@@ -231,6 +261,11 @@ class Awr1843Model:
             ghost_of = np.concatenate([ghost_of, src])
         doppler = self._radial_velocity(echoes, pose)
         return self._measure(t, k, echoes, rng_m, az, el, doppler, ghost_of, rng)
+
+    @property
+    def clutter_rate(self) -> float:
+        """Sea-clutter detections a frame this scene's sea gives in the reference window (1-50 m, +-60 deg)."""
+        return self.clutter_calm + self.clutter_sea_state_3 * (self.scene.sea.crest / SEA_STATE_3_CREST) ** 2
 
     def sensor_pose(self, t: float) -> SensorPose:
         """The radar's pose in the world at ``t``: the own boat's full pose (track, yaw, roll, pitch, heave) through
@@ -256,7 +291,7 @@ class Awr1843Model:
         vessel_prisms = _place(self._prism_body, pos[self._prism_vessel], heading[self._prism_vessel])
         solids = _Solids(
             np.concatenate([vessel_prisms, self._quay_blocks]),
-            np.concatenate([self._prism_bottom, np.zeros(self._quay_top.size)]),
+            np.concatenate([self._prism_bottom, np.full(self._quay_top.size, -math.inf)]),  # walls stand in the water
             np.concatenate([self._prism_top, self._quay_top]),
             np.concatenate([self._prism_vessel, np.full(self._quay_top.size, LABEL_SHORE)]),
         )
@@ -324,19 +359,46 @@ class Awr1843Model:
         snr = self.snr_at_10m_db + 10 * np.log10(np.maximum(h, 0.3)) + 10 * np.log10(np.maximum(cos_inc, 0.1))
         return _Echoes(pw, np.zeros((n, 3)), self._received(snr, pw, pose, rng), np.full(n, LABEL_SHORE))
 
-    def _clutter_echoes(self, pose: SensorPose, rng: np.random.Generator) -> _Echoes:
-        """Sea clutter: a few near-range echoes off the water, moving slowly with the waves."""
-        n = rng.poisson(self.clutter_per_frame) if self.clutter_per_frame > 0 else 0
+    def _clutter_echoes(self, t: float, pose: SensorPose, rng: np.random.Generator) -> _Echoes:
+        """Sea clutter: CFAR detections off the water at every range the radar sees, fresh places every frame.
+
+        Their areal density falls as range^-``clutter_range_exponent`` (the grazing angle, and with it the water's
+        backscatter, falls with range) and is scaled so that the reference window holds ``clutter_rate`` a frame.
+        They sit preferentially on the crests (the troughs are shadowed at low grazing angles), on the surface, and
+        move with the water's orbital velocity there plus a small spread (ripples, breaking): the places are new
+        each frame, but the Doppler of a patch of water follows its waves through their period.
+        """
+        rate = self.clutter_rate
+        if rate <= 0:
+            return _Echoes.empty()
+        gamma = self.clutter_range_exponent
+        density = rate / (2 * CLUTTER_REF_HALF_FOV * _radial_integral(*CLUTTER_REF_RANGES, gamma))
+        half_width = self.fov + _CLUTTER_FOV_MARGIN
+        r0, r1 = self.clutter_min_range, self.max_range + 1.0
+        expected = density * 2 * half_width * _radial_integral(r0, r1, gamma)
+        sea = self.scene.sea
+        crest = sea.crest
+        # crest preference by thinning: a candidate is kept with w = ((h / crest + 1) / 2)^2, so draw 1 / E[w] times
+        # as many (E[h^2] = sum a^2 / 2 over trains of independent phase)
+        mean_keep = (sum(w.amplitude**2 for w in sea.waves) / 2 / crest**2 + 1) / 4 if crest > 0 else 1.0
+        n = int(rng.poisson(expected / mean_keep))
         if n == 0:
             return _Echoes.empty()
-        az = rng.uniform(-self.fov, self.fov, n)
-        r = rng.uniform(1.0, self.clutter_range, n)
-        d = np.stack([np.cos(az), np.sin(az), np.zeros(n)], -1) @ pose.rotation.T  # sensor FRD -> world
-        d2 = d[:, :2] / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
-        pw = np.concatenate([pose.position[:2] + r[:, None] * d2, np.zeros((n, 1))], axis=1)
-        vw = np.concatenate([rng.normal(0.0, 0.2, (n, 2)), np.zeros((n, 1))], axis=1)
-        snr = rng.uniform(self.snr_threshold_db, self.snr_threshold_db + 8.0, n)
-        return _Echoes(pw, vw, snr, np.full(n, LABEL_CLUTTER))
+        r = _draw_ranges(rng.random(n), r0, r1, gamma)  # horizontal, m
+        boresight = math.atan2(pose.rotation[1, 0], pose.rotation[0, 0])  # sensor forward axis, world heading
+        bearing = boresight + rng.uniform(-half_width, half_width, n)
+        north = pose.position[0] + r * np.cos(bearing)
+        east = pose.position[1] + r * np.sin(bearing)
+        height, velocity = _sea_surface(sea, north, east, t)
+        if crest > 0:
+            keep = rng.random(n) < ((height / crest + 1) / 2) ** 2
+            north, east, height, velocity = north[keep], east[keep], height[keep], velocity[keep]
+            n = north.size
+        velocity[:, :2] += rng.normal(0.0, self.clutter_doppler_spread, (n, 2))
+        position = np.stack([north, east, -height], axis=1)  # world NED: z down
+        # CFAR-normalised: what crosses the threshold does so by a little, with a thin tail of spikes
+        snr = self.snr_threshold_db + rng.exponential(self.clutter_snr_excess_db, n)
+        return _Echoes(position, velocity, snr, np.full(n, LABEL_CLUTTER))
 
     def _received(
         self, snr_10m: np.ndarray, position: np.ndarray, pose: SensorPose, rng: np.random.Generator
@@ -368,6 +430,8 @@ class Awr1843Model:
         )
         idx = np.flatnonzero(seen)
         seen[idx] = ~_blocked(pose.position, echoes.position[idx], echoes.label[idx], solids)
+        water = np.flatnonzero(seen & clutter)  # water only where no quay wall lies between it and the radar
+        seen[water] = ~_beyond_walls(pose.position[:2], echoes.position[water, :2], *self._walls)
         return echoes.take(seen), rng_m[seen], az[seen], el[seen]
 
     def _bounce_ghosts(
@@ -435,8 +499,8 @@ def _blocked(origin: np.ndarray, points: np.ndarray, owner: np.ndarray, solids: 
 
     ``origin`` is one world NED point (3,) or one per point (N, 3). In 3-D: the line crosses a prism's side where its
     footprint edge is cut, and is blocked only if its height there lies between the prism's bottom and top. A radar
-    0.9 m up sees a 3 m cabin over a 0.6 m dinghy, and only the low returns of a boat behind a 1 m hull are lost.
-    Sea clutter (a water return) is never blocked.
+    0.9 m up sees a 3 m cabin over a 0.6 m dinghy, and only the low returns of a boat behind a 1 m hull are lost;
+    the water behind a hull is in its shadow.
     """
     n = points.shape[0]
     verts = solids.vertices  # (P, K, 2) world (north, east)
@@ -454,12 +518,63 @@ def _blocked(origin: np.ndarray, points: np.ndarray, owner: np.ndarray, solids: 
         t_ray = (qp[..., 0] * s[None, :, 1] - qp[..., 1] * s[None, :, 0]) / denom
         u_seg = (qp[..., 0] * r[:, None, 1] - qp[..., 1] * r[:, None, 0]) / denom
     crosses = (np.abs(denom) > 1e-12) & (t_ray > 0) & (t_ray < 1 - 1e-6) & (u_seg >= 0) & (u_seg <= 1)
-    crosses &= (seg_owner[None, :] != owner[:, None]) & (owner[:, None] != LABEL_CLUTTER)
+    crosses &= seg_owner[None, :] != owner[:, None]
     # world z is down: heights above the water are -z
     h_origin, h_point = -origin[:, 2], -points[:, 2]
     h_cross = h_origin[:, None] + np.where(crosses, t_ray, 0.0) * (h_point - h_origin)[:, None]
     crosses &= (h_cross >= seg_bottom[None, :]) & (h_cross <= seg_top[None, :])
     return np.any(crosses, axis=1)
+
+
+def _beyond_walls(origin: np.ndarray, points: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """True where the 2-D segment origin->point (world north, east) crosses a quay wall: the point is on land."""
+    if points.shape[0] == 0 or starts.shape[0] == 0:
+        return np.zeros(points.shape[0], bool)
+    r = points - origin  # (N, 2)
+    s = ends - starts  # (W, 2)
+    q = starts - origin  # (W, 2)
+    denom = r[:, None, 0] * s[None, :, 1] - r[:, None, 1] * s[None, :, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_ray = (q[None, :, 0] * s[None, :, 1] - q[None, :, 1] * s[None, :, 0]) / denom
+        u_wall = (q[None, :, 0] * r[:, None, 1] - q[None, :, 1] * r[:, None, 0]) / denom
+    crosses = (np.abs(denom) > 1e-12) & (t_ray > 0) & (t_ray < 1) & (u_wall >= 0) & (u_wall <= 1)
+    return np.any(crosses, axis=1)
+
+
+def _radial_integral(r0: float, r1: float, gamma: float) -> float:
+    """Integral of r^(1 - gamma) dr from r0 to r1: the clutter in a sector per radian, for a density r^-gamma."""
+    a = 2.0 - gamma
+    if abs(a) < 1e-9:
+        return math.log(r1 / r0)
+    return (r1**a - r0**a) / a
+
+
+def _draw_ranges(u: np.ndarray, r0: float, r1: float, gamma: float) -> np.ndarray:
+    """Ranges in [r0, r1] with probability density proportional to r^(1 - gamma), from uniforms ``u`` (inverse CDF)."""
+    a = 2.0 - gamma
+    if abs(a) < 1e-9:
+        return r0 * (r1 / r0) ** u
+    return (r0**a + u * (r1**a - r0**a)) ** (1.0 / a)
+
+
+def _sea_surface(sea: Sea, north: np.ndarray, east: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+    """Surface height above the mean (up positive, m) and the water's orbital velocity there (world NED, m/s).
+
+    Deep-water linear waves: for each train with phase theta = k x - omega t + phi, height a sin(theta), horizontal
+    velocity a omega sin(theta) along its direction of travel, upward velocity dh/dt = -a omega cos(theta) (so NED
+    down + a omega cos(theta)). Same trains and phases as Sea.elevation.
+    """
+    height = np.zeros(north.shape)
+    velocity = np.zeros((north.size, 3))
+    for w in sea.waves:  # per wave train (a few), not per point
+        theta = w.wavenumber * (north * math.cos(w.direction) + east * math.sin(w.direction)) - w.omega * t + w.phase
+        speed = w.amplitude * w.omega
+        height += w.amplitude * np.sin(theta)
+        along = speed * np.sin(theta)
+        velocity[:, 0] += along * math.cos(w.direction)
+        velocity[:, 1] += along * math.sin(w.direction)
+        velocity[:, 2] += speed * np.cos(theta)
+    return height, velocity
 
 
 def _place(body: np.ndarray, position: np.ndarray, heading: np.ndarray) -> np.ndarray:
@@ -471,12 +586,16 @@ def _place(body: np.ndarray, position: np.ndarray, heading: np.ndarray) -> np.nd
 
 
 def _vessel_prisms(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Each vessel's hull and, above it, its cabin: body outlines (P, 5, 2), vessel index, bottom and top heights."""
+    """Each vessel's hull and, above it, its cabin: body outlines (P, 5, 2), vessel index, bottom and top heights.
+
+    A hull reaches below the water line (bottom -inf): a sight line to the water in a trough behind it, or inside
+    its footprint, passes under the mean water line and is still blocked.
+    """
     outlines, owner, bottom, top = [], [], [], []
     for j, v in enumerate(scene.vessels):  # per vessel, once
         outlines.append(v.outline_body())
         owner.append(j)
-        bottom.append(0.0)
+        bottom.append(-math.inf)
         top.append(v.hull_top)
         if v.has_cabin:
             outlines.append(v.cabin_body())

@@ -26,7 +26,8 @@ EXACT = {
     "elevation_noise_deg": 0.0,
     "doppler_noise": 0.0,
     "snr_fading_db": 0.0,
-    "clutter_per_frame": 0.0,
+    "clutter_calm": 0.0,
+    "clutter_sea_state_3": 0.0,
     "ghost_probability": 0.0,
     "detect_probability": 1.0,
 }
