@@ -39,6 +39,10 @@ CLUTTER_REF_RANGES = (1.0, 50.0)
 CLUTTER_REF_HALF_FOV = math.radians(60.0)
 SEA_STATE_3_CREST = 0.3  # m, simulator/sea.py's crest for sea state 3
 _CLUTTER_FOV_MARGIN = 0.15  # rad drawn beyond the field of view, so that a rolled sensor's view is filled too
+# Fluctuation of an echo's power from frame to frame (chi-square with 2 x dof degrees of freedom, mean 1): at 3.9 mm
+# wavelength any motion of a hull decorrelates it between frames (Swerling II / IV).
+DOF_MANY = 1  # many comparable scatterers in the cell (a stretch of hull side or wall): exponential, Swerling II
+DOF_DOMINANT = 2  # one dominant scatterer and small ones (a corner): chi-square with 4 degrees of freedom, Swerling IV
 
 
 @dataclass(frozen=True)
@@ -55,6 +59,7 @@ class RadarDetections:
     xyz_world: np.ndarray  # (N, 3) NED, where the echo appears without noise (ghosts: their apparent position)
     doppler_true: np.ndarray  # (N,) noise-free, unaliased radial velocity, m/s
     ghost_of: np.ndarray  # (N,) index of the point a ghost copies, -1 for everything else
+    scatterer: np.ndarray  # (N,) which persistent scatterer of its vessel a hull point is, -1 diffuse and the rest
 
     @property
     def n_points(self) -> int:
@@ -98,13 +103,14 @@ class _Echoes:
     velocity: np.ndarray  # (N, 3) of that apparent position
     snr: np.ndarray  # (N,) dB, range loss and fluctuation included
     label: np.ndarray  # (N,) int
+    scatterer: np.ndarray  # (N,) int, persistent scatterer index within its vessel, -1 for the rest
 
     @property
     def size(self) -> int:
         return int(self.snr.shape[0])
 
     def take(self, keep: np.ndarray) -> _Echoes:
-        return _Echoes(self.position[keep], self.velocity[keep], self.snr[keep], self.label[keep])
+        return _Echoes(self.position[keep], self.velocity[keep], self.snr[keep], self.label[keep], self.scatterer[keep])
 
     @staticmethod
     def join(parts: list[_Echoes]) -> _Echoes:
@@ -113,20 +119,48 @@ class _Echoes:
             np.concatenate([p.velocity for p in parts]),
             np.concatenate([p.snr for p in parts]),
             np.concatenate([p.label for p in parts]).astype(np.int64),
+            np.concatenate([p.scatterer for p in parts]).astype(np.int64),
         )
 
     @staticmethod
+    def of(position: np.ndarray, velocity: np.ndarray, snr: np.ndarray, label: np.ndarray | int) -> _Echoes:
+        """Echoes that are no persistent hull scatterer."""
+        n = snr.shape[0]
+        labels = np.broadcast_to(np.asarray(label, np.int64), (n,))
+        return _Echoes(position, velocity, snr, labels, np.full(n, -1, np.int64))
+
+    @staticmethod
     def empty() -> _Echoes:
-        return _Echoes(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64))
+        return _Echoes(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
+
+
+@dataclass(frozen=True)
+class _HullScatterers:
+    """The few strong, persistent scatterers of every vessel (corners, bow, stern, superstructure), fixed in its body
+    frame. One row per scatterer, M in all."""
+
+    vessel: np.ndarray  # (M,) vessel index
+    index: np.ndarray  # (M,) scatterer number within its vessel
+    body: np.ndarray  # (M, 2) (forward, starboard) from the vessel's reference point, m
+    height: np.ndarray  # (M,) above the water, m
+    normals: np.ndarray  # (M, 2, 2) body-frame outward normals of the two sides meeting there
+    gain_db: np.ndarray  # (M,) its own strength, relative to the vessel's
 
 
 class Awr1843Model:
     """Simulated AWR1843 point cloud. Angles in degrees only in the constructor (like a cfg file); radians inside.
 
-    ``snr_at_10m_db`` is the SNR of a 1 m high, face-on hull side at 10 m; it falls with 40 log10(range) and with the
-    cosine of the incidence angle. Points below ``snr_threshold_db`` (the CFAR threshold) are not reported, which is
-    what limits the range on small boats. ``points_per_metre`` of visible hull side at <= 20 m (fewer further out),
-    1..``max_points_per_vessel`` per vessel.
+    A hull returns from a few strong scatterers and from weaker diffuse ones along its sides. The strong ones are
+    2 + length / 10 m (2..6) persistent points at its corners, bow, stern and cabin, fixed in its body frame, each
+    ``scatterer_gain_db`` over a metre of side plus its own offset (uniform within +-``scatterer_spread_db``); one
+    is seen while a side meeting at it faces the radar, less the further off face-on (5 log10 cos: a corner
+    scatters broadly). The diffuse ones are ``points_per_metre`` of visible side at <= 20 m (fewer further out),
+    1..``max_points_per_vessel`` per 10 m of length, drawn afresh along the sides every frame.
+    ``snr_at_10m_db`` is the SNR of a 1 m high, face-on metre of hull side at 10 m; it falls with 40 log10(range) and
+    with the cosine of the incidence angle. With ``fluctuation`` each echo's power varies from frame to frame, as
+    chi-square with 4 degrees of freedom for a strong scatterer (Swerling IV) and exponentially for a diffuse one
+    (Swerling II). Points below ``snr_threshold_db`` (the CFAR threshold) are not reported, which is what limits
+    the range on small boats.
 
     Sea clutter: ``clutter_calm`` detections a frame on calm water plus ``clutter_sea_state_3`` times
     (crest / 0.3 m)^2 of the scene's sea, both counted in the reference window (1-50 m, +-60 deg) and spread over the
@@ -156,9 +190,11 @@ class Awr1843Model:
         frame_period: float = 0.1,
         snr_threshold_db: float = 15.0,
         snr_at_10m_db: float = 45.0,
-        snr_fading_db: float = 2.0,
+        fluctuation: bool = True,
         detect_probability: float = 0.9,
-        points_per_metre: float = 1.5,
+        scatterer_gain_db: float = 6.0,
+        scatterer_spread_db: float = 2.0,
+        points_per_metre: float = 1.0,
         max_points_per_vessel: int = 10,
         clutter_calm: float | None = None,
         clutter_sea_state_3: float | None = None,
@@ -200,7 +236,8 @@ class Awr1843Model:
         self.frame_period = float(frame_period)
         self.snr_threshold_db = float(snr_threshold_db)
         self.snr_at_10m_db = float(snr_at_10m_db)
-        self.snr_fading_db = float(snr_fading_db)
+        self.fluctuation = fluctuation
+        self.scatterer_gain_db = float(scatterer_gain_db)
         self.snr_loss_db = float(snr_loss_db)
         self.detect_probability = float(detect_probability)
         self.points_per_metre = float(points_per_metre)
@@ -218,6 +255,12 @@ class Awr1843Model:
         self._shore = _sample_quay(scene, shore_spacing)
         self._vessel_height = np.array([v.height for v in scene.vessels], float)
         self._vessel_rcs = np.array([v.rcs_scale for v in scene.vessels], float)
+        self._vessel_length = np.array([v.length for v in scene.vessels], float)
+        # echo strength at 10 m of a face-on metre of each vessel's side (its height and paint make it)
+        self._vessel_snr_db = self.snr_at_10m_db + 10 * np.log10(
+            np.maximum(self._vessel_height, 0.3) * self._vessel_rcs
+        )
+        self._scatterers = _hull_scatterers(scene, self.seed, float(scatterer_spread_db))
         self._hull_body = np.array([v.outline_body() for v in scene.vessels], float).reshape(-1, MAX_VERTICES, 2)
         self._prism_body, self._prism_vessel, self._prism_bottom, self._prism_top = _vessel_prisms(scene)
         self._quay_blocks, self._quay_top = _quay_blocks(scene)
@@ -299,7 +342,57 @@ class Awr1843Model:
 
     # -- echo sources ------------------------------------------------------------------------------------------------
     def _vessel_echoes(self, at: _SceneAt, pose: SensorPose, rng: np.random.Generator) -> _Echoes:
-        """Points on the hull sides that face the radar."""
+        """What the vessels return: their persistent strong scatterers and diffuse points along the sides facing the
+        radar, with the SNR the radar receives."""
+        strong = self._strong_echoes(at, pose.position[:2])
+        diffuse = self._diffuse_echoes(at, pose.position[:2], rng)
+        echoes = _Echoes.join([strong, diffuse])
+        dof = np.concatenate([np.full(strong.size, DOF_DOMINANT), np.full(diffuse.size, DOF_MANY)])
+        snr = self._received(echoes.snr, echoes.position, pose.position, dof, rng)
+        return _Echoes(echoes.position, echoes.velocity, snr, echoes.label, echoes.scatterer)
+
+    def _strong_echoes(self, at: _SceneAt, sensor: np.ndarray) -> _Echoes:
+        """The persistent scatterers seen from ``sensor`` (world north, east): those where a side facing it meets.
+        ``snr`` is their strength at 10 m (no range loss yet)."""
+        sc = self._scatterers
+        if sc.vessel.size == 0:
+            return _Echoes.empty()
+        v = sc.vessel
+        c, s = np.cos(at.heading[v]), np.sin(at.heading[v])
+        # body (forward, starboard) -> world (north, east): rotate by the heading
+        offset = np.stack([c * sc.body[:, 0] - s * sc.body[:, 1], s * sc.body[:, 0] + c * sc.body[:, 1]], axis=1)
+        normal = np.stack(
+            [
+                c[:, None] * sc.normals[..., 0] - s[:, None] * sc.normals[..., 1],
+                s[:, None] * sc.normals[..., 0] + c[:, None] * sc.normals[..., 1],
+            ],
+            axis=-1,
+        )  # (M, 2, 2) world
+        p2 = at.position[v] + offset
+        to_sensor = sensor - p2
+        dot = np.sum(normal * to_sensor[:, None, :], axis=-1)  # (M, 2)
+        seen = np.any(dot > 0, axis=1)
+        cos_inc = np.max(dot, axis=1) / np.maximum(np.hypot(*to_sensor.T), 1e-9)
+        snr = (
+            self._vessel_snr_db[v]
+            + self.scatterer_gain_db
+            + sc.gain_db
+            + 5 * np.log10(np.maximum(cos_inc, 0.1))  # a corner scatters broadly: half the dB of a flat side
+        )
+        w = at.yaw_rate[v]
+        vel = at.velocity[v] + np.stack([-w * offset[:, 1], w * offset[:, 0]], axis=1)  # v + omega x r
+        n = int(seen.sum())
+        return _Echoes(
+            np.concatenate([p2[seen], -sc.height[seen, None]], axis=1),
+            np.concatenate([vel[seen], np.zeros((n, 1))], axis=1),
+            snr[seen],
+            v[seen],
+            sc.index[seen],
+        )
+
+    def _diffuse_echoes(self, at: _SceneAt, sensor: np.ndarray, rng: np.random.Generator) -> _Echoes:
+        """Diffuse points drawn afresh each frame along the hull sides facing ``sensor`` (world north, east): more for
+        long and near hulls. ``snr`` is their strength at 10 m (no range loss yet)."""
         if at.hulls.shape[0] == 0:
             return _Echoes.empty()
         verts = at.hulls
@@ -307,14 +400,15 @@ class Awr1843Model:
         edge = b - a
         length = np.hypot(edge[..., 0], edge[..., 1])
         normal = np.stack([edge[..., 1], -edge[..., 0]], -1) / np.where(length > 0, length, 1.0)[..., None]
-        to_sensor = pose.position[:2] - (a + b) / 2
+        to_sensor = sensor - (a + b) / 2
         facing = (length > 0) & (np.sum(normal * to_sensor, axis=-1) > 0)
         facing_len = np.where(facing, length, 0.0)
         total = facing_len.sum(axis=1)  # (V,)
         centre = at.position
-        dist = np.hypot(*(centre - pose.position[:2]).T)
+        dist = np.hypot(*(centre - sensor).T)
+        cap = self.max_points_per_vessel * np.maximum(1.0, self._vessel_length / 10.0)  # a 43 m ship: 43
         count = np.rint(self.points_per_metre * total * np.minimum(1.0, 20.0 / np.maximum(dist, 1e-3)))
-        count = np.where(total > 0, np.clip(count, 1, self.max_points_per_vessel), 0).astype(np.int64)
+        count = np.where(total > 0, np.clip(count, 1, cap), 0).astype(np.int64)
         n = int(count.sum())
         if n == 0:
             return _Echoes.empty()
@@ -335,14 +429,10 @@ class Awr1843Model:
         w = at.yaw_rate[owner]
         vel = at.velocity[owner] + np.stack([-w * r[:, 1], w * r[:, 0]], -1)
         vw = np.concatenate([vel, np.zeros((n, 1))], axis=1)
-        los2 = p2 - pose.position[:2]
+        los2 = p2 - sensor
         cos_inc = np.abs(np.sum(normal.reshape(-1, 2)[e] * los2, axis=1)) / np.maximum(np.hypot(*los2.T), 1e-6)
-        snr = (
-            self.snr_at_10m_db
-            + 10 * np.log10(np.maximum(self._vessel_height[owner], 0.3) * self._vessel_rcs[owner])
-            + 10 * np.log10(np.maximum(cos_inc, 0.1))
-        )
-        return _Echoes(pw, vw, self._received(snr, pw, pose, rng), owner)
+        snr = self._vessel_snr_db[owner] + 10 * np.log10(np.maximum(cos_inc, 0.1))
+        return _Echoes.of(pw, vw, snr, owner)
 
     def _shore_echoes(self, pose: SensorPose, rng: np.random.Generator) -> _Echoes:
         """Echoes off the quay walls facing the radar; a fixed wall has no Doppler of its own."""
@@ -357,7 +447,8 @@ class Awr1843Model:
         n = p2.shape[0]
         pw = np.concatenate([p2, -(h * rng.uniform(0.1, 0.95, n))[:, None]], axis=1)
         snr = self.snr_at_10m_db + 10 * np.log10(np.maximum(h, 0.3)) + 10 * np.log10(np.maximum(cos_inc, 0.1))
-        return _Echoes(pw, np.zeros((n, 3)), self._received(snr, pw, pose, rng), np.full(n, LABEL_SHORE))
+        snr = self._received(snr, pw, pose.position, np.full(n, DOF_MANY), rng)
+        return _Echoes.of(pw, np.zeros((n, 3)), snr, LABEL_SHORE)
 
     def _clutter_echoes(self, t: float, pose: SensorPose, rng: np.random.Generator) -> _Echoes:
         """Sea clutter: CFAR detections off the water at every range the radar sees, fresh places every frame.
@@ -398,15 +489,19 @@ class Awr1843Model:
         position = np.stack([north, east, -height], axis=1)  # world NED: z down
         # CFAR-normalised: what crosses the threshold does so by a little, with a thin tail of spikes
         snr = self.snr_threshold_db + rng.exponential(self.clutter_snr_excess_db, n)
-        return _Echoes(position, velocity, snr, np.full(n, LABEL_CLUTTER))
+        return _Echoes.of(position, velocity, snr, LABEL_CLUTTER)
 
     def _received(
-        self, snr_10m: np.ndarray, position: np.ndarray, pose: SensorPose, rng: np.random.Generator
+        self, snr_10m: np.ndarray, position: np.ndarray, sensor: np.ndarray, dof: np.ndarray, rng: np.random.Generator
     ) -> np.ndarray:
-        """SNR at the radar of echoes whose SNR at 10 m is ``snr_10m``: R^4 spreading, fading and the day's losses."""
-        rng_m = np.linalg.norm(position - pose.position, axis=1)
+        """SNR at the radar (world NED ``sensor``) of echoes whose mean SNR at 10 m is ``snr_10m``: R^4 spreading,
+        the day's losses, and with ``fluctuation`` a power drawn from chi-square with 2 ``dof`` degrees of freedom
+        (mean 1) each frame."""
+        rng_m = np.linalg.norm(position - sensor, axis=1)
         snr = snr_10m - 40.0 * np.log10(np.maximum(rng_m, 0.1) / 10.0) - self.snr_loss_db
-        return snr + rng.normal(0.0, self.snr_fading_db, snr.shape)
+        if self.fluctuation and snr.size:
+            snr = snr + 10.0 * np.log10(np.maximum(rng.gamma(dof, 1.0 / dof), 1e-12))
+        return snr
 
     # -- what the radar makes of them ------------------------------------------------------------------------------
     def _world_to_ti(self, position: np.ndarray, pose: SensorPose) -> np.ndarray:
@@ -446,7 +541,7 @@ class Awr1843Model:
         ok = (g_range <= self.max_range) & (g_snr >= self.snr_threshold_db)
         src, g_range, g_snr = src[ok], g_range[ok], g_snr[ok]
         g_pos = pose.position + (echoes.position[src] - pose.position) * (g_range / rng_m[src])[:, None]
-        ghosts = _Echoes(g_pos, echoes.velocity[src], g_snr, np.full(src.size, LABEL_GHOST))
+        ghosts = _Echoes.of(g_pos, echoes.velocity[src], g_snr, LABEL_GHOST)
         return ghosts, src
 
     def _radial_velocity(self, echoes: _Echoes, pose: SensorPose) -> np.ndarray:
@@ -491,6 +586,7 @@ class Awr1843Model:
             xyz_world=echoes.position,
             doppler_true=doppler,
             ghost_of=ghost_of,
+            scatterer=echoes.scatterer,
         )
 
 
@@ -524,6 +620,74 @@ def _blocked(origin: np.ndarray, points: np.ndarray, owner: np.ndarray, solids: 
     h_cross = h_origin[:, None] + np.where(crosses, t_ray, 0.0) * (h_point - h_origin)[:, None]
     crosses &= (h_cross >= seg_bottom[None, :]) & (h_cross <= seg_top[None, :])
     return np.any(crosses, axis=1)
+
+
+def _hull_scatterers(scene: Scene, seed: int, spread_db: float) -> _HullScatterers:
+    """Each vessel's persistent strong scatterers: 2 + length / 10 m of them (2..6), picked among its hull corners
+    (on the hull side, at 80 % of the freeboard, where it meets the deck) and its cabin's corners (60 % up the cabin),
+    spread around the hull, with a third of them on the cabin when it has one. Fixed for the model's lifetime."""
+    rows: list[tuple[int, int, np.ndarray, float, np.ndarray, float]] = []
+    for j, v in enumerate(scene.vessels):  # per vessel, once
+        rng = np.random.default_rng([seed, j, 0x5CA7])
+        hull = _polygon(v.outline_body())
+        groups = [(hull, _vertex_normals(hull), 0.8 * v.hull_top)]
+        if v.has_cabin:
+            cabin = _polygon(v.cabin_body())
+            groups.append((cabin, _vertex_normals(cabin), v.hull_top + 0.6 * (v.height - v.hull_top)))
+        k_all = int(np.clip(math.floor(2.5 + v.length / 10.0), 2, 6))
+        k_cabin = min(k_all // 3, groups[-1][0].shape[0]) if v.has_cabin else 0
+        picks = [k_all - k_cabin, k_cabin]
+        index = 0
+        for (corners, normals, height), k in zip(groups, picks, strict=False):
+            for i in _spread_around(corners, min(k, corners.shape[0]), rng):
+                rows.append((j, index, corners[i], height, normals[i], float(rng.uniform(-spread_db, spread_db))))
+                index += 1
+    if not rows:
+        return _HullScatterers(
+            np.zeros(0, np.int64),
+            np.zeros(0, np.int64),
+            np.zeros((0, 2)),
+            np.zeros(0),
+            np.zeros((0, 2, 2)),
+            np.zeros(0),
+        )
+    vessel, index, body, height, normals, gain = zip(*rows, strict=True)
+    return _HullScatterers(
+        np.array(vessel, np.int64),
+        np.array(index, np.int64),
+        np.array(body, float),
+        np.array(height, float),
+        np.array(normals, float),
+        np.array(gain, float),
+    )
+
+
+def _polygon(outline: np.ndarray) -> np.ndarray:
+    """A padded body outline (K, 2) without its repeated vertices: the polygon's corners, in their order."""
+    keep = np.ones(outline.shape[0], bool)
+    keep[1:] = np.any(np.abs(np.diff(outline, axis=0)) > 1e-12, axis=1)
+    poly = outline[keep]
+    if poly.shape[0] > 1 and np.allclose(poly[0], poly[-1]):
+        poly = poly[:-1]
+    return poly
+
+
+def _vertex_normals(poly: np.ndarray) -> np.ndarray:
+    """(K, 2, 2): at each corner of a counter-clockwise (forward, starboard) polygon, the outward unit normals of the
+    side arriving at it and of the side leaving it."""
+    edge = np.roll(poly, -1, axis=0) - poly  # side i runs from corner i to corner i + 1
+    normal = np.stack([edge[:, 1], -edge[:, 0]], axis=1) / np.hypot(edge[:, 0], edge[:, 1])[:, None]
+    return np.stack([np.roll(normal, 1, axis=0), normal], axis=1)
+
+
+def _spread_around(corners: np.ndarray, k: int, rng: np.random.Generator) -> np.ndarray:
+    """Indices of ``k`` corners spread evenly by their bearing from the body origin (two of a box's four are
+    diagonal, so one of them faces the radar from any side), starting at a random one."""
+    if k <= 0:
+        return np.zeros(0, np.int64)
+    order = np.argsort(np.arctan2(corners[:, 1], corners[:, 0]))
+    n = order.size
+    return order[np.floor((np.arange(k) + rng.random()) * n / k).astype(np.int64) % n]
 
 
 def _beyond_walls(origin: np.ndarray, points: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:

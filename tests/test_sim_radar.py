@@ -18,7 +18,7 @@ EXACT = {
     "azimuth_noise_deg": 0.0,
     "elevation_noise_deg": 0.0,
     "doppler_noise": 0.0,
-    "snr_fading_db": 0.0,
+    "fluctuation": False,
     "clutter_calm": 0.0,
     "clutter_sea_state_3": 0.0,
     "ghost_probability": 0.0,
@@ -164,17 +164,37 @@ def test_snr_falls_with_range_and_small_boats_fade_out() -> None:
         for f in _frames(model, 5):
             sel = f.label == 0
             p = f.xyz_world[sel]
-            np.testing.assert_allclose(p[:, 0], north - 1.5, atol=1e-9)  # all on the face-on bow side
+            np.testing.assert_allclose(p[:, 0], north - 1.5, atol=1e-9)  # all on the face-on bow side, corners too
             rel = p - [1.0, 0.0, -1.0]
             r = np.linalg.norm(rel, axis=1)
             cos_inc = rel[:, 0] / np.hypot(rel[:, 0], rel[:, 1])
+            range_loss = 40 * np.log10(r / 10)
+            diffuse, strong = f.scatterer[sel] == -1, f.scatterer[sel] >= 0
+            assert diffuse.sum() >= 1 and strong.sum() >= 1
             # 45 dB for a 1 m high side at 10 m, face on; R^4 and the incidence cosine take it from there
-            np.testing.assert_allclose(f.snr_db[sel], 45.0 - 40 * np.log10(r / 10) + 10 * np.log10(cos_inc), atol=1e-9)
-    # with a 100 m configuration, at 60 m the 0.6 m Smurf is below the 15 dB CFAR threshold, the 3.2 m Xi is not
-    for name, height, seen in (("smurf", 0.6, False), ("xi", 3.2, True)):
-        boat = Vessel(name, 3.0, 3.0, height, Trajectory.stationary((61.0, 0.0), 0.0))
+            np.testing.assert_allclose(
+                f.snr_db[sel][diffuse], (45.0 - range_loss + 10 * np.log10(cos_inc))[diffuse], atol=1e-9
+            )
+            # a corner: 6 +- 2 dB over that, with half the incidence loss (5 log10 cos)
+            excess = (f.snr_db[sel] + range_loss - 5 * np.log10(cos_inc) - 45.0)[strong]
+            assert np.all((excess >= 4.0 - 1e-9) & (excess <= 8.0 + 1e-9))
+    # With a 100 m configuration: at 61 m the 0.6 m Smurf's sides are below the 15 dB CFAR threshold
+    # (45 - 2.2 - 31.4 = 11.4 dB), only its corners reach it (+6 +- 2 dB), while the 3.2 m Xi's sides give 18.7 dB;
+    # at 81 m even the Smurf's corners are gone (at most 45 - 2.2 + 8 - 38.2 = 12.6 dB).
+    for name, height, north, seen in (
+        ("smurf", 0.6, 61.0, "corners"),
+        ("xi", 3.2, 61.0, "sides"),
+        ("smurf", 0.6, 81.0, ""),
+    ):
+        boat = Vessel(name, 3.0, 3.0, height, Trajectory.stationary((north, 0.0), 0.0))
         model = Awr1843Model(Scene("s", _still(), [boat]), MOUNT, **{**EXACT, "max_range": 100.0})
-        assert any(f.n_points > 0 for f in _frames(model, 5)) == seen
+        points = np.concatenate([f.scatterer[f.label == 0] for f in _frames(model, 5)])
+        if seen == "corners":
+            assert points.size >= 5 and np.all(points >= 0)
+        elif seen == "sides":
+            assert np.sum(points == -1) >= 5
+        else:
+            assert points.size == 0
 
 
 def test_doppler_aliasing_and_reproducible_frames() -> None:

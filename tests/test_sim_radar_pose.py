@@ -25,7 +25,7 @@ EXACT = {
     "azimuth_noise_deg": 0.0,
     "elevation_noise_deg": 0.0,
     "doppler_noise": 0.0,
-    "snr_fading_db": 0.0,
+    "fluctuation": False,
     "clutter_calm": 0.0,
     "clutter_sea_state_3": 0.0,
     "ghost_probability": 0.0,
