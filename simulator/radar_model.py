@@ -4,8 +4,9 @@ This is a phenomenological model, not a ray tracer: a mmWave radar returns a han
 mostly from the sides that face it, so each frame samples points on the visible hull edges (more for long and near
 hulls), gives each one the Doppler of the relative motion along the line of sight, an SNR that falls with R^4, and
 then adds what makes radar tracking hard on the water (paper 001, §1): sea clutter at every range it sees, thicker
-near the boat and on a rougher sea, moving with the waves' orbital motion; multipath ghosts (a weaker copy further
-out on the same bearing); and many returns from the quay, whose Doppler is the own boat's motion seen from a fixed
+near the boat and on a rougher sea, moving with the waves' orbital motion; multipath ghosts (a boat's mirror image
+behind a quay wall that reflects it, and weaker copies at k times the range of a hull return that bounced between
+the hull and the own boat); and many returns from the quay, whose Doppler is the own boat's motion seen from a fixed
 wall.
 
 Frames: every echo is placed in the world (NED) first; the radar sits where the own boat's full pose puts it (track,
@@ -19,10 +20,11 @@ on ``seed`` and the frame number, so frames are reproducible in any order.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -58,8 +60,9 @@ class RadarDetections:
     label: np.ndarray  # (N,) vessel index, LABEL_CLUTTER, LABEL_GHOST or LABEL_SHORE
     xyz_world: np.ndarray  # (N, 3) NED, where the echo appears without noise (ghosts: their apparent position)
     doppler_true: np.ndarray  # (N,) noise-free, unaliased radial velocity, m/s
-    ghost_of: np.ndarray  # (N,) index of the point a ghost copies, -1 for everything else
+    ghost_of: np.ndarray  # (N,) index of the point a k-bounce ghost copies, -1 for everything else
     scatterer: np.ndarray  # (N,) which persistent scatterer of its vessel a hull point is, -1 diffuse and the rest
+    mirror_of: np.ndarray  # (N,) vessel a ghost seen via a quay wall images (label LABEL_GHOST), -1 for the rest
 
     @property
     def n_points(self) -> int:
@@ -104,34 +107,39 @@ class _Echoes:
     snr: np.ndarray  # (N,) dB, range loss and fluctuation included
     label: np.ndarray  # (N,) int
     scatterer: np.ndarray  # (N,) int, persistent scatterer index within its vessel, -1 for the rest
+    mirror_of: np.ndarray  # (N,) int, the vessel a quay-mirror ghost images, -1 for the rest
 
     @property
     def size(self) -> int:
         return int(self.snr.shape[0])
 
     def take(self, keep: np.ndarray) -> _Echoes:
-        return _Echoes(self.position[keep], self.velocity[keep], self.snr[keep], self.label[keep], self.scatterer[keep])
+        return _Echoes(*(getattr(self, f.name)[keep] for f in fields(self)))
+
+    def replace(self, **changes: np.ndarray) -> _Echoes:
+        return dataclasses.replace(self, **changes)
 
     @staticmethod
     def join(parts: list[_Echoes]) -> _Echoes:
-        return _Echoes(
-            np.concatenate([p.position for p in parts]),
-            np.concatenate([p.velocity for p in parts]),
-            np.concatenate([p.snr for p in parts]),
-            np.concatenate([p.label for p in parts]).astype(np.int64),
-            np.concatenate([p.scatterer for p in parts]).astype(np.int64),
-        )
+        return _Echoes(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(_Echoes)))
 
     @staticmethod
-    def of(position: np.ndarray, velocity: np.ndarray, snr: np.ndarray, label: np.ndarray | int) -> _Echoes:
-        """Echoes that are no persistent hull scatterer."""
+    def of(
+        position: np.ndarray,
+        velocity: np.ndarray,
+        snr: np.ndarray,
+        label: np.ndarray | int,
+        scatterer: np.ndarray | None = None,
+    ) -> _Echoes:
+        """Echoes that are no mirror image (and no persistent hull scatterer unless ``scatterer`` says so)."""
         n = snr.shape[0]
-        labels = np.broadcast_to(np.asarray(label, np.int64), (n,))
-        return _Echoes(position, velocity, snr, labels, np.full(n, -1, np.int64))
+        labels = np.broadcast_to(np.asarray(label, np.int64), (n,)).copy()
+        none = np.full(n, -1, np.int64)
+        return _Echoes(position, velocity, snr, labels, none if scatterer is None else scatterer, none.copy())
 
     @staticmethod
     def empty() -> _Echoes:
-        return _Echoes(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64))
+        return _Echoes.of(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64))
 
 
 @dataclass(frozen=True)
@@ -168,8 +176,15 @@ class Awr1843Model:
     from ``clutter_min_range`` out. Each is ``clutter_snr_excess_db`` (mean, exponential) over the CFAR threshold and
     moves with the water's orbital velocity plus ``clutter_doppler_spread`` (m/s, each horizontal axis).
 
-    ``clutter_calm``, ``clutter_sea_state_3``, ``ghost_probability`` and ``snr_loss_db`` default to the scene's
-    ``conditions``.
+    Multipath: a vessel seen via a quay wall (radar -> wall -> hull -> wall -> radar) appears as its mirror image
+    behind the wall, at the length of that path, ``mirror_loss_db`` weaker for the two reflections; the wall must
+    reach the height where the path meets it, and neither leg may be blocked. Besides, each detected hull return
+    comes back with ``ghost_probability`` as a copy that bounced between the hull and the own boat k = 2 (or, a
+    quarter of the time, 3) times: k times the range on the same bearing, k times the Doppler, (k - 1) x
+    ``ghost_loss_db`` + 20 log10(k) weaker.
+
+    ``clutter_calm``, ``clutter_sea_state_3``, ``ghost_probability``, ``mirror_loss_db`` and ``snr_loss_db`` default
+    to the scene's ``conditions``.
     """
 
     def __init__(
@@ -204,6 +219,7 @@ class Awr1843Model:
         clutter_snr_excess_db: float = 2.0,
         ghost_probability: float | None = None,
         ghost_loss_db: float = 9.0,
+        mirror_loss_db: float | None = None,
         shore_spacing: float = 0.5,
         shore_keep: float = 0.35,
         report_elevation: bool = True,
@@ -214,6 +230,7 @@ class Awr1843Model:
         clutter_calm = c.radar_clutter_calm if clutter_calm is None else clutter_calm
         clutter_sea_state_3 = c.radar_clutter_sea_state_3 if clutter_sea_state_3 is None else clutter_sea_state_3
         snr_loss_db = c.radar_snr_loss_db if snr_loss_db is None else snr_loss_db
+        mirror_loss_db = c.radar_mirror_loss_db if mirror_loss_db is None else mirror_loss_db
         if frame_period <= 0 or max_range <= min_range or v_max <= 0:
             raise ValueError("need frame_period > 0, max_range > min_range and v_max > 0")
         if not 0 <= ghost_probability <= 1:
@@ -250,6 +267,7 @@ class Awr1843Model:
         self.clutter_snr_excess_db = float(clutter_snr_excess_db)
         self.ghost_probability = float(ghost_probability)
         self.ghost_loss_db = float(ghost_loss_db)
+        self.mirror_loss_db = float(mirror_loss_db)
         self.report_elevation = report_elevation
         self.shore_keep = float(shore_keep)
         self._shore = _sample_quay(scene, shore_spacing)
@@ -265,6 +283,10 @@ class Awr1843Model:
         self._prism_body, self._prism_vessel, self._prism_bottom, self._prism_top = _vessel_prisms(scene)
         self._quay_blocks, self._quay_top = _quay_blocks(scene)
         self._walls = scene.quay_wall_segments()  # (starts, ends), world (north, east)
+        self._wall_height = scene.quay_heights()
+        self._wall_water_side = (  # unit normals of each wall segment pointing into the water, same order
+            np.concatenate([-q.land_normals() for q in scene.quays]) if scene.quays else np.zeros((0, 2))
+        )
         log.debug(
             "AWR1843 model on %r: +-%.0f deg, %.0f m, %d shore scatterers",
             scene.name,
@@ -291,19 +313,17 @@ class Awr1843Model:
         rng = np.random.default_rng([self.seed, k % (1 << 62), 0xA18])
         pose = self.sensor_pose(t)
         at = self._scene_at(t)
-        echoes = _Echoes.join(
-            [self._vessel_echoes(at, pose, rng), self._shore_echoes(pose, rng), self._clutter_echoes(t, pose, rng)]
-        )
-        echoes, rng_m, az, el = self._detect(echoes, pose, at.solids, rng)
-        ghost_of = np.full(echoes.size, -1, dtype=np.int64)
-        ghosts, src = self._bounce_ghosts(echoes, rng_m, pose, rng)
-        if src.size:
-            g_rng, g_az, g_el = _spherical(self._world_to_ti(ghosts.position, pose))
-            echoes = _Echoes.join([echoes, ghosts])
-            rng_m, az, el = (np.concatenate(x) for x in ((rng_m, g_rng), (az, g_az), (el, g_el)))
-            ghost_of = np.concatenate([ghost_of, src])
-        doppler = self._radial_velocity(echoes, pose)
-        return self._measure(t, k, echoes, rng_m, az, el, doppler, ghost_of, rng)
+        sources = [
+            self._vessel_echoes(at, pose, rng),
+            self._shore_echoes(pose, rng),
+            self._clutter_echoes(t, pose, rng),
+        ]
+        direct = self._detect(_Echoes.join(sources), pose, at.solids, rng)
+        mirrored = self._mirror_echoes(at, pose, rng)
+        ghosts, src = self._bounce_ghosts(direct, pose, rng)  # src indexes ``direct``, which comes first below
+        echoes = _Echoes.join([direct, mirrored, ghosts])
+        ghost_of = np.concatenate([np.full(direct.size + mirrored.size, -1, np.int64), src])
+        return self._measure(t, k, echoes, pose, ghost_of, rng)
 
     @property
     def clutter_rate(self) -> float:
@@ -348,8 +368,7 @@ class Awr1843Model:
         diffuse = self._diffuse_echoes(at, pose.position[:2], rng)
         echoes = _Echoes.join([strong, diffuse])
         dof = np.concatenate([np.full(strong.size, DOF_DOMINANT), np.full(diffuse.size, DOF_MANY)])
-        snr = self._received(echoes.snr, echoes.position, pose.position, dof, rng)
-        return _Echoes(echoes.position, echoes.velocity, snr, echoes.label, echoes.scatterer)
+        return echoes.replace(snr=self._received(echoes.snr, echoes.position, pose.position, dof, rng))
 
     def _strong_echoes(self, at: _SceneAt, sensor: np.ndarray) -> _Echoes:
         """The persistent scatterers seen from ``sensor`` (world north, east): those where a side facing it meets.
@@ -382,7 +401,7 @@ class Awr1843Model:
         w = at.yaw_rate[v]
         vel = at.velocity[v] + np.stack([-w * offset[:, 1], w * offset[:, 0]], axis=1)  # v + omega x r
         n = int(seen.sum())
-        return _Echoes(
+        return _Echoes.of(
             np.concatenate([p2[seen], -sc.height[seen, None]], axis=1),
             np.concatenate([vel[seen], np.zeros((n, 1))], axis=1),
             snr[seen],
@@ -508,14 +527,12 @@ class Awr1843Model:
         """World NED points -> sensor FRD (the rotation is orthonormal) -> TI axes (the axis map is its own inverse)."""
         return ((position - pose.position) @ pose.rotation) @ TI_TO_FRD
 
-    def _detect(
-        self, echoes: _Echoes, pose: SensorPose, solids: _Solids, rng: np.random.Generator
-    ) -> tuple[_Echoes, np.ndarray, np.ndarray, np.ndarray]:
-        """The echoes the radar reports: in its field of view and range, over the CFAR threshold, detected, and not
-        behind a solid. Also their true range, azimuth and elevation in the sensor frame."""
+    def _in_view(self, echoes: _Echoes, pose: SensorPose, rng: np.random.Generator) -> np.ndarray:
+        """Which echoes the radar would report if nothing stood in the way: in its field of view and range, over the
+        CFAR threshold, and detected (clutter's rate is already a detection rate)."""
         rng_m, az, el = _spherical(self._world_to_ti(echoes.position, pose))
-        clutter = echoes.label == LABEL_CLUTTER  # its rate is already a detection rate
-        seen = (
+        clutter = echoes.label == LABEL_CLUTTER
+        return (
             (rng_m >= self.min_range)
             & (rng_m <= self.max_range)
             & (np.abs(az) <= self.fov)
@@ -523,26 +540,81 @@ class Awr1843Model:
             & (echoes.snr >= self.snr_threshold_db)
             & ((rng.random(echoes.size) < self.detect_probability) | clutter)
         )
+
+    def _detect(self, echoes: _Echoes, pose: SensorPose, solids: _Solids, rng: np.random.Generator) -> _Echoes:
+        """The direct echoes the radar reports: in view, and not behind a solid; water only where no quay wall lies
+        between it and the radar."""
+        seen = self._in_view(echoes, pose, rng)
         idx = np.flatnonzero(seen)
         seen[idx] = ~_blocked(pose.position, echoes.position[idx], echoes.label[idx], solids)
-        water = np.flatnonzero(seen & clutter)  # water only where no quay wall lies between it and the radar
+        water = np.flatnonzero(seen & (echoes.label == LABEL_CLUTTER))
         seen[water] = ~_beyond_walls(pose.position[:2], echoes.position[water, :2], *self._walls)
-        return echoes.take(seen), rng_m[seen], az[seen], el[seen]
+        return echoes.take(seen)
 
-    def _bounce_ghosts(
-        self, echoes: _Echoes, rng_m: np.ndarray, pose: SensorPose, rng: np.random.Generator
-    ) -> tuple[_Echoes, np.ndarray]:
-        """Multipath: a weaker echo of a detected hull point further out on the same bearing, same velocity."""
+    def _mirror_echoes(self, at: _SceneAt, pose: SensorPose, rng: np.random.Generator) -> _Echoes:
+        """Vessels seen via a quay wall, by the image method: what the radar's mirror image behind the wall would see
+        of the vessels, folded back across the wall. A detected echo appears at the vessel point's mirror image
+        (behind the wall, at the length of the bounce path), moving with its mirrored velocity."""
+        starts, ends = self._walls
+        if starts.shape[0] == 0 or at.hulls.shape[0] == 0:
+            return _Echoes.empty()
+        sensor = pose.position[:2]
+        off_wall = np.sum((sensor - starts) * self._wall_water_side, axis=1)  # radar's distance in front of each wall
+        # a ghost lies at least twice the radar's distance from the wall away: walls beyond half the range are mute
+        near = (off_wall > 0) & (_segment_distance(sensor, starts, ends) <= self.max_range / 2)
+        parts = [self._mirror_echoes_in(int(j), float(off_wall[j]), at, pose, rng) for j in np.flatnonzero(near)]
+        return _Echoes.join(parts) if parts else _Echoes.empty()
+
+    def _mirror_echoes_in(
+        self, j: int, off_wall: float, at: _SceneAt, pose: SensorPose, rng: np.random.Generator
+    ) -> _Echoes:
+        """The ghosts of every vessel in wall j, which the radar faces from ``off_wall`` metres."""
+        a, b, normal = self._walls[0][j], self._walls[1][j], self._wall_water_side[j]
+        image = pose.position[:2] - 2 * off_wall * normal  # the radar mirrored behind the wall (north, east)
+        strong, diffuse = self._strong_echoes(at, image), self._diffuse_echoes(at, image, rng)
+        real = _Echoes.join([strong, diffuse])
+        dof = np.concatenate([np.full(strong.size, DOF_DOMINANT), np.full(diffuse.size, DOF_MANY)])
+        p2, h_point, h_radar = real.position[:, :2], -real.position[:, 2], -pose.position[2]
+        in_front = np.sum((p2 - a) * normal, axis=1)  # the vessel point's distance in front of the wall
+        # the unfolded path image -> point crosses the wall at this fraction of its length: there the wave bounces
+        f = off_wall / np.maximum(off_wall + in_front, 1e-9)
+        bounce = image + f[:, None] * (p2 - image)
+        along = np.sum((bounce - a) * (b - a), axis=1) / float(np.dot(b - a, b - a))
+        h_bounce = h_radar + f * (h_point - h_radar)
+        on_wall = (in_front > 0) & (along >= 0) & (along <= 1) & (h_bounce >= 0) & (h_bounce <= self._wall_height[j])
+        real, dof, in_front = real.take(on_wall), dof[on_wall], in_front[on_wall]
+        bounce_ned = np.concatenate([bounce[on_wall], -h_bounce[on_wall, None]], axis=1)
+        # what the radar sees: the point folded back across the wall, its velocity likewise
+        apparent = real.position.copy()
+        apparent[:, :2] -= 2 * in_front[:, None] * normal
+        velocity = real.velocity.copy()
+        velocity[:, :2] -= 2 * (velocity[:, :2] @ normal)[:, None] * normal
+        snr = self._received(real.snr - self.mirror_loss_db, apparent, pose.position, dof, rng)
+        ghosts = _Echoes(apparent, velocity, snr, np.full(real.size, LABEL_GHOST), real.scatterer, real.label)
+        seen = self._in_view(ghosts, pose, rng)
+        idx = np.flatnonzero(seen)
+        if idx.size:  # neither leg blocked: radar -> wall by anything but quays, wall -> hull by anything but itself
+            out = _blocked(pose.position, bounce_ned[idx], np.full(idx.size, LABEL_SHORE), at.solids)
+            back = _blocked(bounce_ned[idx], real.position[idx], real.label[idx], at.solids)
+            seen[idx] = ~(out | back)
+        return ghosts.take(seen)
+
+    def _bounce_ghosts(self, echoes: _Echoes, pose: SensorPose, rng: np.random.Generator) -> tuple[_Echoes, np.ndarray]:
+        """Multipath between a hull and the own boat (radar -> hull -> own boat -> hull -> radar, k - 1 times over):
+        a copy of a detected hull return at k times its range on the same bearing, whose path length changes k times
+        as fast (k times the Doppler), weaker by the extra bounces and spreading. Also the indices of the copied."""
         src = np.flatnonzero((echoes.label >= 0) & (rng.random(echoes.size) < self.ghost_probability))
         if src.size == 0:
             return _Echoes.empty(), src
-        g_range = rng_m[src] * rng.uniform(1.25, 1.9, src.size)
-        g_snr = echoes.snr[src] - self.ghost_loss_db - 40.0 * np.log10(g_range / rng_m[src]) / 2
-        ok = (g_range <= self.max_range) & (g_snr >= self.snr_threshold_db)
-        src, g_range, g_snr = src[ok], g_range[ok], g_snr[ok]
-        g_pos = pose.position + (echoes.position[src] - pose.position) * (g_range / rng_m[src])[:, None]
-        ghosts = _Echoes.of(g_pos, echoes.velocity[src], g_snr, LABEL_GHOST)
-        return ghosts, src
+        k = np.where(rng.random(src.size) < 0.25, 3.0, 2.0)
+        g_snr = echoes.snr[src] - (k - 1) * self.ghost_loss_db - 20.0 * np.log10(k)
+        offset = echoes.position[src] - pose.position
+        ok = (k * np.linalg.norm(offset, axis=1) <= self.max_range) & (g_snr >= self.snr_threshold_db)
+        src, k, g_snr, offset = src[ok], k[ok], g_snr[ok], offset[ok]
+        g_pos = pose.position + k[:, None] * offset
+        # an apparent velocity whose line-of-sight part relative to the radar is k times the source's
+        g_vel = pose.velocity + k[:, None] * (echoes.velocity[src] - pose.velocity)
+        return _Echoes.of(g_pos, g_vel, g_snr, LABEL_GHOST), src
 
     def _radial_velocity(self, echoes: _Echoes, pose: SensorPose) -> np.ndarray:
         """Noise-free radial velocity of each echo relative to the radar, positive = moving away, m/s."""
@@ -551,19 +623,12 @@ class Awr1843Model:
         return np.sum((echoes.velocity - pose.velocity) * los, axis=1)
 
     def _measure(
-        self,
-        t: float,
-        k: int,
-        echoes: _Echoes,
-        rng_m: np.ndarray,
-        az: np.ndarray,
-        el: np.ndarray,
-        doppler: np.ndarray,
-        ghost_of: np.ndarray,
-        rng: np.random.Generator,
+        self, t: float, k: int, echoes: _Echoes, pose: SensorPose, ghost_of: np.ndarray, rng: np.random.Generator
     ) -> RadarDetections:
         """Measurement noise and the radar's own limits; the points in TI axes, as the firmware sends them."""
         n = echoes.size
+        rng_m, az, el = _spherical(self._world_to_ti(echoes.position, pose))  # world NED -> sensor FRD -> TI
+        doppler = self._radial_velocity(echoes, pose)
         m_range = rng_m + rng.normal(0.0, self.range_noise_m, n)
         m_az = az + rng.normal(0.0, self.azimuth_noise, n)
         m_el = el + rng.normal(0.0, self.elevation_noise, n) if self.report_elevation else np.zeros(n)
@@ -587,6 +652,7 @@ class Awr1843Model:
             doppler_true=doppler,
             ghost_of=ghost_of,
             scatterer=echoes.scatterer,
+            mirror_of=echoes.mirror_of,
         )
 
 
@@ -613,7 +679,8 @@ def _blocked(origin: np.ndarray, points: np.ndarray, owner: np.ndarray, solids: 
     with np.errstate(divide="ignore", invalid="ignore"):
         t_ray = (qp[..., 0] * s[None, :, 1] - qp[..., 1] * s[None, :, 0]) / denom
         u_seg = (qp[..., 0] * r[:, None, 1] - qp[..., 1] * r[:, None, 0]) / denom
-    crosses = (np.abs(denom) > 1e-12) & (t_ray > 0) & (t_ray < 1 - 1e-6) & (u_seg >= 0) & (u_seg <= 1)
+    # not at the ends: a sight line starting on a wall face (a bounce point) does not cross that face
+    crosses = (np.abs(denom) > 1e-12) & (t_ray > 1e-6) & (t_ray < 1 - 1e-6) & (u_seg >= 0) & (u_seg <= 1)
     crosses &= seg_owner[None, :] != owner[:, None]
     # world z is down: heights above the water are -z
     h_origin, h_point = -origin[:, 2], -points[:, 2]
@@ -688,6 +755,13 @@ def _spread_around(corners: np.ndarray, k: int, rng: np.random.Generator) -> np.
     order = np.argsort(np.arctan2(corners[:, 1], corners[:, 0]))
     n = order.size
     return order[np.floor((np.arange(k) + rng.random()) * n / k).astype(np.int64) % n]
+
+
+def _segment_distance(point: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Distance from a 2-D point to each segment starts[i] -> ends[i]."""
+    d = ends - starts
+    f = np.clip(np.sum((point - starts) * d, axis=1) / np.maximum(np.sum(d * d, axis=1), 1e-12), 0.0, 1.0)
+    return np.hypot(*(starts + f[:, None] * d - point).T)
 
 
 def _beyond_walls(origin: np.ndarray, points: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:

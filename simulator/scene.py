@@ -425,6 +425,7 @@ class SensorConditions:
     radar_clutter_calm: float = 3.0
     radar_clutter_sea_state_3: float = 80.0
     radar_ghost_probability: float = 0.1  # chance a detected hull return also comes back k times as far (multipath)
+    radar_mirror_loss_db: float = 8.0  # a boat seen via a quay wall: its two reflections off the wall cost this much
     radar_snr_loss_db: float = 0.0  # two-way loss on every echo: rain, spray or a film of water on the radome
 
 

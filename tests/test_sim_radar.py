@@ -104,23 +104,28 @@ def test_shore_doppler_is_the_own_motion_seen_from_a_fixed_wall() -> None:
     assert np.linalg.norm(vel[:2] - own.poses(1.0).velocity[0]) == pytest.approx(0.05 * math.hypot(2.0, 0.3))
 
 
-def test_multipath_ghost_lies_further_out_on_the_same_bearing() -> None:
+def test_multipath_copies_lie_k_times_as_far_on_the_same_bearing_with_k_times_the_doppler() -> None:
+    """Radar -> hull -> own boat -> hull -> radar: the path is twice (three times) the direct one and changes twice
+    (three times) as fast, so the copy sits at k x the range on the same bearing with k x the Doppler; it is
+    (k - 1) x 9 dB + 20 log10(k) weaker (15.0 dB for k = 2, 27.5 dB for k = 3)."""
     boat = Vessel("b", 8.0, 3.0, 2.0, Trajectory.constant_velocity((15.0, 3.0), (0.0, -1.0)))
     model = Awr1843Model(Scene("g", _still(), [boat]), MOUNT, **{**EXACT, "ghost_probability": 1.0})
-    n_ghosts = 0
-    for f in _frames(model, 10):
+    orders = []
+    for f in _frames(model, 20):
         ghosts = np.flatnonzero(f.label == LABEL_GHOST)
         src = f.ghost_of[ghosts]
         assert np.all(f.label[src] == 0)
-        n_ghosts += ghosts.size
         r_g = np.linalg.norm(f.xyz_ti[ghosts], axis=1)
         r_s = np.linalg.norm(f.xyz_ti[src], axis=1)
+        k = np.rint(r_g / r_s)
+        np.testing.assert_allclose(r_g / r_s, k, atol=1e-9)
         np.testing.assert_allclose(f.xyz_ti[ghosts] / r_g[:, None], f.xyz_ti[src] / r_s[:, None], atol=1e-12)
-        assert np.all((r_g / r_s >= 1.25) & (r_g / r_s <= 1.9))
-        assert np.all(f.snr_db[ghosts] <= f.snr_db[src] - model.ghost_loss_db)
-        np.testing.assert_allclose(f.doppler[ghosts], f.doppler[src], atol=1e-12)
+        np.testing.assert_allclose(f.doppler_true[ghosts], k * f.doppler_true[src], atol=1e-9)
+        np.testing.assert_allclose(f.snr_db[src] - f.snr_db[ghosts], (k - 1) * 9.0 + 20 * np.log10(k), atol=1e-9)
         assert np.all(f.ghost_of[f.label != LABEL_GHOST] == -1)
-    assert n_ghosts > 10
+        assert np.all(f.mirror_of == -1)  # no quay here
+        orders.extend(k)
+    assert set(orders) == {2.0, 3.0} and len(orders) > 50
 
 
 def test_field_of_view_range_limit_and_occlusion() -> None:
