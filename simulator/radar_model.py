@@ -171,7 +171,7 @@ class Awr1843Model:
     the range on small boats.
 
     Sea clutter: ``clutter_calm`` detections a frame on calm water plus ``clutter_sea_state_3`` times
-    (crest / 0.3 m)^2 of the scene's sea, both counted in the reference window (1-50 m, +-60 deg) and spread over the
+    crest / 0.3 m of the scene's sea, both counted in the reference window (1-50 m, +-60 deg) and spread over the
     radar's own field of view and range with an areal density proportional to range^-``clutter_range_exponent``
     from ``clutter_min_range`` out. Each is ``clutter_snr_excess_db`` (mean, exponential) over the CFAR threshold and
     moves with the water's orbital velocity plus ``clutter_doppler_spread`` (m/s, each horizontal axis).
@@ -182,6 +182,10 @@ class Awr1843Model:
     comes back with ``ghost_probability`` as a copy that bounced between the hull and the own boat k = 2 (or, a
     quarter of the time, 3) times: k times the range on the same bearing, k times the Doppler, (k - 1) x
     ``ghost_loss_db`` + 20 log10(k) weaker.
+
+    Reporting: with ``report_elevation`` the points carry the measured elevation (a 3-TX profile); without it they
+    are what an azimuth-only profile (the shipped one) reports, z = 0. At most ``max_points`` a frame, the strongest:
+    the host parser rejects a header claiming more than 512, and at 921600 baud about 450 points fill a 100 ms frame.
 
     ``clutter_calm``, ``clutter_sea_state_3``, ``ghost_probability``, ``mirror_loss_db`` and ``snr_loss_db`` default
     to the scene's ``conditions``.
@@ -223,6 +227,7 @@ class Awr1843Model:
         shore_spacing: float = 0.5,
         shore_keep: float = 0.35,
         report_elevation: bool = True,
+        max_points: int = 500,
         snr_loss_db: float | None = None,
     ) -> None:
         c = scene.conditions  # a value not given is the scene's own
@@ -269,6 +274,7 @@ class Awr1843Model:
         self.ghost_loss_db = float(ghost_loss_db)
         self.mirror_loss_db = float(mirror_loss_db)
         self.report_elevation = report_elevation
+        self.max_points = int(max_points)
         self.shore_keep = float(shore_keep)
         self._shore = _sample_quay(scene, shore_spacing)
         self._vessel_height = np.array([v.height for v in scene.vessels], float)
@@ -328,7 +334,7 @@ class Awr1843Model:
     @property
     def clutter_rate(self) -> float:
         """Sea-clutter detections a frame this scene's sea gives in the reference window (1-50 m, +-60 deg)."""
-        return self.clutter_calm + self.clutter_sea_state_3 * (self.scene.sea.crest / SEA_STATE_3_CREST) ** 2
+        return self.clutter_calm + self.clutter_sea_state_3 * self.scene.sea.crest / SEA_STATE_3_CREST
 
     def sensor_pose(self, t: float) -> SensorPose:
         """The radar's pose in the world at ``t``: the own boat's full pose (track, yaw, roll, pitch, heave) through
@@ -626,16 +632,23 @@ class Awr1843Model:
         self, t: float, k: int, echoes: _Echoes, pose: SensorPose, ghost_of: np.ndarray, rng: np.random.Generator
     ) -> RadarDetections:
         """Measurement noise and the radar's own limits; the points in TI axes, as the firmware sends them."""
+        echoes, ghost_of = _strongest(echoes, ghost_of, self.max_points)
         n = echoes.size
         rng_m, az, el = _spherical(self._world_to_ti(echoes.position, pose))  # world NED -> sensor FRD -> TI
         doppler = self._radial_velocity(echoes, pose)
         m_range = rng_m + rng.normal(0.0, self.range_noise_m, n)
         m_az = az + rng.normal(0.0, self.azimuth_noise, n)
-        m_el = el + rng.normal(0.0, self.elevation_noise, n) if self.report_elevation else np.zeros(n)
-        xyz_ti = np.stack(
-            [m_range * np.cos(m_el) * np.sin(m_az), m_range * np.cos(m_el) * np.cos(m_az), m_range * np.sin(m_el)],
-            axis=-1,
-        )
+        if self.report_elevation:
+            m_el = el + rng.normal(0.0, self.elevation_noise, n)
+            xyz_ti = np.stack(
+                [m_range * np.cos(m_el) * np.sin(m_az), m_range * np.cos(m_el) * np.cos(m_az), m_range * np.sin(m_el)],
+                axis=-1,
+            )
+        else:
+            # Azimuth-only antennas (channelCfg 15 5 0, the shipped profile) measure the direction cosine x / r, which
+            # includes cos(elevation); the firmware reports x = r (x / r), y = sqrt(r^2 - x^2), z = 0.
+            ux = np.clip(np.cos(el) * np.sin(m_az), -1.0, 1.0)
+            xyz_ti = np.stack([m_range * ux, m_range * np.sqrt(1.0 - ux * ux), np.zeros(n)], axis=-1)
         m_doppler = doppler + rng.normal(0.0, self.doppler_noise, n)
         if self.alias:
             m_doppler = np.mod(m_doppler + self.v_max, 2 * self.v_max) - self.v_max
@@ -656,37 +669,72 @@ class Awr1843Model:
         )
 
 
+def _strongest(echoes: _Echoes, ghost_of: np.ndarray, limit: int) -> tuple[_Echoes, np.ndarray]:
+    """The ``limit`` strongest echoes (all when there are no more), in their order; ghost indices follow them. A
+    copy is always weaker than its source, so a kept copy keeps its source."""
+    if echoes.size <= limit:
+        return echoes, ghost_of
+    keep = np.sort(np.argsort(-echoes.snr, kind="stable")[:limit])
+    new_index = np.full(echoes.size, -1, np.int64)
+    new_index[keep] = np.arange(keep.size)
+    g = ghost_of[keep]
+    return echoes.take(keep), np.where(g >= 0, new_index[np.maximum(g, 0)], -1)
+
+
 def _blocked(origin: np.ndarray, points: np.ndarray, owner: np.ndarray, solids: _Solids) -> np.ndarray:
     """True where the sight line origin->point passes through a prism (hull, cabin, quay block) of another owner.
 
     ``origin`` is one world NED point (3,) or one per point (N, 3). In 3-D: the line crosses a prism's side where its
     footprint edge is cut, and is blocked only if its height there lies between the prism's bottom and top. A radar
     0.9 m up sees a 3 m cabin over a 0.6 m dinghy, and only the low returns of a boat behind a 1 m hull are lost;
-    the water behind a hull is in its shadow.
+    the water behind a hull is in its shadow. From one origin, only the (point, prism) pairs whose bearings overlap
+    are tested edge by edge.
     """
     n = points.shape[0]
     verts = solids.vertices  # (P, K, 2) world (north, east)
     if n == 0 or verts.shape[0] == 0:
         return np.zeros(n, bool)
-    origin = np.broadcast_to(origin, points.shape)
-    a = verts.reshape(-1, 2)
-    s = np.roll(verts, -1, axis=1).reshape(-1, 2) - a  # (S, 2) edge vectors
-    k = verts.shape[1]
-    seg_owner, seg_bottom, seg_top = (np.repeat(x, k) for x in (solids.owner, solids.bottom, solids.top))
-    r = points[:, :2] - origin[:, :2]  # (N, 2)
-    denom = r[:, None, 0] * s[None, :, 1] - r[:, None, 1] * s[None, :, 0]  # cross(r, s)
-    qp = a[None, :, :] - origin[:, None, :2]  # (N, S, 2)
+    if origin.ndim == 1:
+        pt, pr = _pairs_in_bearing(origin[:2], points[:, :2], verts)
+        o = np.broadcast_to(origin, (pt.size, 3))
+    else:
+        pt, pr = np.repeat(np.arange(n), verts.shape[0]), np.tile(np.arange(verts.shape[0]), n)
+        o = origin[pt]
+    a = verts[pr]  # (M, K, 2) the candidate prisms' corners
+    s = np.roll(verts, -1, axis=1)[pr] - a  # (M, K, 2) their sides
+    r = points[pt, :2] - o[:, :2]  # (M, 2) sight lines
+    denom = r[:, None, 0] * s[..., 1] - r[:, None, 1] * s[..., 0]  # cross(r, s)
+    qp = a - o[:, None, :2]
     with np.errstate(divide="ignore", invalid="ignore"):
-        t_ray = (qp[..., 0] * s[None, :, 1] - qp[..., 1] * s[None, :, 0]) / denom
+        t_ray = (qp[..., 0] * s[..., 1] - qp[..., 1] * s[..., 0]) / denom
         u_seg = (qp[..., 0] * r[:, None, 1] - qp[..., 1] * r[:, None, 0]) / denom
     # not at the ends: a sight line starting on a wall face (a bounce point) does not cross that face
     crosses = (np.abs(denom) > 1e-12) & (t_ray > 1e-6) & (t_ray < 1 - 1e-6) & (u_seg >= 0) & (u_seg <= 1)
-    crosses &= seg_owner[None, :] != owner[:, None]
+    crosses &= (solids.owner[pr] != owner[pt])[:, None]
     # world z is down: heights above the water are -z
-    h_origin, h_point = -origin[:, 2], -points[:, 2]
+    h_origin, h_point = -o[:, 2], -points[pt, 2]
     h_cross = h_origin[:, None] + np.where(crosses, t_ray, 0.0) * (h_point - h_origin)[:, None]
-    crosses &= (h_cross >= seg_bottom[None, :]) & (h_cross <= seg_top[None, :])
-    return np.any(crosses, axis=1)
+    crosses &= (h_cross >= solids.bottom[pr][:, None]) & (h_cross <= solids.top[pr][:, None])
+    blocked = np.zeros(n, bool)
+    blocked[pt[np.any(crosses, axis=1)]] = True
+    return blocked
+
+
+def _pairs_in_bearing(origin: np.ndarray, points: np.ndarray, verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(point, prism) index pairs where the point's bearing from ``origin`` lies within the prism's angular extent
+    (world north, east). A convex prism seen from outside spans less than pi; one the origin is in or at spans all."""
+    rel = verts - origin  # (P, K, 2)
+    centre = np.arctan2(*rel.mean(axis=1)[:, ::-1].T)  # (P,) bearing of each prism's middle
+    spread = _wrap(np.arctan2(rel[..., 1], rel[..., 0]) - centre[:, None])  # (P, K)
+    lo, hi = spread.min(axis=1) - 1e-9, spread.max(axis=1) + 1e-9
+    everywhere = (hi - lo >= math.pi - 1e-6) | (np.min(np.hypot(rel[..., 0], rel[..., 1]), axis=1) < 1e-6)
+    bearing = _wrap(np.arctan2(points[:, 1] - origin[1], points[:, 0] - origin[0])[:, None] - centre[None, :])
+    return np.nonzero(((bearing >= lo) & (bearing <= hi)) | everywhere)
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    """Angles to [-pi, pi)."""
+    return (a + math.pi) % (2 * math.pi) - math.pi
 
 
 def _hull_scatterers(scene: Scene, seed: int, spread_db: float) -> _HullScatterers:

@@ -182,3 +182,18 @@ def test_the_model_takes_its_defaults_from_the_scene_conditions() -> None:
         np.testing.assert_allclose(b.snr_db[hull_b], a.snr_db[hull_a] - 6.0, atol=1e-9)
     # a value given to the constructor wins over the scene's
     assert Awr1843Model(wet_scene, ghost_probability=0.5).ghost_probability == 0.5
+
+
+def test_an_azimuth_only_profile_reports_range_and_direction_cosine_with_z_zero() -> None:
+    """The shipped profile (channelCfg 15 5 0) has no elevation antennas: its array measures x / r, which includes
+    cos(elevation), and the firmware reports x = r (x / r), y = sqrt(r^2 - x^2), z = 0. At 5 deg roll the post 45 deg
+    to starboard stands 1.2 m above the sensor's plane, and that is what a 2-D point loses."""
+    own = _rolling()
+    model = Awr1843Model(_buoy_scene(own), **{**EXACT, "report_elevation": False})
+    for f in model.frames(0.0, 1.0):
+        true_ti = _world_to_ti(own, f.t, f.xyz_world)
+        np.testing.assert_allclose(f.xyz_ti[:, 2], 0.0)
+        np.testing.assert_allclose(np.linalg.norm(f.xyz_ti, axis=1), np.linalg.norm(true_ti, axis=1), atol=1e-9)
+        np.testing.assert_allclose(f.xyz_ti[:, 0], true_ti[:, 0], atol=1e-9)
+        if f.frame_index == 0:
+            assert np.all(true_ti[:, 2] > 0.5)  # (0.69 m at t = 0: see the roll-cycle test)
