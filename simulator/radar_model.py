@@ -1,9 +1,11 @@
 """What a TI AWR1843 (out-of-box demo point cloud) on the own boat would report, frame by frame.
 
 This is a phenomenological model, not a ray tracer: a mmWave radar returns a handful of CFAR detections per object,
-mostly from the sides that face it, so each frame samples points on the visible hull edges (more for long and near
-hulls), gives each one the Doppler of the relative motion along the line of sight, an SNR that falls with R^4, and
-then adds what makes radar tracking hard on the water (paper 001, §1): sea clutter at every range it sees, thicker
+mostly from a few strong scatterers (a hull's corners, bow, stern, superstructure) and more weakly from the sides
+that face it, so each frame takes a hull's persistent scatterers that are in view and samples points on its
+visible sides (more for long and near hulls), gives each one the Doppler of the relative motion along the line of
+sight, an SNR that falls with R^4 and fades from frame to frame, and then adds what makes radar tracking hard on
+the water (paper 001, §1): sea clutter at every range it sees, thicker
 near the boat and on a rougher sea, moving with the waves' orbital motion; multipath ghosts (a boat's mirror image
 behind a quay wall that reflects it, and weaker copies at k times the range of a hull return that bounced between
 the hull and the own boat); and many returns from the quay, whose Doppler is the own boat's motion seen from a fixed
@@ -61,7 +63,9 @@ class RadarDetections:
     xyz_world: np.ndarray  # (N, 3) NED, where the echo appears without noise (ghosts: their apparent position)
     doppler_true: np.ndarray  # (N,) noise-free, unaliased radial velocity, m/s
     ghost_of: np.ndarray  # (N,) index of the point a k-bounce ghost copies, -1 for everything else
-    scatterer: np.ndarray  # (N,) which persistent scatterer of its vessel a hull point is, -1 diffuse and the rest
+    scatterer: (
+        np.ndarray
+    )  # (N,) which persistent scatterer of its vessel a hull point (or its mirror image) is, else -1
     mirror_of: np.ndarray  # (N,) vessel a ghost seen via a quay wall images (label LABEL_GHOST), -1 for the rest
 
     @property
@@ -71,6 +75,8 @@ class RadarDetections:
 
 @dataclass(frozen=True)
 class SensorPose:
+    """Where the radar is at one time, and how it moves."""
+
     position: np.ndarray  # (3,) world NED
     rotation: np.ndarray  # (3, 3) sensor-FRD -> world
     velocity: np.ndarray  # (3,) world NED: the boat's, its heave rate, and the lever arm turning with roll, pitch, yaw
@@ -512,8 +518,9 @@ class Awr1843Model:
             n = north.size
         velocity[:, :2] += rng.normal(0.0, self.clutter_doppler_spread, (n, 2))
         position = np.stack([north, east, -height], axis=1)  # world NED: z down
-        # CFAR-normalised: what crosses the threshold does so by a little, with a thin tail of spikes
-        snr = self.snr_threshold_db + rng.exponential(self.clutter_snr_excess_db, n)
+        # CFAR-normalised: what crosses the threshold does so by a little, with a thin tail of spikes; the day's loss
+        # (a wet radome) sinks some of it below the threshold
+        snr = self.snr_threshold_db + rng.exponential(self.clutter_snr_excess_db, n) - self.snr_loss_db
         return _Echoes.of(position, velocity, snr, LABEL_CLUTTER)
 
     def _received(

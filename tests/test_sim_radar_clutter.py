@@ -101,6 +101,13 @@ def test_the_scene_sets_the_clutter_level() -> None:
     frames = list(model.frames(0.0, 10.0))
     per_frame = np.sum(_horizontal_range(_clutter(frames)[0]) >= 3.0) / len(frames)
     assert per_frame == pytest.approx(_expected_per_frame(40.0, 3.0, 50.0), rel=0.1)
+    # a wet radome (2 dB) sinks clutter whose exponential excess (mean 2 dB) is under 2 dB: exp(-1) = 37 % remain
+    wet = SensorConditions(radar_clutter_calm=40.0, radar_snr_loss_db=2.0)
+    frames = list(
+        Awr1843Model(Scene("w", _still(), radar_mount=MOUNT, conditions=wet), seed=3, **QUIET).frames(0.0, 10.0)
+    )
+    wet_per_frame = np.sum(_horizontal_range(_clutter(frames)[0]) >= 3.0) / len(frames)
+    assert wet_per_frame == pytest.approx(math.exp(-1.0) * _expected_per_frame(40.0, 3.0, 50.0), rel=0.12)
 
 
 def test_clutter_doppler_is_the_orbital_motion_of_the_waves_under_it() -> None:
