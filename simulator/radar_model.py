@@ -63,10 +63,15 @@ class RadarDetections:
     xyz_world: np.ndarray  # (N, 3) NED, where the echo appears without noise (ghosts: their apparent position)
     doppler_true: np.ndarray  # (N,) noise-free, unaliased radial velocity, m/s
     ghost_of: np.ndarray  # (N,) index of the point a k-bounce ghost copies, -1 for everything else
-    scatterer: (
-        np.ndarray
-    )  # (N,) which persistent scatterer of its vessel a hull point (or its mirror image) is, else -1
-    mirror_of: np.ndarray  # (N,) vessel a ghost seen via a quay wall images (label LABEL_GHOST), -1 for the rest
+    # (N,) which persistent scatterer of its vessel a hull point (or its mirror image) is, else -1; None: all -1
+    scatterer: np.ndarray | None = None
+    mirror_of: np.ndarray | None = None  # (N,) vessel a quay-mirror ghost images, -1 for the rest; None: all -1
+
+    def __post_init__(self) -> None:
+        # frames built by hand (tests of what consumes them) may leave out what only the model knows
+        for name in ("scatterer", "mirror_of"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, np.full(self.n_points, -1, np.int64))
 
     @property
     def n_points(self) -> int:

@@ -217,3 +217,13 @@ def test_doppler_aliasing_and_reproducible_frames() -> None:
     assert a.frame_index == 7
     assert a.snr_db.shape == a.noise_db.shape == a.label.shape == (a.n_points,)
     assert np.all(a.noise_db > 55.0)
+
+
+def test_a_frame_built_by_hand_needs_no_scatterer_or_mirror_fields() -> None:
+    n = 3
+    det = RadarDetections(
+        0.1, 1, np.zeros((n, 3)), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n, int), np.zeros((n, 3)),
+        np.zeros(n), -np.ones(n, int),
+    )  # fmt: skip
+    np.testing.assert_array_equal(det.scatterer, [-1, -1, -1])
+    np.testing.assert_array_equal(det.mirror_of, [-1, -1, -1])
