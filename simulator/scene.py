@@ -418,6 +418,15 @@ class SensorConditions:
     lidar_laser_dropout: float = 0.0  # chance a laser returns nothing for 0.1 s (a wet or fouled window)
     lidar_packet_loss: float = 0.0  # chance a data packet never arrives
     lidar_spray_rate: float = 30.0  # spurious low returns per second close to the boat
+    # Radar (simulator/radar_model.py). The defaults keep the calm harbour of the earlier simulator.
+    # Sea-clutter detections a frame in 1-50 m and +-60 deg of the radar; the model spreads them with a density that
+    # falls with range. Calm water (ripples, wakes) gives the first; a sea adds the second times crest / 0.3 m, so
+    # sea state 1 (0.05 m crests) adds a sixth of it, sea state 2 (0.15 m) half, sea state 3 (0.3 m) all.
+    radar_clutter_calm: float = 3.0
+    radar_clutter_sea_state_3: float = 150.0
+    radar_ghost_probability: float = 0.1  # chance a detected hull return also comes back k times as far (multipath)
+    radar_mirror_loss_db: float = 8.0  # a boat seen via a quay wall: its two reflections off the wall cost this much
+    radar_snr_loss_db: float = 0.0  # two-way loss on every echo: rain, spray or a film of water on the radome
 
 
 @dataclass
