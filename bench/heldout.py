@@ -1,0 +1,205 @@
+"""The daemon on harbour scenes nobody tuned for: LiDAR only, radar only and fused, scored by `usv-tracker evaluate`.
+
+    python bench/heldout.py                    # the 50 held-out scenes random:1001 .. random:1050 (about 25 min)
+    python bench/heldout.py --train 1-12       # tuning scenes (seeds 1-100), printed only: never quoted
+    python bench/heldout.py --seeds 1007,1033  # replay particular scenes (e.g. the worst ones named below)
+
+Each scene (simulator/random_scene.py) is simulated to capture files exactly as a boat records them (VLP-16 pcap,
+AWR1843 data-port dump, autopilot .tlog), replayed through the daemon's own replay path three times (LiDAR only,
+radar only, both), and each run's --tracks-out file is scored against the scene's truth and its record of what each
+sensor returned (evaluation/). A process pool runs the scenes over both cores.
+
+Reported per mode: MOTA, IDF1, false track-frames (false positives / matches), id switches, position and speed error
+of matched pairs, false-clear bins (sent clear or unknown while a returned solid lay nearer than 80 m) and
+false-obstacle bins (share of the bins scored); the mean, the worst scene, and the three worst seeds by name.
+Only held-out runs are written to bench/results/heldout.{md,json}.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import os
+import sys
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from bench._common import save
+
+MODES = {"lidar": ("lidar",), "radar": ("radar",), "fused": ("lidar", "radar")}
+HELD_OUT = range(1001, 1051)
+TRAINING = range(1, 101)
+SECONDS = 60.0
+
+
+def _seeds(text: str) -> list[int]:
+    out: list[int] = []
+    for part in text.split(","):
+        a, _, b = part.partition("-")
+        out += list(range(int(a), int(b) + 1)) if b else [int(a)]
+    return out
+
+
+def run_scene(seed: int, seconds: float) -> dict[str, Any]:
+    """Simulate one scene, replay it in each mode and score it; a dict of figures per mode."""
+    logging.disable(logging.WARNING)  # the daemon's per-run INFO lines would bury the table
+    from daemon.config import load_config
+    from daemon.replay import run_replay
+    from evaluation import evaluate_run
+    from simulator.capture import write_captures
+    from simulator.scenarios import get_scenario
+
+    # the scene `usv-tracker simulate --scene random:SEED` plays (drawn for its own 60 s), the first ``seconds`` of it
+    scene = get_scenario(f"random:{seed}", seed=seed)
+    out: dict[str, Any] = {"seed": seed, "description": scene.description.splitlines()[0]}
+    with tempfile.TemporaryDirectory(prefix=f"heldout-{seed}-") as tmp:
+        d = Path(tmp)
+        t0 = time.perf_counter()
+        write_captures(f"random:{seed}", d, seconds, seed=seed, scene=scene)
+        out["simulate_s"] = time.perf_counter() - t0
+        for mode, sensors in MODES.items():
+            config = load_config(
+                d / "usv-tracker.toml",
+                {
+                    "lidar.enabled": "lidar" in sensors,
+                    "radar.enabled": "radar" in sensors,
+                    "lidar.source": f"pcap://{d / 'lidar.pcap'}",
+                    "radar.data": f"file://{d / 'radar.dat'}",
+                    "radar.cli": "",
+                    "radar.profile": str(d / "radar.cfg"),
+                    "mavlink.url": str(d / "autopilot.tlog"),
+                    "output.tracks_out": str(d / f"tracks-{mode}.jsonl"),
+                },
+            )
+            t0 = time.perf_counter()
+            run_replay(config, fast=True)
+            replay_s = time.perf_counter() - t0
+            r = evaluate_run(d, d / f"tracks-{mode}.jsonl", sensors=sensors).to_dict()
+            tr, bins = r["tracks"], r["bins"] or {}
+            matches = tr["matches"]
+            out[mode] = {
+                "mota": tr["mota"],
+                "idf1": tr["idf1"],
+                "false_track_frames": tr["false_positives"] / matches if matches else math.nan,
+                "false_positives": tr["false_positives"],
+                "matches": matches,
+                "id_switches": tr["id_switches"],
+                "position_error_m": tr["position_error_m"]["mean"],
+                "speed_error_mps": tr["speed_error_mps"]["mean"],
+                "false_clear_bins": bins.get("false_clear", 0),
+                "bins_with_solid": bins.get("bins_with_solid", 0),
+                "false_obstacle_bins": bins.get("false_obstacle", 0),
+                "bins_scored": bins.get("bins_scored", 0),
+                "false_obstacle_share": bins.get("false_obstacle", 0) / max(bins.get("bins_scored", 0), 1),
+                "replay_s": replay_s,
+            }
+    return out
+
+
+# (key, label, format, worse is "low" or "high")
+COLUMNS = (
+    ("mota", "MOTA", "{:.3f}", "low"),
+    ("idf1", "IDF1", "{:.3f}", "low"),
+    ("false_track_frames", "false track-frames / matches", "{:.1%}", "high"),
+    ("id_switches", "id switches", "{:.0f}", "high"),
+    ("position_error_m", "position error (m)", "{:.2f}", "high"),
+    ("speed_error_mps", "speed error (m/s)", "{:.2f}", "high"),
+    ("false_clear_bins", "false-clear bins", "{:.0f}", "high"),
+    ("false_obstacle_share", "false-obstacle bins (share)", "{:.2%}", "high"),
+)
+
+
+def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    summary: dict[str, Any] = {}
+    for mode in MODES:
+        per: dict[str, Any] = {}
+        for key, _label, _fmt, worse in COLUMNS:
+            vals = np.array([r[mode][key] for r in rows], float)
+            ok = np.isfinite(vals)
+            if not ok.any():
+                per[key] = {"mean": math.nan, "worst": math.nan, "worst_seeds": []}
+                continue
+            order = np.argsort(vals[ok] if worse == "high" else -vals[ok])[::-1]
+            seeds = np.array([r["seed"] for r in rows])[ok]
+            per[key] = {
+                "mean": float(vals[ok].mean()),
+                "worst": float(vals[ok][order[0]]),
+                "worst_seeds": [int(s) for s in seeds[order[:3]]],
+            }
+        summary[mode] = per
+    return summary
+
+
+def table(summary: dict[str, Any]) -> str:
+    lines = [
+        "| mode | " + " | ".join(c[1] for c in COLUMNS) + " |",
+        "|---|" + "---|" * len(COLUMNS),
+    ]
+    for mode in MODES:
+        cells = []
+        for key, _label, fmt, _worse in COLUMNS:
+            s = summary[mode][key]
+            cells.append(
+                f"{fmt.format(s['mean'])} (worst {fmt.format(s['worst'])}: {', '.join(map(str, s['worst_seeds']))})"
+            )
+        lines.append(f"| {mode} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    group = ap.add_mutually_exclusive_group()
+    group.add_argument("--train", help="tuning seeds, e.g. 1-12 (1-100): printed, never saved")
+    group.add_argument("--seeds", help="particular seeds, e.g. 1007,1033: printed, never saved")
+    ap.add_argument("--seconds", type=float, default=SECONDS, help="scene length (default 60 s)")
+    ap.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
+    args = ap.parse_args()
+    if args.train:
+        seeds = _seeds(args.train)
+        if any(s not in TRAINING for s in seeds):
+            ap.error("--train takes seeds 1-100 only: 1001-1100 are held out")
+    elif args.seeds:
+        seeds = _seeds(args.seeds)
+    else:
+        seeds = list(HELD_OUT)
+    held_out = not args.train and not args.seeds
+    t0 = time.perf_counter()
+    rows = []
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        for r in pool.map(run_scene, seeds, [args.seconds] * len(seeds)):
+            rows.append(r)
+            f = r["fused"]
+            print(
+                f"seed {r['seed']}: fused MOTA {f['mota']:.3f} IDF1 {f['idf1']:.3f} FP/match {f['false_track_frames']:.1%} "
+                f"false clear {f['false_clear_bins']} false obstacle {f['false_obstacle_share']:.2%} | "
+                f"lidar MOTA {r['lidar']['mota']:.3f} radar MOTA {r['radar']['mota']:.3f} | {r['description']}",
+                flush=True,
+            )
+    summary = summarise(rows)
+    text = table(summary)
+    print(text)
+    print(f"{len(rows)} scenes in {time.perf_counter() - t0:.0f} s")
+    if held_out:
+        md = "\n".join(
+            [
+                f"Held-out scenes random:{seeds[0]} .. random:{seeds[-1]} ({len(rows)} scenes, {args.seconds:.0f} s "
+                "each), simulated to captures and replayed through the daemon; `python bench/heldout.py`.",
+                "Mean over the scenes, the worst scene's figure and the three worst seeds (replay one with "
+                f"`usv-tracker simulate --scene random:SEED --seconds {args.seconds:.0f} --write DIR`).",
+                "",
+                text,
+            ]
+        )
+        save("heldout", {"summary": summary, "scenes": rows}, md)
+
+
+if __name__ == "__main__":
+    main()
