@@ -6,7 +6,7 @@ import numpy as np
 
 from drivers.frames import LidarScan, RadarFrame
 from tracker.obstacle_map import UNKNOWN
-from tracker.pipeline import PerceptionPipeline
+from tracker.pipeline import PerceptionPipeline, PipelineSettings
 from tracker.types import Track
 
 
@@ -45,13 +45,26 @@ def test_near_radar_only_track_is_not_an_obstacle_while_the_lidar_sees() -> None
     assert d[0] == UNKNOWN  # the LiDAR looked there and saw nothing: clutter, not a hull
 
 
+def test_radar_only_track_within_the_lidars_reach_is_neither_obstacle_nor_track_while_the_lidar_sees() -> None:
+    p = PerceptionPipeline(radar_tracker_factory=lambda: FixedRadarTracks([radar_track(30.0, 0.0)]))
+    out = p.step(1.0, empty_scan(0.95), [frame(0.95)], None)
+    assert out.distances_cm[0] == UNKNOWN and out.tracks == []
+    # beyond the LiDAR's 100 m the radar speaks alone
+    p = PerceptionPipeline(
+        PipelineSettings(max_distance_m=200.0),
+        radar_tracker_factory=lambda: FixedRadarTracks([radar_track(120.0, 0.0)]),
+    )
+    out = p.step(1.0, empty_scan(0.95), [frame(0.95)], None)
+    assert out.distances_cm[0] == 11900 and [tr.source for tr in out.tracks] == ["radar"]
+
+
 def test_near_radar_only_track_counts_when_the_lidar_is_blind() -> None:
     d = run([radar_track(6.0, 0.0)], lidar=False)
     assert d[0] == 500  # the near face of the 2 x 2 m box 6 m ahead
 
 
-def test_far_radar_only_track_is_an_obstacle() -> None:
-    d = run([radar_track(30.0, 0.0)], lidar=True)
+def test_far_radar_only_track_is_an_obstacle_when_the_lidar_is_blind() -> None:
+    d = run([radar_track(30.0, 0.0)], lidar=False)
     assert d[0] == 2900
 
 
