@@ -2,10 +2,12 @@
 
     python bench/cycle.py            # about two minutes
 
-Two loads: (1) "20 vessels": the `dense` scenario (20 vessels in view) inside a closed basin of 15 m walls 60 m
+Four loads: (1) "20 vessels": the `dense` scenario (20 vessels in view) inside a closed basin of 15 m walls 60 m
 around - a busy harbour, about half the firings return (the low beams see only water); (2) "every firing returns":
 the own boat inside a 5 m ring wall, so all 16 beams return on every azimuth (~28.9k points per revolution), the
-most points a VLP-16 can give at 600 rpm. Packets go through the real decoder (ScanAssembler) into LidarScans; radar frames come from the radar
+most points a VLP-16 can give at 600 rpm; (3) and (4) the `dense` scenario in open water, calm and level, then with
+the own boat rolling 5 deg and pitching 3 deg, heaving 0.2 m in a sea-state-3 sea whose water returns to the tilted
+beams and whose clutter fills the radar frame: the cost of waves, the same scene otherwise. Packets go through the real decoder (ScanAssembler) into LidarScans; radar frames come from the radar
 model through the real frame parser. Each cycle = one revolution + one radar frame through
 PerceptionPipeline.step (preprocess, both trackers, fusion, obstacle array) - exactly what the loop runs per tick.
 The process is pinned to one core. Prints and saves p50/p99/max and the per-stage medians.
@@ -13,6 +15,8 @@ The process is pinned to one core. Prints and saves p50/p99/max and the per-stag
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import os
 import sys
 import time
@@ -33,6 +37,7 @@ from simulator.lidar_model import Vlp16Model
 from simulator.radar_model import Awr1843Model
 from simulator.scenarios import get_scenario
 from simulator.scene import Quay, Scene
+from simulator.sea import Sea
 
 SECONDS = 12.0
 PASSES = 3
@@ -49,8 +54,7 @@ class SceneEgo:
 
     def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         p = self.scene.own.poses(np.asarray(times, float))
-        pos = np.column_stack([p.position, np.zeros(len(p.t))])
-        return pos, p.roll, p.pitch, p.yaw
+        return p.position_ned, p.roll, p.pitch, p.yaw
 
     def at(self, t: float) -> EgoPose:
         return self.scene.own.pose(t)
@@ -65,6 +69,24 @@ def basin_scene() -> Scene:
 def ring_scene() -> Scene:
     scene = get_scenario("dense", seed=0)
     scene.quays.append(Quay(_ring(5.5), height=4.0, land_side="port", name="ring", depth=1.0))
+    return scene
+
+
+def calm_scene() -> Scene:
+    return get_scenario("dense", seed=0)
+
+
+def waves_scene() -> Scene:
+    scene = get_scenario("dense", seed=0)
+    scene.own = dataclasses.replace(
+        scene.own,
+        roll_amplitude=math.radians(5.0),
+        roll_period=5.0,
+        pitch_amplitude=math.radians(3.0),
+        pitch_period=3.7,
+        heave_amplitude=0.2,
+    )
+    scene.sea = Sea.state(3, seed=3)
     return scene
 
 
@@ -135,7 +157,13 @@ def main() -> None:
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
     rows = {}
-    for name, scene in (("20 vessels in a walled basin", basin_scene()), ("every firing returns", ring_scene())):
+    loads = (
+        ("20 vessels in a walled basin", basin_scene()),
+        ("every firing returns", ring_scene()),
+        ("20 vessels, calm, level", calm_scene()),
+        ("20 vessels, sea state 3, rolling 5 / pitching 3 deg", waves_scene()),
+    )
+    for name, scene in loads:
         print(f"{name}: ray casting, decoding, tracking...", flush=True)
         r = measure(scene, SECONDS)
         rows[name] = r

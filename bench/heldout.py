@@ -59,7 +59,8 @@ def run_scene(seed: int, seconds: float) -> dict[str, Any]:
 
     # the scene `usv-tracker simulate --scene random:SEED` plays (drawn for its own 60 s), the first ``seconds`` of it
     scene = get_scenario(f"random:{seed}", seed=seed)
-    out: dict[str, Any] = {"seed": seed, "description": scene.description.splitlines()[0]}
+    lines = scene.description.splitlines()
+    out: dict[str, Any] = {"seed": seed, "description": lines[1] if len(lines) > 1 else lines[0]}  # the day's line
     with tempfile.TemporaryDirectory(prefix=f"heldout-{seed}-") as tmp:
         d = Path(tmp)
         t0 = time.perf_counter()

@@ -155,11 +155,13 @@ def preprocess(
     rings = np.take(ring, idx) if ring is not None else None
     horizontal = np.sqrt(r2)
     image = RangeImage.build(point_t, ring, horizontal) if ring is not None and point_t is not None else None
-    vertical = None
+    vertical = alone = None
     if image is not None:
         vertical = np.take(image.vertical(horizontal, cfg.vertical_abs_tol, cfg.vertical_rel_tol), idx)
+        neighbours_all = image.continuous(horizontal, cfg.continuity_abs_tol, cfg.continuity_rel_tol)
+        alone = np.take(neighbours_all, idx) == 0
     estimate = (
-        water.update(bx, by, height, t, rings, vertical)
+        water.update(bx, by, height, t, rings, vertical, alone)
         if water is not None
         else WaterEstimate(margin=cfg.water.margin_floor)
     )
@@ -175,7 +177,7 @@ def preprocess(
     # Rain and spray: alone in the range image (no firing beside it returned at its range).
     n_isolated = n_grazing = 0
     if image is not None and cfg.continuity_min_neighbours > 0:
-        neighbours = np.take(image.continuous(horizontal, cfg.continuity_abs_tol, cfg.continuity_rel_tol), idx)
+        neighbours = np.take(neighbours_all, idx)
         need = cfg.continuity_min_neighbours + (np.take(r2, idx) < cfg.continuity_near_range**2)
         alone = solid & (neighbours < need)
         n_isolated = int(np.count_nonzero(alone))

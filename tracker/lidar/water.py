@@ -88,10 +88,12 @@ class WaterSurface:
         t: float,
         ring: np.ndarray | None = None,
         vertical: np.ndarray | None = None,
+        alone: np.ndarray | None = None,
     ) -> WaterEstimate:
         """Fit the surface to this revolution's returns (level-frame x, y and height above the configured
         waterline; ``ring`` the laser of each, 0 = lowest; ``vertical`` marks returns on a vertical face, never
-        water) and return the estimate to classify them with."""
+        water; ``alone`` those with no neighbour in the range image, which may be rain) and return the estimate to
+        classify them with."""
         cfg = self.config
         prev = self.current(t)
         if not cfg.enabled:
@@ -107,6 +109,7 @@ class WaterSurface:
         if idx.size > _SUBSAMPLE:
             idx = idx[:: idx.size // _SUBSAMPLE + 1]
         cx, cy, ch = x[idx], y[idx], height[idx]
+        c_alone = alone[idx] if alone is not None else np.zeros(idx.size, dtype=bool)
         cring = ring[idx] if ring is not None else None
         sector = np.floor((np.arctan2(cy, cx) + math.pi) * (N_SECTORS / (2 * math.pi))).astype(np.int64)
         if np.count_nonzero(np.bincount(sector, minlength=N_SECTORS + 1)) < cfg.min_sectors:
@@ -155,7 +158,11 @@ class WaterSurface:
             return prev
         # The crests: the fit's 3-sigma inliers leave out the highest of them, so the quantile is taken over the
         # whole water layer (within crest_sigmas of the plane), which still leaves out decks and hull sides above.
-        layer = np.abs(res) <= max(cfg.crest_sigmas * sigma, 0.05)
+        # Lone returns are left out of it: rain drops in the fit's window spread the layer (0.40 m of "crests" in a
+        # 0.05 m sea), and a sparse sea's lone water returns still show in the fit's sigma below.
+        layer = (np.abs(res) <= max(cfg.crest_sigmas * sigma, 0.05)) & ~c_alone
+        if not layer.any():
+            layer = np.abs(res) <= max(cfg.crest_sigmas * sigma, 0.05)
         # The returns under-sample the crests (a beam meets a crest's face, seldom its top), so the sea's own spread
         # sets a floor: a Gaussian sea's crests reach about 3 sigma (Rayleigh crests: 1 in 100 above 3 sigma).
         crest = max(float(np.quantile(np.abs(res[layer]), cfg.margin_quantile)), cfg.margin_sigmas * sigma)
