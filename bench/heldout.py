@@ -189,17 +189,34 @@ def main() -> None:
     print(text)
     print(f"{len(rows)} scenes in {time.perf_counter() - t0:.0f} s")
     if held_out:
-        md = "\n".join(
-            [
-                f"Held-out scenes random:{seeds[0]} .. random:{seeds[-1]} ({len(rows)} scenes, {args.seconds:.0f} s "
-                "each), simulated to captures and replayed through the daemon; `python bench/heldout.py`.",
-                "Mean over the scenes, the worst scene's figure and the three worst seeds (replay one with "
-                f"`usv-tracker simulate --scene random:SEED --seconds {args.seconds:.0f} --write DIR`).",
-                "",
-                text,
-            ]
+        save("heldout", {"summary": summary, "scenes": rows}, markdown(summary, rows, args.seconds))
+
+
+def markdown(summary: dict[str, Any], rows: list[dict[str, Any]], seconds: float) -> str:
+    """The committed record: the summary table, then one line per scene so a bad one can be found and replayed."""
+    seeds = [r["seed"] for r in rows]
+    lines = [
+        f"Held-out scenes random:{min(seeds)} .. random:{max(seeds)} ({len(rows)} scenes, {seconds:.0f} s each), "
+        "simulated to captures and replayed through the daemon; `python bench/heldout.py`.",
+        "Mean over the scenes, the worst scene's figure and the three worst seeds (replay one with "
+        f"`usv-tracker simulate --scene random:SEED --seconds {seconds:.0f} --write DIR`).",
+        "",
+        table(summary),
+        "",
+        "Per scene (fused; LiDAR-only and radar-only MOTA beside):",
+        "",
+        "| seed | MOTA | IDF1 | false track-frames | false-clear bins / with a solid | false-obstacle bins | "
+        "LiDAR MOTA | radar MOTA | the day |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        f = r["fused"]
+        lines.append(
+            f"| {r['seed']} | {f['mota']:.3f} | {f['idf1']:.3f} | {f['false_track_frames']:.1%} | "
+            f"{f['false_clear_bins']} / {f['bins_with_solid']} | {f['false_obstacle_bins']} | "
+            f"{r['lidar']['mota']:.3f} | {r['radar']['mota']:.3f} | {r['description'].removeprefix('day: ')} |"
         )
-        save("heldout", {"summary": summary, "scenes": rows}, md)
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":

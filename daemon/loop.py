@@ -429,6 +429,8 @@ def tick_record(
             for tr in out.tracks
         ],
         "obstacle_distance_cm": out.distances_cm.tolist() if sent else None,
+        # per bin, how far out the live sensors vouched that a 0.5 m solid would have been returned (m, 0: nowhere)
+        "clear_to_m": [round(float(x), 1) for x in out.clear_to_m],
         "lidar_fresh": out.lidar_fresh,
         "radar_fresh": out.radar_fresh,
         "own": None

@@ -22,15 +22,23 @@ OLD_KEYS = {"t", "tracks", "obstacle_distance_cm", "lidar_fresh", "radar_fresh"}
 
 
 def output() -> PerceptionOutput:
+    clear_to = np.zeros(72)
+    clear_to[:3] = [11.81, 50.0, 0.04]
     return PerceptionOutput(
-        t=12.5, tracks=[], distances_cm=np.full(72, 10001, np.uint16), lidar_fresh=True, radar_fresh=False
+        t=12.5,
+        tracks=[],
+        distances_cm=np.full(72, 10001, np.uint16),
+        lidar_fresh=True,
+        radar_fresh=False,
+        clear_to_m=clear_to,
     )
 
 
 def test_record_with_and_without_a_pose() -> None:
     pose = EgoPose(12.5, np.array([3.14159, -2.5, 0.1]), np.zeros(3), 0.01, 0.02, math.radians(-30.0), 0.0)
     rec = tick_record(output(), sent=True, own=pose, world_origin=(59.4100000123, 10.49))
-    assert set(rec) == OLD_KEYS | {"own", "world_origin_lat_lon"}
+    assert set(rec) == OLD_KEYS | {"own", "world_origin_lat_lon", "clear_to_m"}
+    assert rec["clear_to_m"][:4] == [11.8, 50.0, 0.0, 0.0] and len(rec["clear_to_m"]) == 72
     assert rec["own"] == {"position_ne": [3.142, -2.5], "yaw_deg": -30.0}
     assert rec["world_origin_lat_lon"] == [59.41000001, 10.49]
     bare = tick_record(output(), sent=False)
