@@ -15,8 +15,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from daemon.config import Config
+from daemon.runner import pipeline_for
+from drivers.frames import EgoPose, LidarScan
 from drivers.mount import FLU_TO_FRD, Mount
 from tracker.ego import rotation_matrices
+from tracker.pipeline import PerceptionPipeline
 
 ELEVATION_DEG = np.array([-15, 1, -13, 3, -11, 5, -9, 7, -7, 9, -5, 11, -3, 13, -1, 15], float)
 VERTICAL_OFFSET_M = (
@@ -95,3 +99,42 @@ def revolution_over_water(
     xyz_body = o_body[hit] + lam[hit, None] * d_body[hit]
     xyz_world = o_world[hit] + lam[hit, None] * d_world[hit]
     return WaterReturns(xyz_body, t[hit], RING_OF_LASER[laser[hit]], xyz_world, wall[hit])
+
+
+class SteadyEgo:
+    """The autopilot's pose: at the origin, heading ``yaw``, roll and pitch from ``attitude(t)``."""
+
+    epoch = 1
+    available = True
+
+    def __init__(self, attitude: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], yaw: float) -> None:
+        self.attitude = attitude
+        self.yaw = yaw
+
+    def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        times = np.asarray(times, float)
+        roll, pitch = self.attitude(times)
+        n = times.size
+        return (
+            np.zeros((n, 3)),
+            np.broadcast_to(roll, (n,)) * 1.0,
+            np.broadcast_to(pitch, (n,)) * 1.0,
+            np.full(n, self.yaw),
+        )
+
+    def at(self, t: float) -> EgoPose:
+        roll, pitch = self.attitude(np.array([t]))
+        return EgoPose(t, np.zeros(3), np.zeros(3), float(np.ravel(roll)[0]), float(np.ravel(pitch)[0]), self.yaw)
+
+
+def lidar_pipeline(mount: Mount) -> PerceptionPipeline:
+    """The pipeline as `usv-tracker run` builds it on the shipped defaults, LiDAR only, at ``mount``'s height."""
+    config = Config()
+    config.lidar.mount.z = mount.z
+    config.radar.enabled = False
+    return pipeline_for(config)
+
+
+def scan_of(ret: WaterReturns, stamp: float, intensity: float = 4.0) -> LidarScan:
+    n = ret.t.size
+    return LidarScan(stamp, stamp, ret.xyz_body, np.full(n, intensity, np.float32), ret.ring, ret.t)

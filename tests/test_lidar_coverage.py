@@ -8,12 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from daemon.config import Config
-from daemon.runner import pipeline_for
-from drivers.frames import LidarScan
 from drivers.mount import Mount
-from tests.sea_geometry import revolution_over_water
-from tests.test_sea_state import SteadyEgo
+from tests.sea_geometry import SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
 from tracker.lidar.coverage import band_intervals, beam_elevations_level, swept_bins, vouched_range
 from tracker.obstacle_map import UNKNOWN
 
@@ -78,27 +74,15 @@ def test_a_lost_packet_leaves_its_bins_unswept() -> None:
     assert np.flatnonzero(~swept).tolist() == [10]  # bin 10 spans 47.5-52.5 deg
 
 
-def _pipeline():
-    config = Config()
-    config.lidar.mount.z = MOUNT.z
-    config.radar.enabled = False
-    return pipeline_for(config)
-
-
-def _scan(ret, stamp: float) -> LidarScan:
-    n = ret.t.size
-    return LidarScan(stamp, stamp, ret.xyz_body, np.full(n, 30.0, np.float32), ret.ring, ret.t)
-
-
 def _one_revolution(walls, pitch_deg: float = 0.0):
     pitch = math.radians(pitch_deg)
 
     def attitude(t):
         return np.zeros(np.shape(t)), np.full(np.shape(t), pitch)
 
-    pipeline = _pipeline()
+    pipeline = lidar_pipeline(MOUNT)
     ret = revolution_over_water(MOUNT, attitude, yaw=0.0, walls=walls, water_returns=False)
-    out = pipeline.step(0.1, _scan(ret, 0.1), [], SteadyEgo(attitude))
+    out = pipeline.step(0.1, scan_of(ret, 0.1, intensity=30.0), [], SteadyEgo(attitude, 0.0))
     return out, ret, pipeline
 
 

@@ -12,35 +12,12 @@ import math
 import numpy as np
 import pytest
 
-from daemon.config import Config
-from daemon.runner import pipeline_for
-from drivers.frames import EgoPose, LidarScan
 from drivers.mount import Mount
-from tests.sea_geometry import revolution_over_water
+from tests.sea_geometry import SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
 from tracker.obstacle_map import UNKNOWN
 
 ROLL, PITCH, YAW = math.radians(5.0), math.radians(3.0), 0.3
 MOUNT = Mount(z=-1.6)
-
-
-class SteadyEgo:
-    """The autopilot's pose: at the origin, heading YAW, attitude from ``attitude(t)``."""
-
-    epoch = 1
-    available = True
-
-    def __init__(self, attitude) -> None:
-        self.attitude = attitude
-
-    def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        times = np.asarray(times, float)
-        roll, pitch = self.attitude(times)
-        n = times.size
-        return np.zeros((n, 3)), np.broadcast_to(roll, (n,)) * 1.0, np.broadcast_to(pitch, (n,)) * 1.0, np.full(n, YAW)
-
-    def at(self, t: float) -> EgoPose:
-        roll, pitch = self.attitude(np.array([t]))
-        return EgoPose(t, np.zeros(3), np.zeros(3), float(np.ravel(roll)[0]), float(np.ravel(pitch)[0]), YAW)
 
 
 def steady(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -53,36 +30,17 @@ def rolling(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ROLL * np.sin(2 * math.pi * t / 4.0 + 0.3), PITCH * np.sin(2 * math.pi * t / 3.0 + 1.0)
 
 
-def _pipeline():
-    config = Config()
-    config.lidar.mount.z = MOUNT.z
-    config.radar.enabled = False
-    return pipeline_for(config)
-
-
-def _scan(ret, stamp: float) -> LidarScan:
-    n = ret.t.size
-    return LidarScan(
-        stamp=stamp,
-        stamp_device=stamp,
-        xyz=ret.xyz_body,
-        intensity=np.full(n, 4.0, np.float32),
-        ring=ret.ring,
-        t=ret.t,
-    )
-
-
 @pytest.mark.parametrize("attitude", [steady, rolling], ids=["rolled-5-pitched-3", "rolling"])
 def test_flat_sea_under_a_tilted_boat_gives_no_obstacle_and_no_cluster(attitude) -> None:
-    pipeline = _pipeline()
-    ego = SteadyEgo(attitude)
+    pipeline = lidar_pipeline(MOUNT)
+    ego = SteadyEgo(attitude, YAW)
     for k in range(3):  # three revolutions: the tracker would confirm a track on the third
         ret = revolution_over_water(MOUNT, attitude, yaw=YAW, t0=0.1 * k)
         # the geometry is the worst case the issue describes: thousands of water returns between 6 and 30 m
         assert ret.t.size > 5000
         horizontal = np.hypot(ret.xyz_body[:, 0], ret.xyz_body[:, 1])
         assert np.count_nonzero((horizontal > 6) & (horizontal < 30)) > 1000
-        out = pipeline.step(0.1 * k + 0.1, _scan(ret, 0.1 * k + 0.1), [], ego)
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
         obstacle = out.distances_cm <= 10000
         assert not obstacle.any(), f"revolution {k}: obstacle bins {np.flatnonzero(obstacle).tolist()}"
         assert pipeline.lidar_tracker.last_clusters == []
@@ -102,8 +60,8 @@ def chop(north: np.ndarray, east: np.ndarray) -> np.ndarray:
 def test_choppy_heaving_sea_gives_no_obstacle_and_a_low_hull_in_it_still_does() -> None:
     """Crests +-0.3 m, the boat heaved 0.2 m up (which the autopilot does not report) and rolling: the water is
     found from its own returns, and a hull 0.8 m high at 20 m on the 45 deg bearing stays an obstacle."""
-    pipeline = _pipeline()
-    ego = SteadyEgo(rolling)
+    pipeline = lidar_pipeline(MOUNT)
+    ego = SteadyEgo(rolling, YAW)
     bearing = math.radians(45.0) + YAW  # world bearing of the body's 45 deg
     centre = 20.0 * np.array([math.cos(bearing), math.sin(bearing)])
     along = np.array([-math.sin(bearing), math.cos(bearing)])
@@ -113,7 +71,7 @@ def test_choppy_heaving_sea_gives_no_obstacle_and_a_low_hull_in_it_still_does() 
         ret = revolution_over_water(
             MOUNT, rolling, yaw=YAW, origin_height=0.2, elevation=chop, t0=0.1 * k, walls=() if water_only else (wall,)
         )
-        out = pipeline.step(0.1 * k + 0.1, _scan(ret, 0.1 * k + 0.1), [], ego)
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
         pre = pipeline.last_preprocess
         obstacle = np.flatnonzero(out.distances_cm <= 10000)
         if water_only:

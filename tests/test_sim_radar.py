@@ -10,20 +10,10 @@ import pytest
 from drivers.mount import TI_TO_FRD, Mount
 from simulator.radar_model import Awr1843Model, RadarDetections
 from simulator.scene import LABEL_GHOST, LABEL_SHORE, OwnBoat, Quay, Scene, Trajectory, Vessel
+from tests.radar_sim_settings import EXACT
 from tracker.ego import rotation_matrices
 
 MOUNT = Mount(x=1.0, z=-1.0)
-EXACT = {
-    "range_noise_m": 0.0,
-    "azimuth_noise_deg": 0.0,
-    "elevation_noise_deg": 0.0,
-    "doppler_noise": 0.0,
-    "fluctuation": False,
-    "clutter_calm": 0.0,
-    "clutter_sea_state_3": 0.0,
-    "ghost_probability": 0.0,
-    "detect_probability": 1.0,
-}
 
 
 def _still() -> OwnBoat:

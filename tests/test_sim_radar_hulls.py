@@ -17,21 +17,11 @@ import pytest
 from drivers.mount import Mount
 from simulator.radar_model import Awr1843Model, RadarDetections
 from simulator.scene import OwnBoat, Scene, Trajectory, Vessel
+from tests.radar_sim_settings import EXACT as EXACT_GEOMETRY
 
 MOUNT = Mount(x=0.0, z=-1.0)
-EXACT = {
-    "range_noise_m": 0.0,
-    "azimuth_noise_deg": 0.0,
-    "elevation_noise_deg": 0.0,
-    "doppler_noise": 0.0,
-    "fluctuation": False,
-    "clutter_calm": 0.0,
-    "clutter_sea_state_3": 0.0,
-    "ghost_probability": 0.0,
-    "detect_probability": 1.0,
-    "snr_threshold_db": -100.0,
-    "max_range": 100.0,
-}
+
+EXACT = {**EXACT_GEOMETRY, "snr_threshold_db": -100.0, "max_range": 100.0}
 SPIN = 0.3  # rad/s: a full turn in 21 s
 
 

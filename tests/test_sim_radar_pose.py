@@ -15,22 +15,12 @@ from drivers.awr1843.parser import RadarFrameParser, encode_frame
 from drivers.mount import TI_TO_FRD, Mount
 from simulator.radar_model import Awr1843Model, RadarDetections
 from simulator.scene import OwnBoat, Quay, Scene, SensorConditions, Trajectory, Vessel
+from tests.radar_sim_settings import EXACT
 from tracker.ego import rotation_matrices
 
 MOUNT = Mount(x=1.2, y=0.2, z=-0.9, yaw=math.radians(10.0))
 HEADING = 0.3
 ROLL = math.radians(5.0)
-EXACT = {
-    "range_noise_m": 0.0,
-    "azimuth_noise_deg": 0.0,
-    "elevation_noise_deg": 0.0,
-    "doppler_noise": 0.0,
-    "fluctuation": False,
-    "clutter_calm": 0.0,
-    "clutter_sea_state_3": 0.0,
-    "ghost_probability": 0.0,
-    "detect_probability": 1.0,
-}
 
 
 def _rolling(heave: float = 0.3) -> OwnBoat:
