@@ -198,8 +198,7 @@ class PerceptionPipeline:
             # LiDAR track coasting behind an occluder adds nothing: the occluder is nearer in those bins; and a
             # coasting prediction elsewhere (a quay piece taken for a vessel, a lost track) put false obstacles
             # round the boat in waves.
-            lidar_sees = t - self._last_lidar_t <= self.freshness_s
-            swept = self._lidar_coverage.bins() if lidar_sees else np.zeros(72, dtype=bool)
+            swept = self._lidar_coverage.bins() if lidar_fresh else np.zeros(72, dtype=bool)
             outlines = [
                 outline_points(tr.footprint())
                 for tr in tracks
