@@ -234,3 +234,19 @@ def test_a_spray_clump_in_front_of_a_boat_does_not_blind_its_track() -> None:
     np.testing.assert_allclose(sprayed[0].position, clean[0].position, atol=0.05)
     np.testing.assert_allclose(sprayed[0].velocity, clean[0].velocity, atol=0.05)
     assert sprayed[0].velocity[1] < -1.0  # westbound: it turned with the boat
+
+
+def test_a_long_still_structure_is_not_a_vessel_but_a_long_ship_under_way_and_a_moored_boat_are() -> None:
+    """A 30 m stretch of quay (with its land) lying still, a 35 m ship passing at 2 m/s and a 10 m boat moored: after
+    3 s only the ship and the boat are confirmed tracks; the quay's later pieces get none either."""
+    rng = np.random.default_rng(7)
+    tracker = LidarTracker()
+    for k in range(40):
+        t = k * DT
+        quay = SyntheticObject((0.0, 40.0), 0.0, 30.0, 6.0, 1.5, ShapeKind.BOX)
+        ship = SyntheticObject((60.0, -40.0 + 2.0 * t), math.pi / 2, 35.0, 8.0, 6.0, ShapeKind.BOX)
+        boat = SyntheticObject((-25.0, -20.0), 0.3, 10.0, 3.5, 2.0, ShapeKind.BOX)
+        tracks = tracker.step(scan_objects([quay, ship, boat], ORIGIN, range_noise=0.02, rng=rng), t, ORIGIN, 0.0)
+    assert near(tracks, quay, 5.0) == []
+    assert len(near(tracks, ship, 5.0)) == 1
+    assert len(near(tracks, boat, 3.0)) == 1

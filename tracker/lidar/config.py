@@ -330,9 +330,14 @@ class StructureConfig:
     half_size_m: float = 150.0  # m; half the side of the grid, which follows the own boat
     range_m: float = 100.0  # m kept on the grid around the own boat: the VLP-16's range
     min_fraction: float = 0.5  # share of a cluster's footprint on remembered cells that makes it structure
+    # A confirmed track this long, slower than static_max_speed_mps for static_min_age_s, is structure too (a quay
+    # stretch with its land; tracker.LidarTracker._static_structure). 0 turns it off.
+    static_min_length_m: float = 20.0
+    static_max_speed_mps: float = 0.8
+    static_min_age_s: float = 2.0
 
     def __post_init__(self) -> None:
-        _positive(self, "memory_s", allow_zero=True)
+        _positive(self, "memory_s", "static_min_length_m", "static_max_speed_mps", "static_min_age_s", allow_zero=True)
         _positive(self, "cell_m", "half_size_m", "range_m")
         if self.half_size_m < self.range_m + 10 * self.cell_m:
             raise ConfigError(

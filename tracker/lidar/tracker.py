@@ -314,11 +314,12 @@ class LidarTracker:
                 self.last_cluster_track[k] = self._lives[ti].id
         for ti in assignment.unmatched_rows:
             self._lives[ti].miss(t)
-        dead = [i for i, life in enumerate(self._lives) if not life.alive]
+        dead = [i for i, life in enumerate(self._lives) if not life.alive] + self._static_structure(t)
+        dead = sorted(set(dead))
         if dead:
             self.bank.remove(dead)
-            self._lives = [life for life in self._lives if life.alive]
             dead_set = set(dead)
+            self._lives = [life for i, life in enumerate(self._lives) if i not in dead_set]
             self._kinds = [k for i, k in enumerate(self._kinds) if i not in dead_set]
         for di in assignment.unmatched_cols:
             self.bank.add(measurements[di])
@@ -328,6 +329,31 @@ class LidarTracker:
             for k in self._detection_clusters[di]:
                 self.last_cluster_track[k] = life.id
         return self.tracks()
+
+    def _static_structure(self, t: float) -> list[int]:
+        """Tracks that are quay, not vessel: confirmed, at least ``static_min_length_m`` long and slower than
+        ``static_max_speed_mps`` for ``static_min_age_s``. Their clusters are remembered as structure (so the next
+        pieces of the same wall get no track either) and the tracks end. On the tuning scenes a 25-45 m stretch of
+        quay with the land behind it was tracked as a "vessel" moving at its changing ends' 0.1-0.8 m/s, most of the
+        false track-frames; no vessel that size lies still in a harbour's fairway, and a moored ship stays an
+        obstacle in the array, built from its returns."""
+        cfg = self.config.structure
+        if cfg.static_min_length_m <= 0 or cfg.memory_s <= 0 or self._cluster_result is None:
+            return []
+        out = []
+        for i, (ekf, life) in enumerate(zip(self.bank.filters, self._lives, strict=True)):
+            x = ekf.x
+            if (
+                life.confirmed
+                and life.age >= cfg.static_min_age_s
+                and max(float(x[LEN]), float(x[WID])) >= cfg.static_min_length_m
+                and math.hypot(float(x[VN]), float(x[VE])) <= cfg.static_max_speed_mps
+            ):
+                out.append(i)
+                mine = [k for k, tid in enumerate(self.last_cluster_track) if tid == life.id]
+                if mine:
+                    self.structure.remember(t, np.concatenate([self._cluster_result.footprints[k] for k in mine]))
+        return out
 
     def _swept_to(self, m: Measurement, ti: int, lag: float) -> Measurement:
         """``m`` moved by track ``ti``'s predicted velocity over ``lag`` s (from its sweep to the scan time)."""
