@@ -159,7 +159,13 @@ def run_replay(config: Config, duration_s: float | None = None, fast: bool = Tru
     if not starts:
         log.error("replay: the captures hold no LiDAR revolution and no radar frame")
         return 2
+    period = 1.0 / config.output.rate_hz
+    # Ticks fall halfway between revolutions, as the live loop's phase lock puts them: a tick grid started by the
+    # radar's first frame could sit on the revolutions' arrivals, and jitter then gives one interval two of them
+    # (the older dropped) and the next none - a fused replay tracked worse than a LiDAR-only one of the same data.
     t0 = min(starts)
+    if first_lidar is not None:  # the LiDAR's phase, from no later than the first item of either sensor
+        t0 = first_lidar - period / 2 - math.ceil(max(first_lidar - period / 2 - t0, 0.0) / period) * period
     inputs = SensorInputs(LatestSlot[LidarScan](), BoundedQueue[RadarFrame](10_000))
     o = config.output
     tracks_file = open(o.tracks_out, "w", encoding="utf-8") if o.tracks_out else None  # noqa: SIM115
@@ -174,7 +180,6 @@ def run_replay(config: Config, duration_s: float | None = None, fast: bool = Tru
     )
     if assembler is not None:
         loop.world_to_geodetic = assembler.world_to_geodetic
-    period = 1.0 / o.rate_hz
     summary = ReplaySummary()
     wall0 = time.monotonic()
     k = 0

@@ -53,12 +53,14 @@ def test_one_vessel_always_in_view(replayed: Path, capsys: pytest.CaptureFixture
     assert main(["evaluate", str(replayed / "tracks.jsonl"), "--truth", str(replayed), "--json"]) == 0
     r = json.loads(capsys.readouterr().out)
     a, t, v, b = r["alignment"], r["tracks"], r["visibility"], r["bins"]
-    # 40 ticks stamped T0_UNIX + 0.1 k + the first radar chunk's 4 ms; the truth ends at 3.9 s
+    # 41 ticks, halfway between the LiDAR's revolutions (the replay locks to its phase as the live loop does):
+    # T0_UNIX + 0.05 + 0.1 k; the truth ends at 3.9 s
     assert a["time_offset_s"] == -T0_UNIX
-    assert (a["ticks_in_file"], a["ticks_scored"], a["ticks_outside_truth"]) == (40, 38, 2)
+    assert (a["ticks_in_file"], a["ticks_scored"], a["ticks_outside_truth"]) == (41, 39, 2)
     assert a["own_position_error_m"]["max"] < 0.01  # the tlog's pose is the scene's: the frames agree
-    # the first tick has no reference windows; the box is returned in every one after it
-    assert v["vessel_ticks_without_record"] == 1 and v["vessel_ticks_sensor_limit"] == 0
+    # the first two ticks (0.05 and 0.15 s) have not two whole windows behind them; the box is returned in every one
+    # after them
+    assert v["vessel_ticks_without_record"] == 2 and v["vessel_ticks_sensor_limit"] == 0
     assert v["vessel_ticks_to_track"] == t["objects"] == 37
     # The radar confirms the box first; when the LiDAR confirms it too the fused track keeps the LiDAR's id: one
     # id switch. Nothing else may go wrong on a lone box at 20 m.
