@@ -51,8 +51,7 @@ def _seeds(text: str) -> list[int]:
 def run_scene(seed: int, seconds: float) -> dict[str, Any]:
     """Simulate one scene, replay it in each mode and score it; a dict of figures per mode."""
     logging.disable(logging.WARNING)  # the daemon's per-run INFO lines would bury the table
-    from daemon.config import load_config
-    from daemon.replay import run_replay
+    from daemon.replay import recording_config, run_replay
     from evaluation import evaluate_run
     from simulator.capture import write_captures
     from simulator.scenarios import get_scenario
@@ -67,19 +66,7 @@ def run_scene(seed: int, seconds: float) -> dict[str, Any]:
         write_captures(f"random:{seed}", d, seconds, seed=seed, scene=scene)
         out["simulate_s"] = time.perf_counter() - t0
         for mode, sensors in MODES.items():
-            config = load_config(
-                d / "usv-tracker.toml",
-                {
-                    "lidar.enabled": "lidar" in sensors,
-                    "radar.enabled": "radar" in sensors,
-                    "lidar.source": f"pcap://{d / 'lidar.pcap'}",
-                    "radar.data": f"file://{d / 'radar.dat'}",
-                    "radar.cli": "",
-                    "radar.profile": str(d / "radar.cfg"),
-                    "mavlink.url": str(d / "autopilot.tlog"),
-                    "output.tracks_out": str(d / f"tracks-{mode}.jsonl"),
-                },
-            )
+            config = recording_config(d, d / f"tracks-{mode}.jsonl", "lidar" in sensors, "radar" in sensors)
             t0 = time.perf_counter()
             run_replay(config, fast=True)
             replay_s = time.perf_counter() - t0

@@ -65,6 +65,29 @@ class ReplaySummary:
     wall_seconds: float = 0.0
 
 
+def recording_config(directory: str | Path, tracks_out: str | Path, lidar: bool = True, radar: bool = True) -> Config:
+    """The config that replays a recording directory (`run --record DIR` or `simulate --write DIR`: lidar.pcap,
+    radar.dat, radar.cfg, autopilot.tlog, and usv-tracker.toml with the mounts when the simulator wrote one) with
+    the chosen sensors, writing ``tracks_out``."""
+    from daemon.config import load_config
+
+    d = Path(directory)
+    toml = d / "usv-tracker.toml"
+    return load_config(
+        toml if toml.is_file() else None,
+        {
+            "lidar.enabled": lidar,
+            "radar.enabled": radar,
+            "lidar.source": f"pcap://{d / 'lidar.pcap'}",
+            "radar.data": f"file://{d / 'radar.dat'}",
+            "radar.cli": "",
+            "radar.profile": str(d / "radar.cfg"),
+            "mavlink.url": str(d / "autopilot.tlog"),
+            "output.tracks_out": str(tracks_out),
+        },
+    )
+
+
 def is_replay(config: Config) -> bool:
     schemes = []
     if config.lidar.enabled:

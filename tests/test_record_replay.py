@@ -83,8 +83,7 @@ def test_the_lidar_tracks_of_a_replay_do_not_depend_on_the_radar(tmp_path: Path)
     are the LiDAR-only replay's, tick for tick (a tick grid started by the radar's first frame sat on the
     revolutions' arrivals, dropped every other one here and there, and tracked worse)."""
 
-    from daemon.config import load_config
-    from daemon.replay import run_replay
+    from daemon.replay import recording_config, run_replay
     from simulator.capture import write_captures
     from simulator.scenarios import get_scenario
 
@@ -92,18 +91,7 @@ def test_the_lidar_tracks_of_a_replay_do_not_depend_on_the_radar(tmp_path: Path)
     write_captures("harbour", d, 3.0, seed=0, scene=get_scenario("harbour"))
     records = {}
     for mode, radar in (("fused", True), ("lidar", False)):
-        config = load_config(
-            d / "usv-tracker.toml",
-            {
-                "radar.enabled": radar,
-                "lidar.source": f"pcap://{d / 'lidar.pcap'}",
-                "radar.data": f"file://{d / 'radar.dat'}",
-                "radar.cli": "",
-                "radar.profile": str(d / "radar.cfg"),
-                "mavlink.url": str(d / "autopilot.tlog"),
-                "output.tracks_out": str(d / f"{mode}.jsonl"),
-            },
-        )
+        config = recording_config(d, d / f"{mode}.jsonl", radar=radar)
         assert run_replay(config, fast=True) == 0
         records[mode] = [json.loads(line) for line in (d / f"{mode}.jsonl").read_text().splitlines()]
 

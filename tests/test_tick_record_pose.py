@@ -9,9 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from daemon.config import load_config
 from daemon.loop import tick_record
-from daemon.replay import run_replay
+from daemon.replay import recording_config, run_replay
 from drivers.frames import EgoPose
 from simulator.capture import write_captures
 from simulator.scene import OwnBoat, Scene, Trajectory, Vessel
@@ -50,18 +49,8 @@ def test_replayed_ticks_carry_the_autopilots_pose(tmp_path: Path) -> None:
     world origin is the capture's tangent-plane anchor (the local NED origin seen through GLOBAL_POSITION_INT)."""
     own = OwnBoat(Trajectory.constant_turn((5.0, -3.0), math.radians(40.0), 2.0, 0.2))
     scene = Scene("turning", own, [Vessel("buoy", 2.0, 2.0, 1.0, Trajectory.stationary((15.0, 0.0)))], duration=5.0)
-    paths = write_captures("turning", tmp_path, 1.5, scene=scene)
-    config = load_config(
-        paths["config"],
-        {
-            "lidar.source": f"pcap://{paths['lidar']}",
-            "radar.data": f"file://{paths['radar']}",
-            "radar.cli": "",
-            "radar.profile": str(paths["profile"]),
-            "mavlink.url": str(paths["autopilot"]),
-            "output.tracks_out": str(tmp_path / "tracks.jsonl"),
-        },
-    )
+    write_captures("turning", tmp_path, 1.5, scene=scene)
+    config = recording_config(tmp_path, tmp_path / "tracks.jsonl")
     assert run_replay(config) == 0
     rows = [json.loads(line) for line in (tmp_path / "tracks.jsonl").read_text().splitlines()]
     assert len(rows) >= 14
