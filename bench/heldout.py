@@ -48,6 +48,11 @@ def _seeds(text: str) -> list[int]:
     return out
 
 
+def _num(x: float | None) -> float:
+    """The evaluator's JSON has null where a figure is undefined (no vessel to track yet): NaN here."""
+    return math.nan if x is None else float(x)
+
+
 def run_scene(seed: int, seconds: float) -> dict[str, Any]:
     """Simulate one scene, replay it in each mode and score it; a dict of figures per mode."""
     logging.disable(logging.WARNING)  # the daemon's per-run INFO lines would bury the table
@@ -74,14 +79,14 @@ def run_scene(seed: int, seconds: float) -> dict[str, Any]:
             tr, bins = r["tracks"], r["bins"] or {}
             matches = tr["matches"]
             out[mode] = {
-                "mota": tr["mota"],
-                "idf1": tr["idf1"],
+                "mota": _num(tr["mota"]),
+                "idf1": _num(tr["idf1"]),
                 "false_track_frames": tr["false_positives"] / matches if matches else math.nan,
                 "false_positives": tr["false_positives"],
                 "matches": matches,
                 "id_switches": tr["id_switches"],
-                "position_error_m": tr["position_error_m"]["mean"],
-                "speed_error_mps": tr["speed_error_mps"]["mean"],
+                "position_error_m": _num(tr["position_error_m"]["mean"]),
+                "speed_error_mps": _num(tr["speed_error_mps"]["mean"]),
                 "false_clear_bins": bins.get("false_clear", 0),
                 "bins_with_solid": bins.get("bins_with_solid", 0),
                 "false_obstacle_bins": bins.get("false_obstacle", 0),
