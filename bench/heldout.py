@@ -53,7 +53,7 @@ def _num(x: float | None) -> float:
     return math.nan if x is None else float(x)
 
 
-def run_scene(seed: int, seconds: float) -> dict[str, Any]:
+def run_scene(seed: int, seconds: float, modes: tuple[str, ...] = tuple(MODES)) -> dict[str, Any]:
     """Simulate one scene, replay it in each mode and score it; a dict of figures per mode."""
     logging.disable(logging.WARNING)  # the daemon's per-run INFO lines would bury the table
     from daemon.replay import recording_config, run_replay
@@ -70,7 +70,8 @@ def run_scene(seed: int, seconds: float) -> dict[str, Any]:
         t0 = time.perf_counter()
         write_captures(f"random:{seed}", d, seconds, seed=seed, scene=scene)
         out["simulate_s"] = time.perf_counter() - t0
-        for mode, sensors in MODES.items():
+        for mode in modes:
+            sensors = MODES[mode]
             config = recording_config(d, d / f"tracks-{mode}.jsonl", "lidar" in sensors, "radar" in sensors)
             t0 = time.perf_counter()
             run_replay(config, fast=True)
@@ -110,9 +111,9 @@ COLUMNS = (
 )
 
 
-def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
+def summarise(rows: list[dict[str, Any]], modes: tuple[str, ...] = tuple(MODES)) -> dict[str, Any]:
     summary: dict[str, Any] = {}
-    for mode in MODES:
+    for mode in modes:
         per: dict[str, Any] = {}
         for key, _label, _fmt, worse in COLUMNS:
             vals = np.array([r[mode][key] for r in rows], float)
@@ -131,12 +132,12 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
     return summary
 
 
-def table(summary: dict[str, Any]) -> str:
+def table(summary: dict[str, Any], modes: tuple[str, ...] = tuple(MODES)) -> str:
     lines = [
         "| mode | " + " | ".join(c[1] for c in COLUMNS) + " |",
         "|---|" + "---|" * len(COLUMNS),
     ]
-    for mode in MODES:
+    for mode in modes:
         cells = []
         for key, _label, fmt, _worse in COLUMNS:
             s = summary[mode][key]
@@ -153,6 +154,7 @@ def main() -> None:
     group.add_argument("--train", help="tuning seeds, e.g. 1-12 (1-100): printed, never saved")
     group.add_argument("--seeds", help="particular seeds, e.g. 1007,1033: printed, never saved")
     ap.add_argument("--seconds", type=float, default=SECONDS, help="scene length (default 60 s)")
+    ap.add_argument("--modes", default=",".join(MODES), help="modes to run with --train/--seeds (default all)")
     ap.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
     args = ap.parse_args()
     if args.train:
@@ -164,20 +166,24 @@ def main() -> None:
     else:
         seeds = list(HELD_OUT)
     held_out = not args.train and not args.seeds
+    modes = tuple(m for m in args.modes.split(",") if m)
+    if any(m not in MODES for m in modes) or not modes:
+        ap.error(f"--modes takes a comma list of {', '.join(MODES)}")
+    if held_out and set(modes) != set(MODES):
+        ap.error("the held-out run saves every mode: --modes only with --train or --seeds")
     t0 = time.perf_counter()
     rows = []
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        for r in pool.map(run_scene, seeds, [args.seconds] * len(seeds)):
+        for r in pool.map(run_scene, seeds, [args.seconds] * len(seeds), [modes] * len(seeds)):
             rows.append(r)
-            f = r["fused"]
-            print(
-                f"seed {r['seed']}: fused MOTA {f['mota']:.3f} IDF1 {f['idf1']:.3f} FP/match {f['false_track_frames']:.1%} "
-                f"false clear {f['false_clear_bins']} false obstacle {f['false_obstacle_share']:.2%} | "
-                f"lidar MOTA {r['lidar']['mota']:.3f} radar MOTA {r['radar']['mota']:.3f} | {r['description']}",
-                flush=True,
-            )
-    summary = summarise(rows)
-    text = table(summary)
+            cells = [
+                f"{m} MOTA {f['mota']:.3f} IDF1 {f['idf1']:.3f} FP/match {f['false_track_frames']:.1%} "
+                f"false clear {f['false_clear_bins']} false obstacle {f['false_obstacle_share']:.2%}"
+                for m, f in ((m, r[m]) for m in modes)
+            ]
+            print(f"seed {r['seed']}: " + " | ".join(cells) + f" | {r['description']}", flush=True)
+    summary = summarise(rows, modes)
+    text = table(summary, modes)
     print(text)
     print(f"{len(rows)} scenes in {time.perf_counter() - t0:.0f} s")
     if held_out:

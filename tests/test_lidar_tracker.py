@@ -250,3 +250,76 @@ def test_a_long_still_structure_is_not_a_vessel_but_a_long_ship_under_way_and_a_
     assert near(tracks, quay, 5.0) == []
     assert len(near(tracks, ship, 5.0)) == 1
     assert len(near(tracks, boat, 3.0)) == 1
+
+
+def _hull_with_a_second_piece(config: LidarTrackerConfig) -> tuple[list[Track], int]:
+    """A 10 x 3 m boat lying broadside 30 m north (near side at 28.5 m, far side at 31.5 m). From 1.5 s a clump of
+    superstructure returns appears 2.5 m beyond the far side, outside the footprint grown by the merge margin, so
+    it starts a track of its own; it creeps in over the hull at 1 m/s until it sits 2 m behind the near side,
+    beyond the clustering's reach of the hull's returns (1.55 m at 30 m): a cluster of its own inside the hull."""
+    hull = SyntheticObject((30.0, 0.0), math.pi / 2, 10.0, 3.0, 1.0, ShapeKind.BOX)
+    tracker = LidarTracker(config)
+    rng = np.random.default_rng(3)
+    first_id = None
+    for k in range(60):
+        t = k * DT
+        pts = scan_objects([hull], ORIGIN)
+        if t >= 1.5:
+            north = max(34.0 - 1.0 * (t - 1.5), 30.5)
+            clump = np.column_stack(
+                [rng.uniform(north - 0.4, north + 0.4, 30), rng.uniform(1.0, 2.0, 30), rng.uniform(-3.0, -2.0, 30)]
+            )
+            pts = np.concatenate([pts, clump])
+        tracks = tracker.step(pts, t, ORIGIN, 0.0)
+        if first_id is None and any(tr.confirmed for tr in tracks):
+            first_id = next(tr.id for tr in tracks if tr.confirmed)
+    assert first_id is not None
+    return tracks, first_id
+
+
+def test_a_second_track_on_one_hull_ends_and_the_first_keeps_it() -> None:
+    hull = SyntheticObject((30.0, 0.0), math.pi / 2, 10.0, 3.0, 1.0, ShapeKind.BOX)
+    tracks, first_id = _hull_with_a_second_piece(LidarTrackerConfig())
+    on_hull = near(tracks, hull, 5.5)
+    assert [tr.id for tr in on_hull] == [first_id]
+    assert on_hull[0].length == pytest.approx(10.0, abs=1.0)
+
+
+def test_without_the_duplicate_rule_the_hull_carries_two_tracks() -> None:
+    """The same run with the rule off: the failure it exists for (two "vessels" on one hull) does happen."""
+    hull = SyntheticObject((30.0, 0.0), math.pi / 2, 10.0, 3.0, 1.0, ShapeKind.BOX)
+    config = LidarTrackerConfig()
+    config.association.duplicate_margin = -1.0
+    tracks, first_id = _hull_with_a_second_piece(config)
+    on_hull = near(tracks, hull, 5.5)
+    assert len(on_hull) == 2 and first_id in [tr.id for tr in on_hull]
+
+
+def _wall_then_a_new_piece(config: LidarTrackerConfig) -> list[Track]:
+    """A quay face 70 m long, 60 m north, seen whole for 1 s (structure by size, remembered); then the boat's view
+    changes and only a 10 m stretch further along the same line comes back (never seen before), with a 10 m boat
+    lying parallel to the line 3 m nearer, beyond the wall's end."""
+    tracker = LidarTracker(config)
+    wall = SyntheticObject((61.0, 0.0), math.pi / 2, 70.0, 2.0, 1.5, ShapeKind.BOX)
+    piece = SyntheticObject((61.0, 45.0), math.pi / 2, 10.0, 2.0, 1.5, ShapeKind.BOX)
+    boat = SyntheticObject((58.5, 62.0), math.pi / 2, 10.0, 3.0, 1.5, ShapeKind.BOX)
+    for k in range(50):
+        t = k * DT
+        objects = [wall] if t < 1.0 else [piece, boat]
+        tracks = tracker.step(scan_objects(objects, ORIGIN), t, ORIGIN, 0.0)
+    return tracks
+
+
+def test_a_new_piece_on_the_line_of_a_remembered_wall_is_wall_and_a_boat_off_the_line_is_a_boat() -> None:
+    tracks = _wall_then_a_new_piece(LidarTrackerConfig())
+    confirmed = [tr for tr in tracks if tr.confirmed]
+    assert len(confirmed) == 1
+    assert confirmed[0].position == pytest.approx([58.5, 62.0], abs=1.5)
+
+
+def test_without_the_line_rule_the_new_piece_of_wall_is_tracked() -> None:
+    config = LidarTrackerConfig()
+    config.structure.line_reach_m = 0.0
+    confirmed = [tr for tr in _wall_then_a_new_piece(config) if tr.confirmed]
+    assert len(confirmed) == 2
+    assert min(np.hypot(*(tr.position - np.array([61.0, 45.0]))) for tr in confirmed) < 1.5

@@ -313,9 +313,14 @@ class AssociationConfig:
     # A hull cut in two by a nearer boat's shadow gives two clusters; detections whose centres both fall inside
     # one confirmed track's predicted footprint (grown by this margin, m) and no other track's are merged (ours).
     merge_margin: float = 1.0
+    # Two live tracks on one hull (ours): when a track's centre lies inside a confirmed track's footprint grown by
+    # this margin (m) and their velocities differ by no more than duplicate_max_speed_diff (m/s, where both are
+    # known), the one with fewer hits ends. A negative margin turns it off.
+    duplicate_margin: float = 0.5
+    duplicate_max_speed_diff: float = 1.5
 
     def __post_init__(self) -> None:
-        _positive(self, "gate", "max_distance")
+        _positive(self, "gate", "max_distance", "duplicate_max_speed_diff")
         _positive(self, "merge_margin", allow_zero=True)
 
 
@@ -335,9 +340,30 @@ class StructureConfig:
     static_min_length_m: float = 20.0
     static_max_speed_mps: float = 0.8
     static_min_age_s: float = 2.0
+    # A thin piece (minor-axis spread <= line_max_thickness_m, at least line_min_length_m long) whose line, followed from line_gap_m to
+    # line_gap_m + line_reach_m beyond either end, runs over remembered structure for at least line_min_share of
+    # that stretch continues a wall: structure (StructureMemory.continues). line_reach_m 0 turns it off.
+    line_reach_m: float = 30.0
+    line_gap_m: float = 1.0
+    line_max_thickness_m: float = 0.5
+    line_min_length_m: float = 4.0
+    line_min_share: float = 0.25
 
     def __post_init__(self) -> None:
-        _positive(self, "memory_s", "static_min_length_m", "static_max_speed_mps", "static_min_age_s", allow_zero=True)
+        _positive(
+            self,
+            "memory_s",
+            "static_min_length_m",
+            "static_max_speed_mps",
+            "static_min_age_s",
+            "line_reach_m",
+            "line_gap_m",
+            "line_min_length_m",
+            allow_zero=True,
+        )
+        _positive(self, "line_max_thickness_m")
+        if not 0.0 < self.line_min_share <= 1.0:
+            raise ConfigError(f"StructureConfig.line_min_share: must be within (0, 1], got {self.line_min_share!r}")
         _positive(self, "cell_m", "half_size_m", "range_m")
         if self.half_size_m < self.range_m + 10 * self.cell_m:
             raise ConfigError(

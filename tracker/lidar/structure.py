@@ -23,6 +23,30 @@ from tracker.lidar.config import StructureConfig
 _NEIGHBOURS = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=np.int64)
 
 
+def principal_extents(
+    footprints: list[np.ndarray],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per footprint (each at least one (north, east) point), along its principal axis: the mean (k, 2), the unit
+    axis (k, 2), the lowest and highest coordinate along it (k,) and the spread across it (k,, standard deviation).
+    All footprints in one pass."""
+    n = np.array([len(f) for f in footprints])
+    pts = np.concatenate([np.asarray(f, dtype=float)[:, :2] for f in footprints])
+    starts = np.cumsum(n) - n
+    mean = np.add.reduceat(pts, starts, axis=0) / n[:, None]
+    d = pts - np.repeat(mean, n, axis=0)
+    a = np.add.reduceat(d[:, 0] * d[:, 0], starts) / n
+    b = np.add.reduceat(d[:, 0] * d[:, 1], starts) / n
+    c = np.add.reduceat(d[:, 1] * d[:, 1], starts) / n
+    root = np.sqrt(((a - c) / 2) ** 2 + b**2)  # the 2x2 covariance's eigenvalues, closed form
+    minor_std = np.sqrt(np.maximum((a + c) / 2 - root, 0.0))
+    angle = 0.5 * np.arctan2(2 * b, a - c)
+    axis = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    rep = np.repeat(axis, n, axis=0)
+    along = d[:, 0] * rep[:, 0] + d[:, 1] * rep[:, 1]
+    lo, hi = np.minimum.reduceat(along, starts), np.maximum.reduceat(along, starts)
+    return mean, axis, lo, hi, minor_std
+
+
 class StructureMemory:
     """A square grid of world cells centred near the own boat; each holds when it last lay under structure."""
 
@@ -79,6 +103,37 @@ class StructureMemory:
         on_grid = (ni >= 0) & (ni < self.cells) & (nj >= 0) & (nj < self.cells)
         recent = self.last_seen[np.clip(ni, 0, self.cells - 1), np.clip(nj, 0, self.cells - 1)] >= t - self.cfg.memory_s
         return np.any(recent & on_grid, axis=1)  # off the grid nothing is known
+
+    def continues(self, t: float, footprints: list[np.ndarray]) -> np.ndarray:
+        """(k,) bool: each footprint is a thin straight piece whose own line runs on into remembered structure.
+
+        A quay wall far off comes back as pieces: only the lowest beam reaches it, and boats moored along it cut it
+        up with their shadows. A piece is as long as a boat, but it lies on the line of the wall already seen; a
+        boat moored against the wall shows its near side, a beam's width off that line. Tested by sampling the
+        piece's principal axis beyond both ends (``line_reach_m`` each way, one sample a cell) and asking whether
+        at least ``line_min_share`` of one side's samples fall on remembered structure."""
+        cfg = self.cfg
+        k = len(footprints)
+        out = np.zeros(k, dtype=bool)
+        if self.origin is None or k == 0 or cfg.line_reach_m <= 0:
+            return out
+        sizes = np.array([len(f) for f in footprints])
+        usable = sizes >= 3
+        if not usable.any():
+            return out
+        idx = np.flatnonzero(usable)
+        mean, axis, lo, hi, minor_std = principal_extents([footprints[i] for i in idx])
+        thin = (minor_std <= cfg.line_max_thickness_m) & (hi - lo >= cfg.line_min_length_m)
+        steps = np.arange(1, int(cfg.line_reach_m / cfg.cell_m) + 1) * cfg.cell_m + cfg.line_gap_m  # (S,)
+        s_count = steps.size
+        # (P, 2 sides, S, 2): samples beyond the low end and beyond the high end
+        beyond_lo = mean[:, None, :] + (lo[:, None] - steps[None, :])[..., None] * axis[:, None, :]
+        beyond_hi = mean[:, None, :] + (hi[:, None] + steps[None, :])[..., None] * axis[:, None, :]
+        samples = np.stack([beyond_lo, beyond_hi], axis=1).reshape(-1, 2)
+        known = self.known(t, samples).reshape(len(idx), 2, s_count)
+        share = known.mean(axis=2).max(axis=1)
+        out[idx] = thin & (share >= cfg.line_min_share)
+        return out
 
     def known_fraction(self, t: float, points_ne: np.ndarray) -> float:
         """Share of the points that are :meth:`known`."""

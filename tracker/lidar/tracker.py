@@ -68,7 +68,7 @@ class LidarTracker:
         self.last_clusters: list[np.ndarray] = []  # (n, 3) world NED points per cluster, nearest first
         self.last_cluster_track: list[int | None] = []  # track id each cluster fed, None if none (or structure)
         self.last_detections: list[Detection] = []
-        self.stats = {"scans": 0, "out_of_order": 0, "degenerate_clusters": 0}
+        self.stats = {"scans": 0, "out_of_order": 0, "degenerate_clusters": 0, "duplicates": 0}
         self._cluster_result: ClusterResult | None = None
         self._detection_clusters: list[list[int]] = []  # cluster indices behind each detection
         self.structure = StructureMemory(self.config.structure)
@@ -130,6 +130,12 @@ class LidarTracker:
             known = self.structure.known(t, np.concatenate([result.footprints[k] for k in small]))
             share = np.add.reduceat(known.astype(float), np.cumsum(sizes) - sizes) / np.maximum(sizes, 1)
             big[small] = (sizes > 0) & (share >= cfg.min_fraction)
+        rest = np.flatnonzero(~big)
+        if rest.size:
+            walls = rest[self.structure.continues(t, [result.footprints[k] for k in rest])]
+            if walls.size:  # remembered in turn, so a wall seen piece by piece is followed along its length
+                big[walls] = True
+                self.structure.remember(t, np.concatenate([result.footprints[k] for k in walls]))
         return big
 
     @staticmethod
@@ -315,6 +321,7 @@ class LidarTracker:
         for ti in assignment.unmatched_rows:
             self._lives[ti].miss(t)
         dead = [i for i, life in enumerate(self._lives) if not life.alive] + self._static_structure(t)
+        dead += self._duplicates(set(dead))
         dead = sorted(set(dead))
         if dead:
             self.bank.remove(dead)
@@ -353,6 +360,45 @@ class LidarTracker:
                 mine = [k for k, tid in enumerate(self.last_cluster_track) if tid == life.id]
                 if mine:
                     self.structure.remember(t, np.concatenate([self._cluster_result.footprints[k] for k in mine]))
+        return out
+
+    def _duplicates(self, dying: set[int]) -> list[int]:
+        """Tracks that sit on a confirmed track's hull: the one with fewer hits of each such pair.
+
+        A hull seen end-on shows a short face, and its far end or superstructure can come back as a second cluster
+        beyond it that no merge gate reaches; that cluster starts a track, and the two then share the hull's
+        detections between them and both live on as two "vessels" in one place."""
+        cfg = self.config.association
+        n = len(self._lives)
+        if cfg.duplicate_margin < 0 or n < 2:
+            return []
+        x = self.bank.states()
+        confirmed = np.array([life.confirmed for life in self._lives])
+        hits = np.array([life.hits for life in self._lives])
+        rel = x[None, :, [PN, PE]] - x[:, None, [PN, PE]]  # (host T, guest T, 2): guest centre from host centre
+        c, s = np.cos(x[:, PSI])[:, None], np.sin(x[:, PSI])[:, None]
+        along = np.abs(rel[..., 0] * c + rel[..., 1] * s)
+        across = np.abs(rel[..., 1] * c - rel[..., 0] * s)
+        inside = (along <= 0.5 * x[:, [LEN]] + cfg.duplicate_margin) & (
+            across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin
+        )
+        velocity = x[:, [VN, VE]]
+        known = np.array(
+            [max(f.P[VN, VN], f.P[VE, VE]) <= self.config.ekf.velocity_valid_std**2 for f in self.bank.filters]
+        )
+        dv = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
+        same_motion = (dv <= cfg.duplicate_max_speed_diff) | ~(known[:, None] & known[None, :])
+        # the guest loses to a confirmed host with more hits (ties: the younger, later-born guest loses)
+        order = np.arange(n)
+        stronger = (hits[:, None] > hits[None, :]) | (
+            (hits[:, None] == hits[None, :]) & (order[:, None] < order[None, :])
+        )
+        pair = inside & same_motion & confirmed[:, None] & stronger
+        np.fill_diagonal(pair, False)
+        alive_host = np.array([i not in dying for i in range(n)])
+        losers = np.flatnonzero((pair & alive_host[:, None]).any(axis=0))
+        out = [int(i) for i in losers if int(i) not in dying]
+        self.stats["duplicates"] += len(out)
         return out
 
     def _swept_to(self, m: Measurement, ti: int, lag: float) -> Measurement:
