@@ -8,6 +8,7 @@ the revolution comes from plain geometry (tests/sea_geometry.py), not from the s
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -87,3 +88,35 @@ def test_choppy_heaving_sea_gives_no_obstacle_and_a_low_hull_in_it_still_does() 
             assert obstacle.tolist() == [8, 9, 10]
             np.testing.assert_allclose(out.distances_cm[obstacle] / 100.0, 20.05, atol=0.1)
             assert len(pipeline.lidar_tracker.last_clusters) == 1
+
+
+def _hull_in_chop(grow_m: float) -> tuple[int, int, int]:
+    """Eight revolutions of a 6 m hull face 1.2 m high, 25 m off on the 45 deg bearing, in the chop of the test
+    above; (solid returns, within-margin returns on the face, within-margin returns off it) of the last one."""
+    pipeline = lidar_pipeline(MOUNT)
+    pipeline.settings = replace(pipeline.settings, hull_margin_grow_m=grow_m)
+    ego = SteadyEgo(rolling, YAW)
+    bearing = math.radians(45.0) + YAW
+    centre = 25.0 * np.array([math.cos(bearing), math.sin(bearing)])
+    along = np.array([-math.sin(bearing), math.cos(bearing)])
+    wall = (tuple(centre - 3.0 * along), tuple(centre + 3.0 * along), 1.2)
+    for k in range(8):
+        ret = revolution_over_water(
+            MOUNT, rolling, yaw=YAW, origin_height=0.2, elevation=chop, t0=0.1 * k, walls=(wall,)
+        )
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+    low = pipeline.last_preprocess.within_margin_world[:, :2]
+    rel = low - centre
+    on_face = (np.abs(rel @ np.array([math.cos(bearing), math.sin(bearing)])) <= 0.3) & (np.abs(rel @ along) <= 3.0)
+    assert [t.confirmed for t in out.tracks] == [True]
+    return out.n_lidar_points, int(np.count_nonzero(on_face)), int(np.count_nonzero(~on_face))
+
+
+def test_a_tracked_hulls_returns_within_the_sea_margin_are_obstacles_and_the_crests_around_it_are_not() -> None:
+    """The margin over the crests (0.3-0.48 m) hides the face's foot; once the face is a confirmed track, its own
+    returns in that band are solid again (tracker/lidar/hull_gate.py), and the crests beyond its box stay water."""
+    gated, on_face, off_face = _hull_in_chop(0.5)
+    plain, on_face_plain, _ = _hull_in_chop(-1.0)
+    assert on_face == on_face_plain and on_face >= 10  # the face's foot, met by the low beams
+    assert off_face > 100  # crests in the band everywhere else
+    assert gated == plain + on_face

@@ -30,6 +30,7 @@ from tracker.lidar.coverage import (
     reach_from,
     swept_bins,
 )
+from tracker.lidar.hull_gate import on_tracked_hulls
 from tracker.lidar.water import WaterEstimate, WaterSurface
 from tracker.obstacle_map import SensorCoverage, bearing_bins, build_obstacle_distances, outline_points
 from tracker.radar.detector import SHORE_KEEP
@@ -79,6 +80,9 @@ class PipelineSettings:
     radar_height_m: float = 0.9  # radar above the waterline
     # Half the AWR1843BOOST's elevation beam: a low solid nearer than (height - obstacle) / tan(this) passes under it.
     radar_half_vfov_rad: float = np.radians(15.0)
+    # Returns within the sea margin inside a confirmed LiDAR track's footprint, grown by this (m), are its hull and
+    # reach the obstacle array (tracker/lidar/hull_gate.py); negative turns it off.
+    hull_margin_grow_m: float = 0.5
 
 
 @dataclass
@@ -322,6 +326,11 @@ class PerceptionPipeline:
             self._lidar_tracks = self.lidar_tracker.step(
                 track_points, scan.stamp, own_pos, own_yaw, point_times=scan.t[pre.keep]
             )
+            if self.settings.hull_margin_grow_m >= 0 and pre.within_margin_world.shape[0]:
+                low = pre.within_margin_world[:, :2]
+                hull = low[on_tracked_hulls(low, self._lidar_tracks, self.settings.hull_margin_grow_m)]
+                if hull.shape[0]:
+                    solid_body = np.concatenate([solid_body, world_to_body_2d(hull, own_pos, own_yaw)])
         return solid_body, int(solid_body.shape[0])
 
     # ---- radar ----------------------------------------------------------------------------------------------

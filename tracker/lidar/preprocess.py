@@ -36,6 +36,9 @@ class PreprocessResult:
     n_isolated: int = 0  # alone in the range image: rain drops, spray droplets
     n_grazing: int = 0  # within the sea margin but solid: a solid's foot in calm water (see preprocess)
     water: WaterEstimate = field(default_factory=WaterEstimate)
+    # (L, 3) world NED: returns within the sea margin yet above its floor, not alone in the range image and beyond
+    # the spray range: a crest's top or a hull's lower strakes; only a known hull around them can tell which
+    within_margin_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 _EXACT_BELOW = 10  # cube counts under 10x the minimum get an exact ball count (dense surfaces never need one)
@@ -235,6 +238,9 @@ def preprocess(
 
     good = solid & ~spray
     keep[idx[~good]] = False
+    undecided = in_band & ~solid & (height > cfg.water.margin_floor) & (r2[idx] >= cfg.spray_near_range**2)
+    if image is not None:
+        undecided &= np.take(neighbours_all, idx) > 0
     n_nonfinite = n - int(np.count_nonzero(finite))
     if n_nonfinite:
         log.debug("preprocess: %d non-finite returns skipped", n_nonfinite)
@@ -250,4 +256,5 @@ def preprocess(
         n_isolated=n_isolated,
         n_grazing=n_grazing,
         water=estimate,
+        within_margin_world=np.compress(undecided, world, axis=0),
     )

@@ -1,0 +1,39 @@
+"""Returns within the sea margin that lie on a tracked hull: solid, though a crest could reach as high.
+
+In a sea the margin above the fitted surface hides a hull's lower strakes along with the crests, and a boat 30-60 m
+off may be met only there (the VLP-16's low beams reach it close to the water while the boat pitches). One return
+cannot say whether it is a crest or a hull; a confirmed track can: returns inside its footprint (grown by
+``grow_m`` for the box's error) are its hull. Frames: world NED (north, east), m.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from tracker.types import Track
+
+
+def on_tracked_hulls(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float) -> np.ndarray:
+    """(L,) bool: the point lies inside some confirmed track's footprint box grown by ``grow_m`` on every side.
+
+    Work is (points x confirmed tracks) array operations; a track without a finite size or heading counts as
+    none."""
+    pts = np.asarray(points_ne, dtype=float).reshape(-1, 2)
+    hull = [
+        t
+        for t in tracks
+        if t.confirmed and np.all(np.isfinite(t.position)) and np.isfinite([t.heading, t.length, t.width]).all()
+    ]
+    if pts.shape[0] == 0 or not hull:
+        return np.zeros(pts.shape[0], dtype=bool)
+    centre = np.array([t.position[:2] for t in hull])  # (T, 2)
+    heading = np.array([t.heading for t in hull])
+    half_len = np.array([t.length for t in hull]) / 2 + grow_m
+    half_wid = np.array([t.width for t in hull]) / 2 + grow_m
+    d = pts[:, None, :] - centre[None, :, :]  # (L, T, 2)
+    c, s = np.cos(heading), np.sin(heading)
+    along = d[..., 0] * c + d[..., 1] * s
+    across = d[..., 1] * c - d[..., 0] * s
+    return np.any((np.abs(along) <= half_len) & (np.abs(across) <= half_wid), axis=1)
