@@ -7,6 +7,7 @@ it) and radians inside (converted here, once).
 
 from __future__ import annotations
 
+import ipaddress
 import math
 import sys
 from dataclasses import dataclass, field
@@ -57,7 +58,8 @@ class LidarConfig:
     enabled: bool = True
     source: str = "udp://0.0.0.0:2368"
     position_port: int = 8308
-    accept_ip: str = ""  # empty: any sender
+    accept_ip: str = ""  # the sensor's IPv4 address; empty: the first sender that looks like a VLP-16 (sender_lock.py)
+    lock_timeout_s: float = 2.0  # with accept_ip empty: silence of the locked sender after which another may take over
     model: str = "VLP16"  # VLP16: VLP-16 geometry whatever the product byte says (early firmware: 0x21); auto: trust it
     cut_angle_deg: float = 180.0  # revolution boundary in the sensor frame; astern keeps the bow whole
     silence_timeout_s: float = 2.0
@@ -80,6 +82,13 @@ class LidarConfig:
             out.append("min_range_m/max_range_m: need 0 <= min_range_m < max_range_m")
         if self.silence_timeout_s <= 0:
             out.append("silence_timeout_s: must be > 0")
+        if self.lock_timeout_s <= 0:
+            out.append("lock_timeout_s: must be > 0")
+        if self.accept_ip:
+            try:
+                ipaddress.IPv4Address(self.accept_ip)
+            except ValueError:
+                out.append(f"accept_ip: {self.accept_ip!r} is not an IPv4 address (the sensor's, e.g. 192.168.1.201)")
         return out
 
 

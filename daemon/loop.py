@@ -112,6 +112,8 @@ class DaemonLoop:
         self.last_output: PerceptionOutput | None = None
         self.on_output: Callable[[PerceptionOutput], None] | None = None
         self.status_text: Callable[[], str] | None = None
+        # Called once a tick with its time: STATUSTEXT (severity, text) the sources have news for (source_alerts.py).
+        self.alerts: Callable[[float], list[tuple[int, str]]] | None = None
         # World NED -> (lat, lon, alt) or None; the replay sets it (it has no publisher), live uses the publisher's.
         self.world_to_geodetic: Callable[[np.ndarray], tuple[Any, Any, Any] | None] | None = None
 
@@ -123,6 +125,9 @@ class DaemonLoop:
         out = self.pipeline.step(t, scan, frames, self.poses)
         t_pub = time.perf_counter()
         self._publish(out)
+        if self.alerts is not None:
+            for severity, text in self.alerts(t):
+                self._statustext(severity, text)
         stages = dict(out.timings_ms)
         stages["publish"] = (time.perf_counter() - t_pub) * 1e3
         self.stats.record((time.perf_counter() - t0) * 1e3, stages)

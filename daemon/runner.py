@@ -23,9 +23,11 @@ from typing import IO, Any
 from daemon.buffers import BoundedQueue, LatestSlot
 from daemon.config import Config
 from daemon.ego import HistoryEgo
+from daemon.health import source_status
 from daemon.loop import DaemonLoop, LoopSettings, SensorInputs
 from daemon.readers import ReaderThread
 from daemon.sdnotify import SystemdNotifier
+from daemon.source_alerts import SourceAlerts
 from daemon.source_url import SourceUrl, parse_source_url
 from drivers.frames import LidarScan, RadarFrame
 from tracker.pipeline import PerceptionPipeline, PipelineSettings
@@ -69,13 +71,22 @@ def build_lidar_source(config: Config, fast: bool) -> tuple[Any, SourceUrl]:
             position_port=c.position_port,
             accept_ip=c.accept_ip or None,
             silence_timeout_s=c.silence_timeout_s,
+            lock_timeout_s=c.lock_timeout_s,
             **common,
         )
         src.open()  # a taken port fails here, before READY, naming the port
         return src, url
     from drivers.vlp16.pcap_source import VelodynePcapSource
 
-    return VelodynePcapSource(url.path, position_port=c.position_port, speed=_speed(fast), **common), url
+    src = VelodynePcapSource(
+        url.path,
+        position_port=c.position_port,
+        accept_ip=c.accept_ip or None,
+        lock_timeout_s=c.lock_timeout_s,
+        speed=_speed(fast),
+        **common,
+    )
+    return src, url
 
 
 def build_radar_source(config: Config, fast: bool) -> tuple[Any, SourceUrl]:
@@ -251,23 +262,9 @@ def start_daemon(
         readers.append(ReaderThread("radar", sources.radar.frames, inputs.radar.put, stop, clock))
     for r in readers:
         r.start()
-    loop.status_text = lambda: _source_status(sources, link)
+    loop.status_text = lambda: source_status(sources.lidar, sources.radar, link)
+    loop.alerts = SourceAlerts(sources.lidar, sources.radar).poll
     return RunningDaemon(config, loop, sources, link, readers, stop, tracks_file, recorder)
-
-
-def _source_status(sources: Sources, link: Any) -> str:
-    parts = []
-    if sources.lidar is not None and getattr(sources.lidar, "stats", None) is not None:
-        st = sources.lidar.stats
-        parts.append(f"lidar_wrong_size {getattr(st, 'wrong_size', 0)} lidar_missing {getattr(st, 'missing', 0)}")
-    if sources.radar is not None and getattr(sources.radar, "stats", None) is not None:
-        ps = getattr(sources.radar.stats, "parser", None)
-        if ps is not None:
-            parts.append(
-                f"radar_skipped_bytes {getattr(ps, 'bytes_skipped', 0)} radar_gaps {getattr(ps, 'frame_gaps', 0)}"
-            )
-    parts.append("autopilot " + ("up" if getattr(link, "connected", False) else "absent (no ego pose)"))
-    return " ".join(parts)
 
 
 def freeze_startup_objects() -> None:
