@@ -16,6 +16,7 @@ from typing import Any
 
 from daemon.config_schema import ConfigError, build
 from daemon.source_url import SourceUrlError, parse_source_url
+from drivers.awr1843.expected import platform_code
 from drivers.mount import Mount
 
 if sys.version_info >= (3, 11):
@@ -98,6 +99,9 @@ class RadarConfig:
     cli: str = "serial:///dev/ttyACM0?baud=115200"
     data: str = "serial:///dev/ttyACM1?baud=921600"
     profile: str = "/etc/usv-tracker/awr1843.cfg"
+    # The chip family the data port's frames must name (drivers/awr1843/expected.py): frames of another board are
+    # rejected. "any": not checked.
+    platform: str = "xWR18xx"
     required: bool = False  # false: a radar that fails to start leaves the daemon running LiDAR-only
     silence_timeout_s: float = 2.0
     fov_deg: float = 120.0  # horizontal field of view, centred on the mount's yaw
@@ -115,6 +119,10 @@ class RadarConfig:
                     parse_source_url(value, {"serial", "file", "sim"})
                 except SourceUrlError as exc:
                     out.append(f"{key}: {exc}")
+        try:
+            platform_code(self.platform)
+        except ValueError as exc:
+            out.append(f"platform: {exc}")
         if not 0 < self.fov_deg <= 360:
             out.append(f"fov_deg: {self.fov_deg} must be in (0, 360]")
         if self.max_range_m <= 0:

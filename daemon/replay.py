@@ -122,8 +122,11 @@ def _radar_frames(config: Config, start_time: float | None) -> Iterator[RadarFra
         load_profile(config.radar.profile) if config.radar.profile and Path(config.radar.profile).exists() else None
     )
     mount = config.radar.mount.to_mount()
+    from daemon.runner import expected_radar_stream
+
+    expected = expected_radar_stream(config, profile)  # the live run rejected the same frames
     if read_sidecar(url.path) is not None:
-        parser = RadarFrameParser(profile, mount)
+        parser = RadarFrameParser(profile, mount, expected=expected)
 
         def gen() -> Iterator[RadarFrame]:
             for chunk, t in timed_chunks(url.path):
@@ -134,7 +137,9 @@ def _radar_frames(config: Config, start_time: float | None) -> Iterator[RadarFra
     from drivers.awr1843.sources import FileRadarSource
 
     log.info("%s has no .times sidecar: frames paced by the frame period from t = %s", url.path, start_time)
-    return FileRadarSource(url.path, profile, mount, speed=None, start_time=start_time or 0.0).frames(_NeverStop())
+    return FileRadarSource(
+        url.path, profile, mount, expected=expected, speed=None, start_time=start_time or 0.0
+    ).frames(_NeverStop())
 
 
 class _NeverStop:

@@ -89,25 +89,36 @@ def build_lidar_source(config: Config, fast: bool) -> tuple[Any, SourceUrl]:
     return src, url
 
 
+def expected_radar_stream(config: Config, profile: Any) -> Any:
+    """Frames the radar must send for its cfg (``profile``, or None) and ``radar.platform``; others are rejected."""
+    from drivers.awr1843.expected import ExpectedStream, platform_code
+
+    return ExpectedStream.for_config(profile, platform_code(config.radar.platform))
+
+
 def build_radar_source(config: Config, fast: bool) -> tuple[Any, SourceUrl]:
+    from drivers.awr1843.profile import load_profile
+
     c = config.radar
     data = parse_source_url(c.data, {"serial", "file"})
-    profile = c.profile or None
+    profile = load_profile(c.profile) if c.profile else None
+    expected = expected_radar_stream(config, profile)
     if data.scheme == "file":
         from drivers.awr1843.sources import FileRadarSource
 
-        return FileRadarSource(data.path, profile, c.mount.to_mount(), speed=_speed(fast)), data
+        return FileRadarSource(data.path, profile, c.mount.to_mount(), expected=expected, speed=_speed(fast)), data
     from drivers.awr1843.sources import SerialRadarSource
 
     cli = parse_source_url(c.cli, {"serial"}) if c.cli else None
     src = SerialRadarSource(
         cli.path if cli else "",
         data.path,
-        profile or "",
+        profile,
         c.mount.to_mount(),
         cli_baudrate=int(cli.params.get("baud", 115200)) if cli else 115200,
         data_baudrate=int(data.params.get("baud", 921600)),
         configure=cli is not None,
+        expected=expected,
         silence_timeout_s=c.silence_timeout_s,
     )
     src.connect()  # the chirp cfg is sent now: an Error answer stops start-up with the cfg line named

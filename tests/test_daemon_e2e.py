@@ -242,6 +242,30 @@ def test_a_second_lidar_on_the_port_changes_nothing_and_is_reported(caplog: pyte
             assert f"lidar_from {stats.sender}" in caplog.text
 
 
+def test_radar_frames_of_another_board_are_rejected_and_reported(caplog: pytest.LogCaptureFixture) -> None:
+    settings = simulation_settings("one_box")
+    settings.lidar = False
+    with SimulationRun(settings, scene=one_box_scene()) as sim:
+        config = config_for_simulation(sim)
+        config.lidar.enabled = False
+        config.output.health_interval_s = 0.5
+        with caplog.at_level(logging.INFO), running(sim, config) as daemon:
+            ap, emulator = sim.autopilot, sim.radar
+            assert ap is not None and emulator is not None
+            parser = daemon.sources.radar.stats.parser
+            assert wait_for(lambda: parser.frames_ok >= 5)
+            emulator.platform = 0xA6843  # as if the data port now belonged to an IWR6843 board
+            assert wait_for(lambda: parser.frames_rejected >= 5)
+            alert = "usv-tracker: radar frames of other config dropped"
+            assert wait_for(lambda: alert in [s.text for s in ap.statustexts()])
+            assert wait_for(lambda: "radar_rejected" in caplog.text)
+            assert "(platform xWR68xx, configured xWR18xx)" in caplog.text
+            ok = parser.frames_ok
+            emulator.platform = 0xA1843
+            assert wait_for(lambda: parser.frames_ok >= ok + 5)
+            assert [s.text for s in ap.statustexts()].count(alert) == 1
+
+
 def test_no_data_at_start_is_waiting_first_and_an_error_after_the_grace(caplog: pytest.LogCaptureFixture) -> None:
     # A crew starting the daemon before the sensors deliver must not read an error at every start.
     settings = simulation_settings("one_box", radar=False)
