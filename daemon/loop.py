@@ -282,10 +282,12 @@ class DaemonLoop:
         li, ra = self.inputs.lidar.stats, self.inputs.radar.stats
         out = self.last_output
         n_tracks = sum(1 for tr in out.tracks if tr.confirmed) if out else 0
+        lidar_rate = self._rates["lidar"].rate(li.received, t)
+        radar_rate = self._rates["radar"].rate(ra.received, t)
         line = (
-            f"lidar {self._rates['lidar'].rate(li.received, t):.1f}/s (dropped {li.dropped}) "
-            f"radar {self._rates['radar'].rate(ra.received, t):.1f}/s (dropped {ra.dropped}) "
-            f"sent {self._rates['sent'].rate(self.sent, t):.1f}/s withheld {self.withheld} "
+            (f"lidar {lidar_rate:.1f}/s (dropped {li.dropped}) " if self.s.lidar_expected else "lidar off ")
+            + (f"radar {radar_rate:.1f}/s (dropped {ra.dropped}) " if self.s.radar_expected else "radar off ")
+            + f"sent {self._rates['sent'].rate(self.sent, t):.1f}/s withheld {self.withheld} "
             f"cycle p50 {p50:.1f} ms p99 {p99:.1f} ms misses {self.stats.deadline_misses} tracks {n_tracks} "
             "(stage p50 " + " ".join(f"{k} {v:.1f}" for k, v in self.stats.stage_p50().items()) + " ms)"
         )

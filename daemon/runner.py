@@ -125,8 +125,18 @@ def build_radar_source(config: Config, fast: bool) -> tuple[Any, SourceUrl]:
     return src, data
 
 
+def sensors_off(config: Config) -> list[str]:
+    """The sensors switched off in the configuration (``enabled = false``, ``--no-lidar``/``--no-radar``), said once at
+    start: the loop does not expect them, so they are never reported silent."""
+    off = [name for name, c in (("LiDAR", config.lidar), ("radar", config.radar)) if not c.enabled]
+    for name in off:
+        log.info("%s off by configuration: not expected, not reported silent", name)
+    return off
+
+
 def open_sources(config: Config, fast: bool) -> Sources:
     out = Sources()
+    sensors_off(config)
     if config.lidar.enabled:
         try:
             out.lidar, out.lidar_url = build_lidar_source(config, fast)
@@ -316,8 +326,9 @@ def run_daemon(config: Config, fast: bool = False, duration_s: float | None = No
     sensors = ", ".join(
         n for n, s in (("LiDAR", daemon.sources.lidar), ("radar", daemon.sources.radar)) if s is not None
     )
+    off = [n for n, c in (("LiDAR", config.lidar), ("radar", config.radar)) if not c.enabled]
     freeze_startup_objects()
-    notifier.ready(f"tracking with {sensors}")
+    notifier.ready(f"tracking with {sensors}" + (f" ({', '.join(off)} off by configuration)" if off else ""))
     log.info("usv-tracker running: %s -> %s at %.0f Hz", sensors, config.mavlink.url, config.output.rate_hz)
     try:
         daemon.loop.run_live(stop, duration_s)
