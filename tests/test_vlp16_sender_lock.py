@@ -258,3 +258,42 @@ def test_a_configured_accept_ip_wins_and_never_moves(sender) -> None:  # type: i
     st = source.stats
     assert (st.sender, st.packets, st.foreign_source, st.lock_moves) == ("127.0.0.3", 40, 40, 0)
     assert source.lock.locked
+
+
+def test_drops_are_summed_up_once_a_minute_not_logged_per_packet(sender, caplog) -> None:  # type: ignore[no-untyped-def]
+    caplog.set_level(logging.INFO, logger="drivers.vlp16")
+    clock = FakeClock()
+    # lock timeout and silence beyond the test's minute: only the summary is under test
+    source = live_source(clock=clock, lock_timeout_s=1000.0, silence_timeout_s=1000.0)
+    port = source.bound_port
+    reader = Reader(source)
+
+    def step_to(t: float) -> None:
+        clock.now = t
+        polls = source.polls
+        assert wait_until(lambda: source.polls >= polls + 2)
+
+    def summaries() -> list[str]:
+        return [r.getMessage() for r in caplog.records if "datagrams from other senders dropped" in r.getMessage()]
+
+    try:
+        a, b = sender("127.0.0.2"), sender("127.0.0.3")
+        for p in sweep(10).payloads:
+            a.sendto(p, ("127.0.0.1", port))
+        assert wait_until(lambda: source.stats.packets == 10)
+        for p in sweep(7, start_us=9_000_000).payloads:
+            b.sendto(p, ("127.0.0.1", port))
+        assert wait_until(lambda: source.stats.foreign_source == 7)
+        step_to(59.0)
+        assert summaries() == []
+        step_to(61.0)
+        step_to(125.0)  # nothing dropped in the second minute: nothing to say
+    finally:
+        reader.close()
+    a_name, b_name = f"127.0.0.2:{a.getsockname()[1]}", f"127.0.0.3:{b.getsockname()[1]}"
+    assert summaries() == [
+        f"VLP-16 port {port}: 7 datagrams from other senders dropped in the last 61 s (1 sender(s), last {b_name}); "
+        f"data taken from {a_name}"
+    ]
+    assert [r.levelname for r in caplog.records if "dropped in the last" in r.getMessage()] == ["WARNING"]
+    assert caplog.text.count("is ignored") == 1

@@ -110,7 +110,7 @@ class SenderLock:
         self.held_positions: list[tuple[float, bytes, Address]] = []  # the winner's, for the source to take
         self._others: dict[object, float] = {}  # another sender -> when last heard
         self._last_appearance_log = -math.inf
-        self._report_at: float | None = None
+        self._window_start: float | None = None  # of the drops the next summary sums up
         self._reported = 0
         if self.accept_ip is not None:
             stats.sender = self.accept_ip
@@ -242,15 +242,15 @@ class SenderLock:
 
     def report(self, now: float) -> None:
         """Once a minute, one line for the datagrams dropped since the last (the per-packet path never logs)."""
-        if self._report_at is None:
-            self._report_at = now + REPORT_INTERVAL_S
+        if self._window_start is None:
+            self._window_start = now
             return
-        if now < self._report_at:
+        if now - self._window_start < REPORT_INTERVAL_S:
             return
         st = self.stats
         dropped = st.foreign_source - self._reported
         if dropped:
-            heard = sum(1 for t in self._others.values() if t >= now - REPORT_INTERVAL_S)
+            heard = sum(1 for t in self._others.values() if t >= self._window_start)
             # Expected on a boat with two sensors once accept_ip names ours; a finding while the lock chose by itself.
             log.log(
                 logging.INFO if self.accept_ip else logging.WARNING,
@@ -258,13 +258,13 @@ class SenderLock:
                 "data taken from %s",
                 self.port,
                 dropped,
-                now - self._report_at + REPORT_INTERVAL_S,
+                now - self._window_start,
                 heard,
                 st.last_foreign,
                 st.sender or "nobody (no sender qualified)",
             )
         self._reported = st.foreign_source
-        self._report_at = now + REPORT_INTERVAL_S
+        self._window_start = now
 
     # --- internals ----------------------------------------------------------------------------------------------------
     def _judge(self, payload: bytes, candidate: _Candidate | None) -> tuple[int, int, bool] | None:
