@@ -7,6 +7,7 @@ it) and radians inside (converted here, once).
 
 from __future__ import annotations
 
+import ipaddress
 import math
 import sys
 from dataclasses import dataclass, field
@@ -15,6 +16,7 @@ from typing import Any
 
 from daemon.config_schema import ConfigError, build
 from daemon.source_url import SourceUrlError, parse_source_url
+from drivers.awr1843.expected import platform_code
 from drivers.mount import Mount
 
 if sys.version_info >= (3, 11):
@@ -57,7 +59,8 @@ class LidarConfig:
     enabled: bool = True
     source: str = "udp://0.0.0.0:2368"
     position_port: int = 8308
-    accept_ip: str = ""  # empty: any sender
+    accept_ip: str = ""  # the sensor's IPv4 address; empty: the first sender that looks like a VLP-16 (sender_lock.py)
+    lock_timeout_s: float = 2.0  # with accept_ip empty: silence of the locked sender after which another may take over
     model: str = "VLP16"  # VLP16: VLP-16 geometry whatever the product byte says (early firmware: 0x21); auto: trust it
     cut_angle_deg: float = 180.0  # revolution boundary in the sensor frame; astern keeps the bow whole
     silence_timeout_s: float = 2.0
@@ -80,6 +83,13 @@ class LidarConfig:
             out.append("min_range_m/max_range_m: need 0 <= min_range_m < max_range_m")
         if self.silence_timeout_s <= 0:
             out.append("silence_timeout_s: must be > 0")
+        if self.lock_timeout_s <= 0:
+            out.append("lock_timeout_s: must be > 0")
+        if self.accept_ip:
+            try:
+                ipaddress.IPv4Address(self.accept_ip)
+            except ValueError:
+                out.append(f"accept_ip: {self.accept_ip!r} is not an IPv4 address (the sensor's, e.g. 192.168.1.201)")
         return out
 
 
@@ -89,6 +99,9 @@ class RadarConfig:
     cli: str = "serial:///dev/ttyACM0?baud=115200"
     data: str = "serial:///dev/ttyACM1?baud=921600"
     profile: str = "/etc/usv-tracker/awr1843.cfg"
+    # The chip family the data port's frames must name (drivers/awr1843/expected.py): frames of another board are
+    # rejected. "any": not checked.
+    platform: str = "xWR18xx"
     required: bool = False  # false: a radar that fails to start leaves the daemon running LiDAR-only
     silence_timeout_s: float = 2.0
     fov_deg: float = 120.0  # horizontal field of view, centred on the mount's yaw
@@ -106,6 +119,10 @@ class RadarConfig:
                     parse_source_url(value, {"serial", "file", "sim"})
                 except SourceUrlError as exc:
                     out.append(f"{key}: {exc}")
+        try:
+            platform_code(self.platform)
+        except ValueError as exc:
+            out.append(f"platform: {exc}")
         if not 0 < self.fov_deg <= 360:
             out.append(f"fov_deg: {self.fov_deg} must be in (0, 360]")
         if self.max_range_m <= 0:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -52,3 +53,31 @@ class RateCounter:
         r = (count - self.last_count) / dt if dt > 0 else 0.0
         self.last_count, self.last_t = count, t
         return r
+
+
+def source_status(lidar: Any, radar: Any, link: Any) -> str:
+    """The drivers' and the autopilot link's part of the health line.
+
+    ``lidar_from`` names the sender the LiDAR data is taken from (none: no VLP-16 heard yet, or the one locked fell
+    silent); ``lidar_rejected`` appears once anything else was heard on the LiDAR ports: a second Velodyne on the
+    network shows up here. ``radar_rejected`` counts frames of another configuration than the one sent to the radar.
+    """
+    parts = []
+    st = getattr(lidar, "stats", None)
+    if st is not None:
+        parts.append(f"lidar_wrong_size {getattr(st, 'wrong_size', 0)} lidar_missing {getattr(st, 'missing', 0)}")
+        if hasattr(st, "sender"):
+            parts.append(f"lidar_from {st.sender or 'none'}")
+        if getattr(st, "foreign_source", 0):
+            parts.append(
+                f"lidar_rejected {st.foreign_source} (other senders {st.other_senders}, last {st.last_foreign})"
+            )
+    ps = getattr(getattr(radar, "stats", None), "parser", None)
+    if ps is not None:
+        parts.append(
+            f"radar_skipped_bytes {getattr(ps, 'bytes_skipped', 0)} radar_gaps {getattr(ps, 'frames_lost', 0)}"
+        )
+        if getattr(ps, "frames_rejected", 0):
+            parts.append(f"radar_rejected {ps.frames_rejected} ({ps.last_rejection})")
+    parts.append("autopilot " + ("up" if getattr(link, "connected", False) else "absent (no ego pose)"))
+    return " ".join(parts)

@@ -112,6 +112,8 @@ class DaemonLoop:
         self.last_output: PerceptionOutput | None = None
         self.on_output: Callable[[PerceptionOutput], None] | None = None
         self.status_text: Callable[[], str] | None = None
+        # Called once a tick with its time: STATUSTEXT (severity, text) the sources have news for (source_alerts.py).
+        self.alerts: Callable[[float], list[tuple[int, str]]] | None = None
         # World NED -> (lat, lon, alt) or None; the replay sets it (it has no publisher), live uses the publisher's.
         self.world_to_geodetic: Callable[[np.ndarray], tuple[Any, Any, Any] | None] | None = None
 
@@ -123,6 +125,9 @@ class DaemonLoop:
         out = self.pipeline.step(t, scan, frames, self.poses)
         t_pub = time.perf_counter()
         self._publish(out)
+        if self.alerts is not None:
+            for severity, text in self.alerts(t):
+                self._statustext(severity, text)
         stages = dict(out.timings_ms)
         stages["publish"] = (time.perf_counter() - t_pub) * 1e3
         self.stats.record((time.perf_counter() - t0) * 1e3, stages)
@@ -277,10 +282,12 @@ class DaemonLoop:
         li, ra = self.inputs.lidar.stats, self.inputs.radar.stats
         out = self.last_output
         n_tracks = sum(1 for tr in out.tracks if tr.confirmed) if out else 0
+        lidar_rate = self._rates["lidar"].rate(li.received, t)
+        radar_rate = self._rates["radar"].rate(ra.received, t)
         line = (
-            f"lidar {self._rates['lidar'].rate(li.received, t):.1f}/s (dropped {li.dropped}) "
-            f"radar {self._rates['radar'].rate(ra.received, t):.1f}/s (dropped {ra.dropped}) "
-            f"sent {self._rates['sent'].rate(self.sent, t):.1f}/s withheld {self.withheld} "
+            (f"lidar {lidar_rate:.1f}/s (dropped {li.dropped}) " if self.s.lidar_expected else "lidar off ")
+            + (f"radar {radar_rate:.1f}/s (dropped {ra.dropped}) " if self.s.radar_expected else "radar off ")
+            + f"sent {self._rates['sent'].rate(self.sent, t):.1f}/s withheld {self.withheld} "
             f"cycle p50 {p50:.1f} ms p99 {p99:.1f} ms misses {self.stats.deadline_misses} tracks {n_tracks} "
             "(stage p50 " + " ".join(f"{k} {v:.1f}" for k, v in self.stats.stage_p50().items()) + " ms)"
         )

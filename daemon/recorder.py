@@ -21,7 +21,6 @@ from pathlib import Path
 from typing import Any
 
 from drivers.awr1843.timed_capture import TimedCaptureWriter
-from drivers.vlp16.packet import DATA_PORT, POSITION_PORT
 from drivers.vlp16.pcap import PcapWriter
 
 log = logging.getLogger(__name__)
@@ -56,12 +55,10 @@ class Recorder:
         self._pcap: PcapWriter | None = None
         self._dat: TimedCaptureWriter | None = None
         self._tlog: Any = None
-        self._position_port: int | None = None
         self.guards = {k: _Guarded(k) for k in ("lidar", "radar", "autopilot")}
 
     def attach(self, lidar: Any, radar: Any, link: Any, radar_profile: str = "") -> None:
         if lidar is not None and hasattr(lidar, "raw_sink"):
-            self._position_port = getattr(lidar, "position_port", None)
             self._pcap = PcapWriter(self.dir / "lidar.pcap")
             lidar.raw_sink = self.on_lidar
         if radar is not None and hasattr(radar, "raw_sink"):
@@ -74,15 +71,15 @@ class Recorder:
             link.raw_sink = self.on_mavlink
         log.info("recording raw captures to %s", self.dir)
 
-    def on_lidar(self, port: int, payload: bytes, src_ip: str) -> None:
+    def on_lidar(self, port: int, payload: bytes, sender: tuple[str, int]) -> None:
+        """``port``: the VLP-16's own (2368 or 8308) whatever the daemon listened on, so that a replay, Wireshark and
+        VeloView read the capture without settings. The sender's address is kept as it was, port included: the
+        replay locks onto a sender by address just as the live source did."""
         t = self.wall_clock()
         pcap = self._pcap
-        # The capture stands for the sensor's stream, so it carries the VLP-16's own ports whatever this daemon
-        # listened on (a replay, Wireshark and VeloView then read it without settings).
-        canonical = POSITION_PORT if port == self._position_port else DATA_PORT
         if pcap is not None:
             self.guards["lidar"].run(
-                lambda: pcap.write_udp(t, payload, src_ip=src_ip, dst_port=canonical, src_port=canonical)
+                lambda: pcap.write_udp(t, payload, src_ip=sender[0], dst_port=port, src_port=sender[1])
             )
 
     def on_radar(self, chunk: bytes) -> None:

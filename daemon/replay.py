@@ -22,7 +22,7 @@ from daemon.config import Config
 from daemon.ego import HistoryEgo
 from daemon.loop import DaemonLoop, LoopSettings, SensorInputs
 from daemon.pose_history import PoseHistory
-from daemon.runner import pipeline_for
+from daemon.runner import pipeline_for, sensors_off
 from daemon.source_url import parse_source_url
 from drivers.frames import LidarScan, RadarFrame
 
@@ -122,8 +122,11 @@ def _radar_frames(config: Config, start_time: float | None) -> Iterator[RadarFra
         load_profile(config.radar.profile) if config.radar.profile and Path(config.radar.profile).exists() else None
     )
     mount = config.radar.mount.to_mount()
+    from daemon.runner import expected_radar_stream
+
+    expected = expected_radar_stream(config, profile)  # the live run rejected the same frames
     if read_sidecar(url.path) is not None:
-        parser = RadarFrameParser(profile, mount)
+        parser = RadarFrameParser(profile, mount, expected=expected)
 
         def gen() -> Iterator[RadarFrame]:
             for chunk, t in timed_chunks(url.path):
@@ -134,7 +137,9 @@ def _radar_frames(config: Config, start_time: float | None) -> Iterator[RadarFra
     from drivers.awr1843.sources import FileRadarSource
 
     log.info("%s has no .times sidecar: frames paced by the frame period from t = %s", url.path, start_time)
-    return FileRadarSource(url.path, profile, mount, speed=None, start_time=start_time or 0.0).frames(_NeverStop())
+    return FileRadarSource(
+        url.path, profile, mount, expected=expected, speed=None, start_time=start_time or 0.0
+    ).frames(_NeverStop())
 
 
 class _NeverStop:
@@ -162,6 +167,7 @@ def _tlog_messages(path: str) -> Iterator[Any]:
 def run_replay(config: Config, duration_s: float | None = None, fast: bool = True) -> int:
     from daemon.autopilot_pose import PoseAssembler
 
+    sensors_off(config)
     lidar_it = _lidar_scans(config)
     lidar = Peekable(lidar_it) if lidar_it is not None else None
     first_lidar = lidar.peek().stamp if lidar is not None and lidar.peek() is not None else None
@@ -197,7 +203,15 @@ def run_replay(config: Config, duration_s: float | None = None, fast: bool = Tru
         inputs,
         None,
         poses,
-        LoopSettings(o.rate_hz, o.min_distance_m, o.max_distance_m, o.no_data_timeout_s, o.health_interval_s),
+        LoopSettings(
+            o.rate_hz,
+            o.min_distance_m,
+            o.max_distance_m,
+            o.no_data_timeout_s,
+            o.health_interval_s,
+            lidar_expected=config.lidar.enabled,
+            radar_expected=config.radar.enabled,
+        ),
         tracks_out=tracks_file,
         clock=lambda: t_now,
     )

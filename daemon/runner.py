@@ -23,9 +23,11 @@ from typing import IO, Any
 from daemon.buffers import BoundedQueue, LatestSlot
 from daemon.config import Config
 from daemon.ego import HistoryEgo
+from daemon.health import source_status
 from daemon.loop import DaemonLoop, LoopSettings, SensorInputs
 from daemon.readers import ReaderThread
 from daemon.sdnotify import SystemdNotifier
+from daemon.source_alerts import SourceAlerts
 from daemon.source_url import SourceUrl, parse_source_url
 from drivers.frames import LidarScan, RadarFrame
 from tracker.pipeline import PerceptionPipeline, PipelineSettings
@@ -69,42 +71,72 @@ def build_lidar_source(config: Config, fast: bool) -> tuple[Any, SourceUrl]:
             position_port=c.position_port,
             accept_ip=c.accept_ip or None,
             silence_timeout_s=c.silence_timeout_s,
+            lock_timeout_s=c.lock_timeout_s,
             **common,
         )
         src.open()  # a taken port fails here, before READY, naming the port
         return src, url
     from drivers.vlp16.pcap_source import VelodynePcapSource
 
-    return VelodynePcapSource(url.path, position_port=c.position_port, speed=_speed(fast), **common), url
+    src = VelodynePcapSource(
+        url.path,
+        position_port=c.position_port,
+        accept_ip=c.accept_ip or None,
+        lock_timeout_s=c.lock_timeout_s,
+        speed=_speed(fast),
+        **common,
+    )
+    return src, url
+
+
+def expected_radar_stream(config: Config, profile: Any) -> Any:
+    """Frames the radar must send for its cfg (``profile``, or None) and ``radar.platform``; others are rejected."""
+    from drivers.awr1843.expected import ExpectedStream, platform_code
+
+    return ExpectedStream.for_config(profile, platform_code(config.radar.platform))
 
 
 def build_radar_source(config: Config, fast: bool) -> tuple[Any, SourceUrl]:
+    from drivers.awr1843.profile import load_profile
+
     c = config.radar
     data = parse_source_url(c.data, {"serial", "file"})
-    profile = c.profile or None
+    profile = load_profile(c.profile) if c.profile else None
+    expected = expected_radar_stream(config, profile)
     if data.scheme == "file":
         from drivers.awr1843.sources import FileRadarSource
 
-        return FileRadarSource(data.path, profile, c.mount.to_mount(), speed=_speed(fast)), data
+        return FileRadarSource(data.path, profile, c.mount.to_mount(), expected=expected, speed=_speed(fast)), data
     from drivers.awr1843.sources import SerialRadarSource
 
     cli = parse_source_url(c.cli, {"serial"}) if c.cli else None
     src = SerialRadarSource(
         cli.path if cli else "",
         data.path,
-        profile or "",
+        profile,
         c.mount.to_mount(),
         cli_baudrate=int(cli.params.get("baud", 115200)) if cli else 115200,
         data_baudrate=int(data.params.get("baud", 921600)),
         configure=cli is not None,
+        expected=expected,
         silence_timeout_s=c.silence_timeout_s,
     )
     src.connect()  # the chirp cfg is sent now: an Error answer stops start-up with the cfg line named
     return src, data
 
 
+def sensors_off(config: Config) -> list[str]:
+    """The sensors switched off in the configuration (``enabled = false``, ``--no-lidar``/``--no-radar``), said once at
+    start: the loop does not expect them, so they are never reported silent."""
+    off = [name for name, c in (("LiDAR", config.lidar), ("radar", config.radar)) if not c.enabled]
+    for name in off:
+        log.info("%s off by configuration: not expected, not reported silent", name)
+    return off
+
+
 def open_sources(config: Config, fast: bool) -> Sources:
     out = Sources()
+    sensors_off(config)
     if config.lidar.enabled:
         try:
             out.lidar, out.lidar_url = build_lidar_source(config, fast)
@@ -251,23 +283,9 @@ def start_daemon(
         readers.append(ReaderThread("radar", sources.radar.frames, inputs.radar.put, stop, clock))
     for r in readers:
         r.start()
-    loop.status_text = lambda: _source_status(sources, link)
+    loop.status_text = lambda: source_status(sources.lidar, sources.radar, link)
+    loop.alerts = SourceAlerts(sources.lidar, sources.radar).poll
     return RunningDaemon(config, loop, sources, link, readers, stop, tracks_file, recorder)
-
-
-def _source_status(sources: Sources, link: Any) -> str:
-    parts = []
-    if sources.lidar is not None and getattr(sources.lidar, "stats", None) is not None:
-        st = sources.lidar.stats
-        parts.append(f"lidar_wrong_size {getattr(st, 'wrong_size', 0)} lidar_missing {getattr(st, 'missing', 0)}")
-    if sources.radar is not None and getattr(sources.radar, "stats", None) is not None:
-        ps = getattr(sources.radar.stats, "parser", None)
-        if ps is not None:
-            parts.append(
-                f"radar_skipped_bytes {getattr(ps, 'bytes_skipped', 0)} radar_gaps {getattr(ps, 'frame_gaps', 0)}"
-            )
-    parts.append("autopilot " + ("up" if getattr(link, "connected", False) else "absent (no ego pose)"))
-    return " ".join(parts)
 
 
 def freeze_startup_objects() -> None:
@@ -308,8 +326,9 @@ def run_daemon(config: Config, fast: bool = False, duration_s: float | None = No
     sensors = ", ".join(
         n for n, s in (("LiDAR", daemon.sources.lidar), ("radar", daemon.sources.radar)) if s is not None
     )
+    off = [n for n, c in (("LiDAR", config.lidar), ("radar", config.radar)) if not c.enabled]
     freeze_startup_objects()
-    notifier.ready(f"tracking with {sensors}")
+    notifier.ready(f"tracking with {sensors}" + (f" ({', '.join(off)} off by configuration)" if off else ""))
     log.info("usv-tracker running: %s -> %s at %.0f Hz", sensors, config.mavlink.url, config.output.rate_hz)
     try:
         daemon.loop.run_live(stop, duration_s)

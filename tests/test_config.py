@@ -63,3 +63,14 @@ def test_check_config_command(tmp_path: Path) -> None:
     res = subprocess.run([sys.executable, "-m", "daemon.cli", "check-config", str(bad)], capture_output=True, text=True)
     assert res.returncode == 2
     assert "radar.data: 'com3' is not a source URL" in res.stderr
+
+
+def test_lidar_sender_settings_are_checked() -> None:
+    assert load_config(EXAMPLE).lidar.lock_timeout_s == 2.0 and load_config(EXAMPLE).lidar.accept_ip == ""
+    assert load_config(None, {"lidar.accept_ip": "192.168.1.201"}).lidar.accept_ip == "192.168.1.201"
+    with pytest.raises(ConfigError) as err:
+        load_config(None, {"lidar.accept_ip": "velodyne.local", "lidar.lock_timeout_s": 0.0})
+    assert err.value.problems == [
+        "lidar.lock_timeout_s: must be > 0",
+        "lidar.accept_ip: 'velodyne.local' is not an IPv4 address (the sensor's, e.g. 192.168.1.201)",
+    ]

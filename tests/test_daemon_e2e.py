@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import math
+import socket
 import subprocess
 import sys
 import threading
@@ -201,6 +202,70 @@ def test_silent_sensors_stop_the_output_and_it_comes_back() -> None:
             assert abs(int(d[6]) - NEAR_FACE_M * 100) <= NEAR_TOL_CM
 
 
+def test_a_second_lidar_on_the_port_changes_nothing_and_is_reported(caplog: pytest.LogCaptureFixture) -> None:
+    """The field finding: another LiDAR-like source sending to the VLP-16 port. Its returns (1 to 10 m all around,
+    from tests.test_vlp16_decoder.sweep) would put obstacles in bins where the scene has none if they were mixed in."""
+    from tests.test_vlp16_decoder import PERIOD_US, sweep
+
+    settings = simulation_settings("one_box", radar=False)
+    with SimulationRun(settings, scene=one_box_scene()) as sim:
+        config = config_for_simulation(sim)
+        config.output.health_interval_s = 0.5
+        with caplog.at_level(logging.INFO), running(sim, config) as daemon:
+            ap = sim.autopilot
+            assert ap is not None
+            stats = daemon.sources.lidar.stats
+            assert wait_for(lambda: stats.sender.startswith("127.0.0.1:") and len(ap.obstacle_distances()) >= 5)
+            n_before = len(ap.obstacle_distances())
+            other = sweep(1500, start_us=2_000_000_000).payloads  # 2 s of a second VLP-16
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as foreign:
+                foreign.bind(("127.0.0.2", 0))
+                start = time.perf_counter()
+                for n, payload in enumerate(other):
+                    delay = start + n * PERIOD_US * 1e-6 - time.perf_counter()
+                    if delay > 0:
+                        time.sleep(delay)
+                    foreign.sendto(payload, ("127.0.0.1", sim.settings.lidar_port))
+            assert wait_for(lambda: stats.foreign_source == 1500)
+            assert wait_for(lambda: len(ap.obstacle_distances()) >= n_before + 25)
+            assert wait_for(lambda: "lidar_rejected 1500 (other senders 1, last 127.0.0.2:" in caplog.text)
+            # every message sent while the foreign packets arrived shows the scene alone: the box, nothing else
+            for m in ap.obstacle_distances()[n_before:]:
+                d = np.asarray(m.distances)
+                assert abs(int(d[6]) - NEAR_FACE_M * 100) <= NEAR_TOL_CM
+                rest = np.r_[0:3, 10:72]
+                assert np.all(d[rest] == 65535), {int(j): int(d[j]) for j in rest if d[j] != 65535}
+            alert = "usv-tracker: other LiDAR 127.0.0.2 ignored"
+            assert wait_for(lambda: alert in [s.text for s in ap.statustexts()])
+            assert [s.text for s in ap.statustexts()].count(alert) == 1  # once, not per packet
+            assert stats.sender.startswith("127.0.0.1:") and stats.lock_moves == 0
+            assert f"lidar_from {stats.sender}" in caplog.text
+
+
+def test_radar_frames_of_another_board_are_rejected_and_reported(caplog: pytest.LogCaptureFixture) -> None:
+    settings = simulation_settings("one_box")
+    settings.lidar = False
+    with SimulationRun(settings, scene=one_box_scene()) as sim:
+        config = config_for_simulation(sim)
+        config.lidar.enabled = False
+        config.output.health_interval_s = 0.5
+        with caplog.at_level(logging.INFO), running(sim, config) as daemon:
+            ap, emulator = sim.autopilot, sim.radar
+            assert ap is not None and emulator is not None
+            parser = daemon.sources.radar.stats.parser
+            assert wait_for(lambda: parser.frames_ok >= 5)
+            emulator.platform = 0xA6843  # as if the data port now belonged to an IWR6843 board
+            assert wait_for(lambda: parser.frames_rejected >= 5)
+            alert = "usv-tracker: radar frames of other config dropped"
+            assert wait_for(lambda: alert in [s.text for s in ap.statustexts()])
+            assert wait_for(lambda: "radar_rejected" in caplog.text)
+            assert "(platform xWR68xx, configured xWR18xx)" in caplog.text
+            ok = parser.frames_ok
+            emulator.platform = 0xA1843
+            assert wait_for(lambda: parser.frames_ok >= ok + 5)
+            assert [s.text for s in ap.statustexts()].count(alert) == 1
+
+
 def test_no_data_at_start_is_waiting_first_and_an_error_after_the_grace(caplog: pytest.LogCaptureFixture) -> None:
     # A crew starting the daemon before the sensors deliver must not read an error at every start.
     settings = simulation_settings("one_box", radar=False)
@@ -300,8 +365,6 @@ def test_lidar_port_taken_fails_before_ready() -> None:
     settings.autopilot = False
     with SimulationRun(settings, scene=one_box_scene()) as sim:
         config = config_for_simulation(sim)
-        import socket
-
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as squatter:
             squatter.bind(("127.0.0.1", sim.settings.lidar_port))
             with pytest.raises(StartupError, match=str(sim.settings.lidar_port)):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -59,3 +60,64 @@ def test_run_process_notifies_systemd_and_stops_on_sigterm(tmp_path: Path) -> No
     assert rc == 0, err
     assert took < 1.0, f"stopping took {took:.2f} s"  # the 1 s, process exit included (about 0.4 s here)
     assert "SIGTERM received: stopping" in err and "stopped" in err
+
+
+NAMES = {"lidar": "LiDAR", "radar": "radar"}
+
+
+@pytest.mark.parametrize("off", ["lidar", "radar"])
+def test_a_sensor_switched_off_is_said_once_at_start_and_never_reported_silent(tmp_path: Path, off: str) -> None:
+    # Both sensors simulated; the daemon runs with one switched off for 6 s of its own loop: past the 3 s start-up grace
+    # plus the 0.5 s after which a sensor that stays quiet is reported silent (as an ERROR and a STATUSTEXT).
+    with SimulationRun(simulation_settings("one_box"), scene=one_box_scene()) as sim:
+        c = config_for_simulation(sim)
+        toml = tmp_path / "usv-tracker.toml"
+        toml.write_text(f"[lidar]\nposition_port = {c.lidar.position_port}\n[output]\nhealth_interval_s = 2.0\n")
+        args = [
+            sys.executable, "-m", "daemon.cli", "run", "--config", str(toml),
+            "--lidar", c.lidar.source,
+            "--radar-cli", c.radar.cli,
+            "--radar-data", c.radar.data,
+            "--radar-profile", c.radar.profile,
+            "--mavlink", c.mavlink.url,
+            f"--no-{off}", "--seconds", "6",
+        ]  # fmt: skip
+        res = subprocess.run(args, capture_output=True, text=True, timeout=60)
+        ap = sim.autopilot
+        assert ap is not None
+        texts = [s.text for s in ap.statustexts()]
+        sent = len(ap.obstacle_distances())
+    assert res.returncode == 0, res.stderr
+    name = NAMES[off]
+    assert res.stderr.count(f"{name} off by configuration: not expected, not reported silent") == 1
+    assert f"{name} silent" not in res.stderr and not any(name in t for t in texts)
+    on = NAMES["radar" if off == "lidar" else "lidar"]
+    assert f"usv-tracker running: {on} ->" in res.stderr and sent > 0  # the other sensor did deliver
+    health = [line for line in res.stderr.splitlines() if "health: " in line]
+    assert health and all(f"{off} off " in line for line in health)
+
+
+@pytest.mark.parametrize("off", ["lidar", "radar"])
+def test_a_replay_with_a_sensor_switched_off_never_reports_it_silent(tmp_path: Path, off: str) -> None:
+    # 5 s of recorded data, replayed on the data's clock: the ticks pass the 3 s grace and the 0.5 s timeout.
+    from simulator.capture import write_captures
+    from simulator.scenarios import get_scenario
+
+    d = tmp_path / "run"
+    write_captures("harbour", d, 5.0, seed=0, scene=get_scenario("harbour"))
+    args = [
+        sys.executable, "-m", "daemon.cli", "run", "--fast",
+        "--lidar", f"pcap://{d / 'lidar.pcap'}",
+        "--radar-cli", "",
+        "--radar-data", f"file://{d / 'radar.dat'}",
+        "--radar-profile", str(d / "radar.cfg"),
+        "--mavlink", str(d / "autopilot.tlog"),
+        f"--no-{off}",
+    ]  # fmt: skip
+    res = subprocess.run(args, capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    name = NAMES[off]
+    assert res.stderr.count(f"{name} off by configuration: not expected, not reported silent") == 1
+    assert f"{name} silent" not in res.stderr
+    ticks = re.search(r"replay: (\d+) ticks over ([\d.]+) s of data", res.stderr)
+    assert ticks is not None and int(ticks[1]) >= 50 and float(ticks[2]) >= 5.0  # the test's premise held

@@ -11,7 +11,7 @@ import logging
 import socket
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -59,21 +59,6 @@ class Reader:
         assert not self.source.is_open
         if self.error is not None:
             raise self.error
-
-
-@pytest.fixture
-def sender() -> Iterator[Callable[[str], socket.socket]]:
-    made: list[socket.socket] = []
-
-    def make(ip: str) -> socket.socket:
-        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        sock.bind((ip, 0))
-        made.append(sock)
-        return sock
-
-    yield make
-    for sock in made:
-        sock.close()
 
 
 def membership(s, cut_cdeg: int = 18000) -> np.ndarray:  # type: ignore[no-untyped-def]

@@ -12,6 +12,9 @@ the next magic word. Whatever happens, it costs at most the damaged frame; every
 
     bytes_received == bytes in delivered frames + bytes_skipped + buffered_bytes
 
+Given the ``ExpectedStream`` of the configuration the daemon sent (``expected.py``), a well-formed frame of another
+configuration is rejected whole and counted (``frames_rejected``), never decoded into points.
+
 Frames: points arrive in TI axes (x right, y boresight, z up), go through ``TI_TO_FRD`` into the
 sensor-FRD frame and then through the configured ``Mount`` into the body FRD frame. The velocity is the
 radial (line-of-sight) speed, a scalar, so the mount does not change it.
@@ -20,9 +23,11 @@ radial (line-of-sight) speed, a scalar, so the mount does not change it.
 from __future__ import annotations
 
 import logging
+import math
 import struct
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -30,7 +35,12 @@ from drivers.awr1843.profile import RadarProfile
 from drivers.frames import RadarFrame
 from drivers.mount import TI_TO_FRD, Mount
 
+if TYPE_CHECKING:
+    from drivers.awr1843.expected import ExpectedStream
+
 log = logging.getLogger(__name__)
+
+REJECTION_LOG_INTERVAL_S = 60.0  # rejected frames: the first is logged at once, then one summary a minute at most
 
 MAGIC = bytes.fromhex("0201040306050807")
 HEADER_LEN = 40
@@ -113,8 +123,10 @@ class ParserStats:
     headers_rejected: int = 0  # magic word found, header implausible (chance magic or corruption)
     points_dropped: int = 0  # non-finite or absurd coordinates inside an otherwise sound frame
     frame_number_resets: int = 0  # frame number went backwards (device reset, or two recordings joined)
+    frames_rejected: int = 0  # sound frames of another configuration than the expected one (their bytes: skipped)
+    last_rejection: str = ""  # why the last one was rejected
 
-    def as_dict(self) -> dict[str, int]:
+    def as_dict(self) -> dict[str, int | str]:
         return dict(self.__dict__)
 
 
@@ -151,11 +163,15 @@ class FrameDamagedError(ValueError):
     """A frame whose TLVs do not add up; the stream continues at the next magic word."""
 
 
+class FrameRejectedError(ValueError):
+    """A sound frame of another configuration than the expected one; the stream continues after it."""
+
+
 class RadarFrameParser:
     """Feed it the data port's bytes as they come; it returns the frames completed by each read.
 
     ``profile`` is needed only for SDK 2.x streams (their points carry Doppler indices); without it
-    their velocities are NaN.
+    their velocities are NaN. ``expected``: frames of any other configuration are rejected (None: all decoded).
     """
 
     def __init__(
@@ -163,6 +179,7 @@ class RadarFrameParser:
         profile: RadarProfile | None = None,
         mount: Mount | None = None,
         *,
+        expected: ExpectedStream | None = None,
         max_packet_len: int = 65536,
         max_points: int = 512,
         max_tlvs: int = 16,
@@ -172,7 +189,11 @@ class RadarFrameParser:
         self.max_packet_len = max_packet_len
         self.max_points = max_points
         self.max_tlvs = max_tlvs
+        self.expected = expected
         self.stats = ParserStats()
+        self._firmware: int | None = None  # version word of the first frame accepted since the stream (re)started
+        self._rejection_logged_at = -math.inf
+        self._rejected_since_log = 0
         # One matrix from TI axes straight into the body frame: body = R_mount @ TI_TO_FRD @ p_ti + t.
         self._ti_to_body = self.mount.rotation @ TI_TO_FRD
         self._translation = self.mount.translation
@@ -211,9 +232,11 @@ class RadarFrameParser:
         return frames
 
     def reset_stream(self) -> None:
-        """Forget buffered bytes (after a reconnect they do not continue the old stream). Counters stay."""
+        """Forget buffered bytes (after a reconnect they do not continue the old stream). Counters stay; the
+        firmware version is learnt again from the next frame (a reconnect may meet another board, configured anew)."""
         self._skip(len(self._buf) - self._pos)
         self._pending = None
+        self._firmware = None
         self._compact()
 
     def _drain(self, host_time: float, final: bool) -> list[RadarFrame]:
@@ -237,8 +260,15 @@ class RadarFrameParser:
                 self._drop(f"frame {hdr.frame_number}: {exc}")
                 self._skip(len(MAGIC))  # resync from inside the frame: its length may be the broken part
                 continue
+            except FrameRejectedError as exc:
+                self._pending = None
+                self._skip(hdr.total_len)  # sound: its length holds, and nothing inside it is a frame of ours
+                self._reject(hdr, str(exc), host_time)
+                continue
             self._pos += hdr.total_len
             self._pending = None
+            if self.expected is not None and self._firmware is None:
+                self._firmware = hdr.version
             frame.stamp = self._pending_stamp
             frame.bytes_skipped = self._skipped_since_frame
             self._skipped_since_frame = 0
@@ -317,6 +347,26 @@ class RadarFrameParser:
             self.stats.frame_number_resets += 1
             log.warning("AWR1843 data: frame number went from %d back to %d (device reset?)", last, number)
 
+    def _reject(self, hdr: FrameHeader, why: str, host_time: float) -> None:
+        st = self.stats
+        st.frames_rejected += 1
+        st.last_rejection = why
+        self._rejected_since_log += 1
+        if self._last_frame_number is not None and hdr.frame_number == self._last_frame_number + 1:
+            # The same radar's numbering (reconfigured behind our back): not a loss when our frames resume.
+            self._last_frame_number = hdr.frame_number
+        if host_time - self._rejection_logged_at >= REJECTION_LOG_INTERVAL_S:
+            log.warning(
+                "AWR1843 data: %d frame(s) of another configuration rejected%s (frame %d: %s); the radar is not running "
+                "the cfg this daemon sent: another program reconfigured it, or it is another board",
+                self._rejected_since_log,
+                "" if self._rejection_logged_at == -math.inf else f" in {host_time - self._rejection_logged_at:.0f} s",
+                hdr.frame_number,
+                why,
+            )
+            self._rejection_logged_at = host_time
+            self._rejected_since_log = 0
+
     def _warn_once(self, key: str, message: str, *args: object) -> None:
         if key not in self._warned:
             self._warned.add(key)
@@ -342,6 +392,10 @@ class RadarFrameParser:
             off += _TL.size + length
         if hdr.total_len - off >= 32:
             raise FrameDamagedError(f"{hdr.total_len - off} bytes after the last TLV (padding is at most 31)")
+        if self.expected is not None:
+            problem = self.expected.problem(hdr, tlvs, self._firmware)
+            if problem:
+                raise FrameRejectedError(problem)
 
         n = hdr.num_points
         legacy = hdr.version >> 24 < 3

@@ -21,6 +21,7 @@ import serial
 
 from drivers.awr1843.cli import CliSession
 from drivers.awr1843.errors import RadarConfigError, RadarPortError
+from drivers.awr1843.expected import ExpectedStream
 from drivers.awr1843.parser import ParserStats, RadarFrameParser
 from drivers.awr1843.ports import describe_port, open_serial
 from drivers.awr1843.profile import RadarProfile, load_profile
@@ -44,8 +45,8 @@ class SourceStats:
     reconnects: int = 0
     configured: int = 0  # successful CLI configurations
 
-    def as_dict(self) -> dict[str, int | bool]:
-        out: dict[str, int | bool] = dict(self.parser.as_dict())
+    def as_dict(self) -> dict[str, int | bool | str]:
+        out: dict[str, int | bool | str] = dict(self.parser.as_dict())
         out.update(
             silent=self.silent,
             silences=self.silences,
@@ -72,7 +73,8 @@ class SerialRadarSource:
     leaves an already running radar alone (the cfg, optional then, is only used for decoding).
 
     ``connect()`` configures now and raises ``RadarConfigError`` / ``RadarPortError`` (start-up checks);
-    ``frames(stop)`` connects itself if needed, and afterwards only logs, counts and retries.
+    ``frames(stop)`` connects itself if needed, and afterwards only logs, counts and retries. ``expected``: frames of
+    any other configuration are rejected and counted (``ExpectedStream.for_config`` of the cfg sent).
     """
 
     def __init__(
@@ -85,6 +87,7 @@ class SerialRadarSource:
         cli_baudrate: int = 115200,
         data_baudrate: int = DATA_BAUDRATE,
         configure: bool = True,
+        expected: ExpectedStream | None = None,
         stop_sensor_on_exit: bool = True,
         silence_timeout_s: float = 2.0,
         read_timeout_s: float = 0.1,
@@ -110,7 +113,7 @@ class SerialRadarSource:
         self.cli_command_timeout_s = cli_command_timeout_s
         self.cli_slow_command_timeout_s = cli_slow_command_timeout_s
         self.clock = clock
-        self.parser = RadarFrameParser(self.profile, self.mount)
+        self.parser = RadarFrameParser(self.profile, self.mount, expected=expected)
         self.stats = SourceStats(parser=self.parser.stats)
         self._data: serial.Serial | None = None
         # Called with every chunk read from the data port, before parsing (the recorder keeps the raw bytes).
@@ -272,6 +275,7 @@ class FileRadarSource:
         profile: RadarProfile | str | Path | None = None,
         mount: Mount | None = None,
         *,
+        expected: ExpectedStream | None = None,
         speed: float | None = 1.0,
         start_time: float | None = None,
         chunk_size: int = 4096,
@@ -285,7 +289,7 @@ class FileRadarSource:
         self.chunk_size = chunk_size
         self.clock = clock
         self.period_s = self.profile.frame_period_s if self.profile is not None else DEFAULT_FRAME_PERIOD_S
-        self.parser = RadarFrameParser(self.profile, self.mount)
+        self.parser = RadarFrameParser(self.profile, self.mount, expected=expected)
         self.stats = SourceStats(parser=self.parser.stats)
 
     def frames(self, stop: threading.Event) -> Iterator[RadarFrame]:

@@ -317,6 +317,16 @@ class ScanAssembler:
         """End of stream: the partial revolution, if any."""
         return self._flush(reason="end")
 
+    def restart(self) -> list[LidarScan]:
+        """Another sensor's stream follows (the source locked onto a new sender): hand out the partial revolution and
+        forget the device clock, its offset to the host and the PPS state, which were the previous sensor's."""
+        out = self._flush(reason="new sender")
+        self.clock.reset()
+        self.pps_locked = False
+        self._stream_model = None
+        self._stream_mode = None
+        return out
+
     def flush_if_stalled(self, host_now: float) -> list[LidarScan]:
         """The partial revolution if no packet arrived for ``stall_timeout_s`` (call from the reader's idle path)."""
         if self._prev is not None and not self._rev.empty() and host_now - self._prev.host_time > self.stall_timeout_s:

@@ -55,6 +55,7 @@ class UdpDatagram(NamedTuple):
     src_ip: str
     dst_port: int
     payload: bytes
+    src_port: int = 0  # last, with a default: datagrams built with the first four fields keep working
 
 
 @dataclass
@@ -273,7 +274,7 @@ class PcapReader:
         if ihl < 20 or len(frame) < udp_start + 8:
             self.stats.truncated += 1
             return None
-        _src_port, dst_port, udp_length = struct.unpack_from("!HHH", frame, udp_start)
+        src_port, dst_port, udp_length = struct.unpack_from("!HHH", frame, udp_start)
         # Trust the UDP length: Ethernet pads short frames and may carry an FCS after the payload, and
         # captures taken with segmentation offload can hold a zero IPv4 total length.
         end = udp_start + udp_length
@@ -282,7 +283,7 @@ class PcapReader:
             return None
         self.stats.udp += 1
         src_ip = socket.inet_ntoa(frame[ip_start + 12 : ip_start + 16])
-        return UdpDatagram(timestamp, src_ip, dst_port, frame[udp_start + 8 : end])
+        return UdpDatagram(timestamp, src_ip, dst_port, frame[udp_start + 8 : end], src_port)
 
     @staticmethod
     def _ip_start(link_type: int, frame: bytes) -> int | None:

@@ -1,7 +1,8 @@
 """Replay a VLP-16 capture through the same ``ScanAssembler`` as the live source.
 
 Host time is the capture's time, so a replay is deterministic: the same file gives the same scans with
-the same stamps however fast it runs. ``speed=1`` paces packets at the recorded timing (a live-like
+the same stamps however fast it runs. Senders are locked exactly as live (``sender_lock.py``), on the capture's
+clock: a recording of a network with two Velodynes replays one of them, the one the daemon took. ``speed=1`` paces packets at the recorded timing (a live-like
 feed for the daemon), ``speed=None`` (or 0) goes as fast as the CPU allows.
 """
 
@@ -19,6 +20,7 @@ from drivers.mount import Mount
 from drivers.vlp16.decoder import ScanAssembler
 from drivers.vlp16.packet import DATA_PACKET_SIZE, DATA_PORT, POSITION_PORT
 from drivers.vlp16.pcap import PcapReader
+from drivers.vlp16.sender_lock import LOCK_TIMEOUT_S, SenderLock
 from drivers.vlp16.source_stats import LidarSourceStats
 
 log = logging.getLogger(__name__)
@@ -46,6 +48,7 @@ class VelodynePcapSource:
         model: str | None = "VLP16",
         min_range_m: float = 0.1,
         max_range_m: float = 200.0,
+        lock_timeout_s: float = LOCK_TIMEOUT_S,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         if speed is not None and (not math.isfinite(speed) or speed < 0):
@@ -62,6 +65,7 @@ class VelodynePcapSource:
             mount=mount, cut_angle=cut_angle, model=model, min_range_m=min_range_m, max_range_m=max_range_m
         )
         self.stats = LidarSourceStats()
+        self.lock = SenderLock(self.stats, self.assembler.model, self.accept_ip, lock_timeout_s, port=port)
         self.finished = False
 
     def scans(self, stop: threading.Event | None = None) -> Iterator[LidarScan]:
@@ -80,31 +84,52 @@ class VelodynePcapSource:
                 while (wait := due - self.clock()) > 0:
                     if stop.wait(min(wait, _MAX_WAIT_S)):
                         return
-            if self.accept_ip is not None and datagram.src_ip != self.accept_ip:
-                self.stats.foreign_source += 1
-                self.stats.last_foreign_ip = datagram.src_ip
-                continue
+            lock = self.lock
+            lock.expire(t)  # a capture is read in order, so the backlog question of the live source does not arise
+            lock.report(t)
+            address = (datagram.src_ip, datagram.src_port)
             if datagram.dst_port == self.port:
-                if len(datagram.payload) != DATA_PACKET_SIZE:
-                    self.stats.wrong_size += 1
+                if lock.owns(address):
+                    lock.last_heard = t
+                    yield from self._take(t, datagram.payload)
                     continue
-                self.stats.packets += 1
-                self.stats.bytes += len(datagram.payload)
-                self.stats.last_packet_time = t
-                completed = self.assembler.push(t, datagram.payload)
-                self.stats.take_assembler(self.assembler)
-                yield from completed
-            else:
+                held = lock.offer(address, datagram.payload, t)
+                if held:  # a new stream starts: whatever came before was another sensor's
+                    restarted = self.assembler.restart()
+                    self.stats.take_assembler(self.assembler)
+                    self.stats.forget_position()
+                    yield from restarted
+                    for ht, p in held:
+                        yield from self._take(ht, p)
+                    for ht, p, _ in lock.held_positions:
+                        self.stats.take_position(ht, p, self.assembler)
+            elif lock.owns_host(address):
                 self.stats.take_position(t, datagram.payload, self.assembler)
+            else:
+                lock.offer_position(address, datagram.payload, t)
         for scan in self.assembler.flush():
             self.stats.take_assembler(self.assembler)
             yield scan
         self.finished = True
         log.info(
-            "%s: replay finished, %d scans from %d data packets (%d wrong size, %d missing)",
+            "%s: replay finished, %d scans from %d data packets of %s (%d wrong size, %d missing, %d datagrams of "
+            "other senders dropped)",
             self.path,
             self.stats.scans,
             self.stats.packets,
+            self.stats.sender or "no sender",
             self.stats.wrong_size,
             self.stats.missing,
+            self.stats.foreign_source,
         )
+
+    def _take(self, t: float, payload: bytes) -> Iterator[LidarScan]:
+        if len(payload) != DATA_PACKET_SIZE:
+            self.stats.wrong_size += 1
+            return
+        self.stats.packets += 1
+        self.stats.bytes += len(payload)
+        self.stats.last_packet_time = t
+        completed = self.assembler.push(t, payload)
+        self.stats.take_assembler(self.assembler)
+        yield from completed

@@ -19,9 +19,15 @@ log = logging.getLogger(__name__)
 class LidarSourceStats:
     packets: int = 0  # data packets received from the accepted source with the right size
     bytes: int = 0  # payload bytes of those packets
-    wrong_size: int = 0  # data-port payloads that were not 1206 bytes (dropped)
-    foreign_source: int = 0  # datagrams from a source address other than the accepted one (dropped)
+    wrong_size: int = 0  # data-port payloads from the sender the source takes data from that were not 1206 bytes
+    # Datagrams on either port not taken from the sender the source locked onto (sender_lock.py), dropped: other
+    # senders', and before a lock those that do not look like the configured sensor or lost the race for the lock.
+    foreign_source: int = 0
     last_foreign_ip: str = ""  # a sensor re-addressed by someone shows up here
+    last_foreign: str = ""  # "ip:port" of the last dropped sender
+    sender: str = ""  # "ip:port" the data comes from ("ip" when lidar.accept_ip chose it); "" while unlocked
+    other_senders: int = 0  # appearances of another sender while locked (one that was quiet for a minute counts again)
+    lock_moves: int = 0  # times the lock went over to a different sender after its own fell silent
     malformed: int = 0  # 1206 bytes but not a VLP-16 packet (flags, mode, timestamp)
     out_of_order: int = 0
     missing: int = 0  # packets lost, from gaps in the device clock
@@ -67,6 +73,12 @@ class LidarSourceStats:
             self.nmea = position.nmea
         self.last_position_time = host_time
         assembler.pps_locked = position.pps_locked
+
+    def forget_position(self) -> None:
+        """Another sensor's stream starts (the source locked onto a new sender): the old PPS state is not its."""
+        self.pps_status = None
+        self.nmea = ""
+        self.last_position_time = None
 
     def position_stale(self, host_now: float, timeout_s: float, assembler: ScanAssembler) -> None:
         """Position packets stopped: a PPS lock reported long ago is no longer a lock."""

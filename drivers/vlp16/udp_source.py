@@ -2,8 +2,10 @@
 
 Meant to run in one reader thread: ``scans(stop)`` blocks on the sockets with a short timeout, so a set
 ``stop`` is honoured within ``poll_s``. Bad input never raises: wrong sizes, other senders and garbage are
-counted in ``stats`` and dropped. A silent cable is logged (naming the port and the expected sender) at
-most once per ``silence_timeout_s`` while the source keeps listening, because cables come back.
+counted in ``stats`` and dropped. Data is taken from one sender only, ``accept_ip`` or else the first that
+looks like a VLP-16 (``sender_lock.py``): other Velodynes on the network send to the same port. A silent
+cable is logged (naming the port and the expected sender) at most once per ``silence_timeout_s`` while the
+source keeps listening, because cables come back.
 
 Bind to 0.0.0.0 for a sensor on its factory settings: it broadcasts to 255.255.255.255, and Linux does not
 deliver broadcasts to a socket bound to a unicast address.
@@ -24,6 +26,7 @@ from drivers.frames import LidarScan
 from drivers.mount import Mount
 from drivers.vlp16.decoder import ScanAssembler
 from drivers.vlp16.packet import DATA_PACKET_SIZE, DATA_PORT, POSITION_PORT
+from drivers.vlp16.sender_lock import LOCK_TIMEOUT_S, SenderLock
 from drivers.vlp16.source_stats import LidarSourceStats
 
 log = logging.getLogger(__name__)
@@ -92,8 +95,9 @@ def _grow_receive_buffer(sock: socket.socket, wanted: int, port: int) -> int:
 class VelodyneUdpSource:
     """Listen for one VLP-16; iterate revolutions with ``scans(stop)``.
 
-    ``accept_ip`` keeps only datagrams from that sender (None: any). ``clock`` is the host clock that
-    stamps packets (and so scans); ``wall_clock`` only picks the hour of the sensor's clock.
+    ``accept_ip`` keeps only datagrams from that sender; None: the first sender that looks like a VLP-16,
+    until it has been silent for ``lock_timeout_s``. ``clock`` is the host clock that stamps packets (and
+    so scans); ``wall_clock`` only picks the hour of the sensor's clock.
     ``position_port=None`` disables the position socket; if that port is taken the source logs an error
     and runs without PPS/NMEA status, because point data matter more than telemetry.
     """
@@ -110,6 +114,7 @@ class VelodyneUdpSource:
         min_range_m: float = 0.1,
         max_range_m: float = 200.0,
         silence_timeout_s: float = 2.0,
+        lock_timeout_s: float = LOCK_TIMEOUT_S,
         rcvbuf_bytes: int = RCVBUF_BYTES,
         poll_s: float = 0.1,
         batch_s: float = 0.03,
@@ -133,6 +138,7 @@ class VelodyneUdpSource:
             mount=mount, cut_angle=cut_angle, model=model, min_range_m=min_range_m, max_range_m=max_range_m
         )
         self.stats = LidarSourceStats()
+        self.lock = SenderLock(self.stats, self.assembler.model, self.accept_ip, lock_timeout_s, port=port)
         self.rcvbuf_granted = 0
         self._data: socket.socket | None = None
         self._position: socket.socket | None = None
@@ -140,9 +146,11 @@ class VelodyneUdpSource:
         self._silent_since: float = 0.0
         self._last_silence_log: float | None = None
         self.polls = 0  # wake-ups of the reader loop (a health counter; lets tests step an injected clock)
-        # Called with (dst_port, payload, src_ip) for every datagram received on either port, before any check:
-        # the recorder keeps the raw stream, bad packets included, so a replay meets what the daemon met.
-        self.raw_sink: Callable[[int, bytes, str], None] | None = None
+        self._caught_up = True  # the last wake-up read the data socket empty
+        # Called with (port, payload, (src_ip, src_port)) for every datagram received on either port, before any check:
+        # the recorder keeps the raw stream, bad packets and other senders included, so a replay meets what the daemon
+        # met. ``port`` is the sensor's own (2368 data, 8308 position), whatever ports this source listens on.
+        self.raw_sink: Callable[[int, bytes, tuple[str, int]], None] | None = None
 
     # --- sockets ------------------------------------------------------------------------------------------
     @property
@@ -166,6 +174,7 @@ class VelodyneUdpSource:
             return
         self._data = _bind_udp(self.host, self.port, "data")
         self.rcvbuf_granted = _grow_receive_buffer(self._data, self.rcvbuf_bytes, self.bound_port)
+        self.lock.port = self.bound_port
         if self.position_port is not None:
             try:
                 self._position = _bind_udp(self.host, self.position_port, "position")
@@ -207,6 +216,7 @@ class VelodyneUdpSource:
             selector.register(self._position, selectors.EVENT_READ, "position")
         try:
             while not stop.is_set():
+                self._caught_up = True
                 for key, _ in selector.select(timeout=self.poll_s):
                     if key.data == "data":
                         yield from self._drain_data(key.fileobj)  # type: ignore[arg-type]
@@ -219,6 +229,10 @@ class VelodyneUdpSource:
                     self.stats.take_assembler(self.assembler)
                     yield scan
                 self.stats.position_stale(now, self.silence_timeout_s, self.assembler)
+                # Only with the socket read empty: after a reader stall the backlog holds the sender's packets too.
+                if self._caught_up:
+                    self.lock.expire(now)
+                self.lock.report(now)
                 self._check_silence(now)
                 self.polls += 1
                 if self.batch_s > 0:
@@ -227,39 +241,54 @@ class VelodyneUdpSource:
             selector.close()
             self.close()
 
-    def _accepted(self, address: tuple[str, int]) -> bool:
-        if self.accept_ip is None or address[0] == self.accept_ip:
-            return True
-        self.stats.foreign_source += 1
-        self.stats.last_foreign_ip = address[0]
-        return False
-
     def _drain_data(self, sock: socket.socket) -> Iterator[LidarScan]:
         view = memoryview(self._buffer)
+        lock = self.lock
         for _ in range(_DRAIN_MAX):
             try:
                 n, address = sock.recvfrom_into(self._buffer)
             except (BlockingIOError, InterruptedError):
                 return
             now = self.clock()
+            payload = bytes(view[:n])
             if self.raw_sink is not None:
-                self.raw_sink(self.port, bytes(view[:n]), address[0])
-            if not self._accepted(address):
+                self.raw_sink(DATA_PORT, payload, address)
+            if lock.owns(address):
+                lock.last_heard = now
+                yield from self._take(now, payload, address)
                 continue
-            if n != DATA_PACKET_SIZE:
-                self.stats.wrong_size += 1
-                log.debug("dropped %d-byte datagram from %s on port %d", n, address[0], self.port)
-                continue
-            self.stats.packets += 1
-            self.stats.bytes += n
-            self.stats.last_packet_time = now
-            if self.stats.silent:
-                log.info("VLP-16 data on UDP port %d resumed after %.1f s", self.bound_port, now - self._silent_since)
-                self.stats.silent = False
-            self._silent_since = now
-            completed = self.assembler.push(now, bytes(view[:n]), self.wall_clock())
-            self.stats.take_assembler(self.assembler)
-            yield from completed
+            held = lock.offer(address, payload, now)
+            if held:  # this datagram completed a sender's qualification: a new stream starts
+                yield from self._restart_stream()
+                for t, p in held:
+                    yield from self._take(t, p, address)
+                for t, p, _ in lock.held_positions:
+                    self.stats.take_position(t, p, self.assembler)
+        self._caught_up = False
+
+    def _take(self, now: float, payload: bytes, address: tuple[str, int]) -> Iterator[LidarScan]:
+        n = len(payload)
+        if n != DATA_PACKET_SIZE:
+            self.stats.wrong_size += 1
+            log.debug("dropped %d-byte datagram from %s on port %d", n, address[0], self.port)
+            return
+        self.stats.packets += 1
+        self.stats.bytes += n
+        self.stats.last_packet_time = now
+        if self.stats.silent:
+            log.info("VLP-16 data on UDP port %d resumed after %.1f s", self.bound_port, now - self._silent_since)
+            self.stats.silent = False
+        self._silent_since = now
+        completed = self.assembler.push(now, payload, self.wall_clock())
+        self.stats.take_assembler(self.assembler)
+        yield from completed
+
+    def _restart_stream(self) -> Iterator[LidarScan]:
+        """A sender took the lock: whatever came before was another sensor's, revolution, clock and PPS alike."""
+        scans = self.assembler.restart()
+        self.stats.take_assembler(self.assembler)
+        self.stats.forget_position()
+        yield from scans
 
     def _drain_position(self, sock: socket.socket) -> None:
         for _ in range(_DRAIN_MAX):
@@ -267,10 +296,13 @@ class VelodyneUdpSource:
                 n, address = sock.recvfrom_into(self._buffer)
             except (BlockingIOError, InterruptedError):
                 return
-            if self.raw_sink is not None and self.position_port is not None:
-                self.raw_sink(self.position_port, bytes(self._buffer[:n]), address[0])
-            if self._accepted(address):
-                self.stats.take_position(self.clock(), bytes(self._buffer[:n]), self.assembler)
+            now = self.clock()
+            if self.raw_sink is not None:
+                self.raw_sink(POSITION_PORT, bytes(self._buffer[:n]), address)
+            if self.lock.owns_host(address):
+                self.stats.take_position(now, bytes(self._buffer[:n]), self.assembler)
+            else:
+                self.lock.offer_position(address, bytes(self._buffer[:n]), now)
 
     def _check_silence(self, now: float) -> None:
         quiet = now - self._silent_since
@@ -280,11 +312,11 @@ class VelodyneUdpSource:
         if self._last_silence_log is not None and now - self._last_silence_log < self.silence_timeout_s:
             return
         self._last_silence_log = now
-        sender = "any sender" if self.accept_ip is None else self.accept_ip
+        sender = self.lock.describe()
         extra = []
         if self.stats.foreign_source:
             extra.append(
-                f"{self.stats.foreign_source} datagrams from other senders ignored (last {self.stats.last_foreign_ip})"
+                f"{self.stats.foreign_source} datagrams from other senders ignored (last {self.stats.last_foreign})"
             )
         if self.stats.wrong_size:
             extra.append(f"{self.stats.wrong_size} wrong-size datagrams dropped")
