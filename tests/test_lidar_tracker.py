@@ -1,4 +1,4 @@
-"""The LiDAR tracker end to end on ray-cast synthetic scenes (tracker.lidar.synthetic), against ground truth."""
+"""The LiDAR tracker end to end on ray-cast synthetic scenes (tests.lidar_synthetic), against ground truth."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
+from tests.lidar_synthetic import SyntheticObject, scan_objects
 from tracker.lidar import LidarTracker, LidarTrackerConfig
 from tracker.lidar.config import EkfConfig, ShapeConfig
-from tracker.lidar.synthetic import SyntheticObject, scan_objects
 from tracker.types import ShapeKind, Track
 
 DT = 0.1  # s, the VLP-16 at 10 Hz

@@ -17,6 +17,7 @@ from drivers.vlp16.packet import encode_data_packet
 from simulator.lidar_model import Vlp16Model
 from simulator.scenarios import get_scenario
 from simulator.truth import truth_at
+from tests.lidar_synthetic import SyntheticObject, scan_objects
 from tracker.lidar import LidarTracker, LidarTrackerConfig
 from tracker.lidar.config import ConfigError, EkfConfig, ShapeConfig
 from tracker.lidar.ekf import LEN, PE, PN, VE, VN, WID, EkfBank, Measurement, faces_seen, measurement_noise
@@ -31,7 +32,6 @@ from tracker.lidar.shape_fit import (
     fit_lshape_corners,
     guard_heading,
 )
-from tracker.lidar.synthetic import SyntheticObject, scan_objects
 from tracker.types import ShapeKind
 
 

@@ -8,8 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from tests.radar_synthetic import OwnBoat, box_points, observe
 from tracker.radar import RadarTracker, RadarTrackerConfig
-from tracker.radar.synthetic import OwnBoat, box_points, observe
 
 BASE = RadarTrackerConfig(
     cluster_min_points=4,
@@ -325,7 +325,7 @@ def test_a_quay_piece_tracked_before_the_wall_was_known_is_dropped_once_it_is_sh
     # First 0.5 s: only an 8 m piece of a quay wall 25 m north is seen (shorter than shore_min_extent_m): a track.
     # Then the whole 40 m wall: the shore-line search calls it shore, the piece's cluster is removed, and the track
     # on it is deleted at once instead of coasting (max_unseen_time_s 2 s here) as an object.
-    from tracker.radar.synthetic import segment_points
+    from tests.radar_synthetic import segment_points
 
     rng = np.random.default_rng(15)
     frames = []

@@ -8,10 +8,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from tests.radar_synthetic import OwnBoat, box_points, observe
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.detector import RadarDetector
 from tracker.radar.multipath import MultipathSettings, multipath_ghosts
-from tracker.radar.synthetic import OwnBoat, box_points, observe
 
 SETTINGS = MultipathSettings(
     search_angle=math.radians(10.0),

@@ -7,11 +7,11 @@ from dataclasses import replace
 
 import numpy as np
 
+from tests.radar_synthetic import OwnBoat, box_points, observe
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.detector import SHORE_KEEP, SHORE_ON, RadarDetector
 from tracker.radar.shore_lines import ShoreLines
 from tracker.radar.static_map import StaticMap
-from tracker.radar.synthetic import OwnBoat, box_points, observe
 
 
 def lines(interval_s: float = 0.0) -> ShoreLines:

@@ -7,10 +7,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from tests.radar_synthetic import OwnBoat, box_points, observe, segment_points
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.detector import SHORE_BEHIND, SHORE_KEEP, SHORE_ON, RadarDetector
 from tracker.radar.static_map import StaticMap
-from tracker.radar.synthetic import OwnBoat, box_points, observe, segment_points
 
 CFG = RadarTrackerConfig(cluster_min_points=4, velocity_cluster_min_points=4)
 WALL_A, WALL_B = np.array([20.0, -30.0]), np.array([20.0, 30.0])  # quay face along east, 20 m north

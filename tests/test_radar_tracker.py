@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from drivers.frames import EgoPose, RadarFrame
+from tests.radar_synthetic import OwnBoat, box_points, observe
 from tracker.lifecycle import IdSource
 from tracker.radar import RadarDetector, RadarTracker, RadarTrackerConfig, VelocityStatus
-from tracker.radar.synthetic import OwnBoat, box_points, observe
 from tracker.types import MotionState
 
 CFG = RadarTrackerConfig(cluster_min_points=4, velocity_cluster_min_points=4)
