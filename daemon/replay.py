@@ -98,12 +98,22 @@ class ReplaySummary:
     track_ids: set[int] = field(default_factory=set)  # every track written
     confirmed_ids: set[int] = field(default_factory=set)
     decoder_waits: int = 0  # items the tick loop found not yet decoded, and waited for
+    cycle_p50_ms: float = 0.0  # one tick's pipeline and publishing
+    cycle_p99_ms: float = 0.0
     interrupted: bool = False
 
     @property
     def ratio(self) -> float:
         """Data seconds per wall second: the replay's speed in times real time."""
         return self.data_seconds / max(self.wall_seconds, 1e-9)
+
+    def details(self) -> str:
+        return (
+            f"{self.ticks} ticks over {self.data_seconds:.1f} s of data in {self.wall_seconds:.2f} s "
+            f"({self.ratio:.1f}x real time); {self.scans} revolutions, {self.radar_frames} radar frames, "
+            f"{self.poses} poses; cycle p50 {self.cycle_p50_ms:.1f} ms p99 {self.cycle_p99_ms:.1f} ms; "
+            f"waited {self.decoder_waits} times for a decoder"
+        )
 
     def count(self, out: PerceptionOutput) -> None:
         self.ticks += 1
@@ -119,6 +129,7 @@ def run_replay(config: Config, duration_s: float | None = None, fast: bool = Tru
     interrupted."""
     tlog = config.mavlink.url if config.mavlink.url.endswith(".tlog") else None
     summary = replay(config, ReplayOptions(speed=None if fast else 1.0, duration_s=duration_s, tlog=tlog))
+    log.info("replay: %s", summary.details())
     return 130 if summary.interrupted else 0
 
 
@@ -247,21 +258,7 @@ def _replay(config: Config, options: ReplayOptions, streams: list[Any], wall_sta
     summary.data_seconds = summary.ticks * period
     summary.wall_seconds = time.monotonic() - wall_start
     summary.decoder_waits = _waits(lidar_it, radar_it) - waits_before
-    p50, p99 = loop.stats.percentiles()
-    log.info(
-        "replay: %d ticks over %.1f s of data in %.2f s (%.1fx real time); %d revolutions, %d radar frames, "
-        "%d poses; cycle p50 %.1f ms p99 %.1f ms; waited %d times for a decoder",
-        summary.ticks,
-        summary.data_seconds,
-        summary.wall_seconds,
-        summary.ratio,
-        summary.scans,
-        summary.radar_frames,
-        summary.poses,
-        p50,
-        p99,
-        summary.decoder_waits,
-    )
+    summary.cycle_p50_ms, summary.cycle_p99_ms = loop.stats.percentiles()
     return summary
 
 
