@@ -84,6 +84,7 @@ class ReplayOptions:
     live_ego: EgoSource | None = None
     publisher: ObstaclePublisher | None = None  # where OBSTACLE_DISTANCE & co. go (`--to URL`)
     progress: ReplayProgress | None = None
+    prefetch: bool = True  # decoders in producer threads; False decodes in the tick loop (bench/replay_speed.py)
 
 
 @dataclass
@@ -153,11 +154,11 @@ def _replay(config: Config, options: ReplayOptions, streams: list[Any], wall_sta
     from daemon.autopilot_pose import PoseAssembler
 
     summary = ReplaySummary()
-    lidar_it = lidar_scans(config)
+    lidar_it = lidar_scans(config, options.prefetch)
     streams.append(lidar_it)
     lidar = Peekable(lidar_it) if lidar_it is not None else None
     first_lidar = lidar.peek().stamp if lidar is not None and lidar.peek() is not None else None  # type: ignore[union-attr]
-    radar_it = radar_frames(config, first_lidar)
+    radar_it = radar_frames(config, first_lidar, options.prefetch)
     streams.append(radar_it)
     radar = Peekable(radar_it) if radar_it is not None else None
     poses: EgoSource | None = None
@@ -169,7 +170,7 @@ def _replay(config: Config, options: ReplayOptions, streams: list[Any], wall_sta
         history = PoseHistory(capacity=100_000)
         assembler = PoseAssembler(history)
         poses = HistoryEgo(history, lambda: assembler.world_epoch)
-        msgs = tlog_messages(options.tlog)
+        msgs = tlog_messages(options.tlog, options.prefetch)
         streams.append(msgs)
         pose_msgs = Peekable(msgs)
     else:

@@ -56,7 +56,11 @@ class Peekable(Generic[T]):
         return item
 
 
-def lidar_scans(config: Config) -> Iterator[LidarScan] | None:
+def _ahead(name: str, it: Iterator[T], maxsize: int, prefetch: bool) -> Iterator[T]:
+    return Prefetch(name, it, maxsize) if prefetch else it
+
+
+def lidar_scans(config: Config, prefetch: bool = True) -> Iterator[LidarScan] | None:
     if not config.lidar.enabled:
         return None
     from daemon.runner import build_lidar_source
@@ -64,10 +68,10 @@ def lidar_scans(config: Config) -> Iterator[LidarScan] | None:
     src, url = build_lidar_source(config, fast=True)
     if url.scheme != "pcap":
         raise ValueError(f"replay needs a pcap:// LiDAR source, not {url.text} (live and recorded sources cannot mix)")
-    return Prefetch("lidar", src.scans(None), LIDAR_AHEAD)
+    return _ahead("lidar", src.scans(None), LIDAR_AHEAD, prefetch)
 
 
-def radar_frames(config: Config, start_time: float | None) -> Iterator[RadarFrame] | None:
+def radar_frames(config: Config, start_time: float | None, prefetch: bool = True) -> Iterator[RadarFrame] | None:
     """``start_time``: where frames of a dump without a ``.times`` sidecar begin (the LiDAR's first revolution)."""
     if not config.radar.enabled:
         return None
@@ -92,14 +96,14 @@ def radar_frames(config: Config, start_time: float | None) -> Iterator[RadarFram
                 yield from parser.feed(chunk, t)
             yield from parser.finish(math.inf)
 
-        return Prefetch("radar", gen(), RADAR_AHEAD)
+        return _ahead("radar", gen(), RADAR_AHEAD, prefetch)
     from drivers.awr1843.sources import FileRadarSource
 
     log.info("%s has no .times sidecar: frames paced by the frame period from t = %s", url.path, start_time)
     frames = FileRadarSource(
         url.path, profile, mount, expected=expected, speed=None, start_time=start_time or 0.0
     ).frames(_NeverStop())
-    return Prefetch("radar", frames, RADAR_AHEAD)
+    return _ahead("radar", frames, RADAR_AHEAD, prefetch)
 
 
 class _NeverStop:
@@ -110,7 +114,7 @@ class _NeverStop:
         return False
 
 
-def tlog_messages(path: str) -> Iterator[Any]:
+def tlog_messages(path: str, prefetch: bool = True) -> Iterator[Any]:
     """The pose messages of a .tlog in file order, each with its recorded time in ``_timestamp``."""
 
     def gen() -> Iterator[Any]:
@@ -126,7 +130,7 @@ def tlog_messages(path: str) -> Iterator[Any]:
         finally:
             conn.close()
 
-    return Prefetch("poses", gen(), POSES_AHEAD)
+    return _ahead("poses", gen(), POSES_AHEAD, prefetch)
 
 
 def feed_pose(assembler: Any, msg: Any) -> None:
