@@ -1,6 +1,6 @@
 """How fast `usv-tracker replay DIR --fast` goes: seconds of data per wall second (the replay ratio, x real time).
 
-    python bench/replay_speed.py               # a 60 s recording, 3 passes per mode (about 2-3 minutes)
+    python bench/replay_speed.py               # a 60 s recording, 3 passes per mode (about 3 minutes)
     python bench/replay_speed.py --profile     # and a cProfile of one fused pass (top 15 by cumulative time)
 
 A 60 s recording of the harbour scene (VLP-16 pcap, AWR1843 dump with its .times sidecar, autopilot .tlog) is

@@ -1,8 +1,9 @@
 """The streams a replay is fed from: LiDAR revolutions from a pcap, radar frames from a data-port dump, poses from a
 MAVLink .tlog, each in its recorded order with its recorded stamps, decoded ahead in a producer thread.
 
-Every stream runs through ``Prefetch``: the decoders (pcap reading and revolution assembly above all, a quarter of
-a fused replay's time) work while the tracker ticks, and the tick loop only waits on them when they fall behind.
+Every stream runs through ``Prefetch``: the decoders (pcap reading and revolution assembly above all, about a fifth
+of a fused replay's time when the tick loop ran them itself) work while the tracker ticks, and the tick loop only
+waits on them when they fall behind (bench/replay_speed.py counts the times).
 """
 
 from __future__ import annotations
