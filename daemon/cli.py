@@ -1,4 +1,4 @@
-"""The `usv-tracker` command: run, demo, simulate, decode, check-config, evaluate."""
+"""The `usv-tracker` command: run, replay, demo, simulate, decode, check-config, evaluate."""
 
 from __future__ import annotations
 
@@ -83,6 +83,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     return run_daemon(config, fast=args.fast, duration_s=args.seconds)
 
 
+def cmd_replay(args: argparse.Namespace) -> int:
+    from daemon.replay_cli import run
+
+    return run(args)
+
+
 def _describe_drawn_scene(name: str, seconds: float) -> bool:
     """Print what a ``random:SEED`` scene holds (it is known by its seed alone); False for a name that is no scene."""
     if name.partition(":")[0] != "random":
@@ -146,6 +152,15 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--fast", action="store_true", help="replay captures on the data's clock, as fast as possible")
     run.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: run on)")
     run.set_defaults(func=cmd_run)
+
+    from daemon.replay_cli import add_arguments as add_replay_arguments
+
+    rep = sub.add_parser(
+        "replay",
+        help="replay a recording through the daemon: at N x real time, as fast as possible, or into a live autopilot",
+    )
+    add_replay_arguments(rep)
+    rep.set_defaults(func=cmd_replay)
 
     demo = sub.add_parser("demo", help="built-in demo: simulator plays sensors and autopilot, the real daemon runs")
     demo.add_argument("--seconds", type=float, default=30.0)

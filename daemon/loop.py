@@ -114,7 +114,7 @@ class DaemonLoop:
         self.status_text: Callable[[], str] | None = None
         # Called once a tick with its time: STATUSTEXT (severity, text) the sources have news for (source_alerts.py).
         self.alerts: Callable[[float], list[tuple[int, str]]] | None = None
-        # World NED -> (lat, lon, alt) or None; the replay sets it (it has no publisher), live uses the publisher's.
+        # World NED -> (lat, lon, alt) or None; a replay with the recording's poses sets it, live uses the publisher's.
         self.world_to_geodetic: Callable[[np.ndarray], tuple[Any, Any, Any] | None] | None = None
 
     # ---- one cycle -------------------------------------------------------------------------------------------
@@ -179,7 +179,8 @@ class DaemonLoop:
         s = self.s
         if s.ais_interval_s <= 0 or self.publisher is None or out.t - self._last_ais < s.ais_interval_s:
             return
-        to_geodetic = getattr(self.publisher, "world_to_geodetic", None)
+        # a replay into a live autopilot tracks in the recording's world: its anchor, not the live autopilot's
+        to_geodetic = self.world_to_geodetic or getattr(self.publisher, "world_to_geodetic", None)
         send = getattr(self.publisher, "send_ais_vessel", None)
         if to_geodetic is None or send is None:
             return

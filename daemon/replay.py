@@ -1,10 +1,11 @@
 """Replay of recorded captures through the same pipeline and loop as live, on the data's own clock.
 
-Sources: a VLP-16 pcap (`pcap://`), a radar data-port dump (`file://`, with its `.times` sidecar when the project
-recorded it, else paced by the cfg's frame period from the LiDAR's start), and the autopilot's poses from a
-MAVLink `.tlog` (`--mavlink run.tlog`). Ticks are placed every 1/rate s of DATA time and fed exactly the items
-stamped before them, so the output does not depend on the CPU: `--fast` runs as fast as it can, without it the
-replay keeps real-time pace for watching.
+Sources (daemon/replay_sources.py): a VLP-16 pcap (`pcap://`), a radar data-port dump (`file://`, with its `.times`
+sidecar when the project recorded it, else paced by the cfg's frame period from the LiDAR's start), and the
+autopilot's poses from a MAVLink `.tlog`. Ticks are placed every 1/rate s of DATA time and fed exactly the items
+stamped before them, so the output does not depend on the CPU or on the pace: as fast as possible (`--fast`) or at
+N times real time, the same capture gives the same ticks. A publisher (`usv-tracker replay --to URL`) receives what
+the live daemon would send, at the pace the replay keeps.
 """
 
 from __future__ import annotations
@@ -12,57 +13,22 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Generic, TypeVar
+from typing import Any, Protocol
 
 from daemon.buffers import BoundedQueue, LatestSlot
 from daemon.config import Config
-from daemon.ego import HistoryEgo
-from daemon.loop import DaemonLoop, LoopSettings, SensorInputs
+from daemon.ego import HistoryEgo, ShiftedEgo
+from daemon.loop import DaemonLoop, LoopSettings, ObstaclePublisher, SensorInputs
 from daemon.pose_history import PoseHistory
+from daemon.replay_sources import Peekable, close_stream, feed_pose, lidar_scans, radar_frames, tlog_messages
 from daemon.runner import pipeline_for, sensors_off
 from daemon.source_url import parse_source_url
 from drivers.frames import LidarScan, RadarFrame
+from tracker.pipeline import EgoSource, PerceptionOutput
 
 log = logging.getLogger(__name__)
-
-T = TypeVar("T")
-
-
-class Peekable(Generic[T]):
-    def __init__(self, it: Iterator[T]) -> None:
-        self._it = it
-        self._next: T | None = None
-        self.done = False
-        self._advance()
-
-    def _advance(self) -> None:
-        try:
-            self._next = next(self._it)
-        except StopIteration:
-            self._next = None
-            self.done = True
-
-    def peek(self) -> T | None:
-        return self._next
-
-    def pop(self) -> T:
-        item = self._next
-        assert item is not None
-        self._advance()
-        return item
-
-
-@dataclass
-class ReplaySummary:
-    ticks: int = 0
-    scans: int = 0
-    radar_frames: int = 0
-    poses: int = 0
-    data_seconds: float = 0.0
-    wall_seconds: float = 0.0
 
 
 def recording_config(directory: str | Path, tracks_out: str | Path, lidar: bool = True, radar: bool = True) -> Config:
@@ -97,97 +63,122 @@ def is_replay(config: Config) -> bool:
     return any(s in ("pcap", "file") for s in schemes) or config.mavlink.url.endswith(".tlog")
 
 
-def _lidar_scans(config: Config) -> Iterator[LidarScan] | None:
-    if not config.lidar.enabled:
-        return None
-    from daemon.runner import build_lidar_source
+class ReplayProgress(Protocol):
+    """Told where the replay is; daemon/replay_progress.py draws it."""
 
-    src, url = build_lidar_source(config, fast=True)
-    if url.scheme != "pcap":
-        raise ValueError(f"replay needs a pcap:// LiDAR source, not {url.text} (live and recorded sources cannot mix)")
-    return src.scans(None)
+    def start(self, t0: float) -> None:
+        """The data time the first tick counts from."""
 
+    def advance(self, data_seconds: float) -> None:
+        """Seconds of data replayed so far."""
 
-def _radar_frames(config: Config, start_time: float | None) -> Iterator[RadarFrame] | None:
-    if not config.radar.enabled:
-        return None
-    url = parse_source_url(config.radar.data)
-    if url.scheme != "file":
-        raise ValueError(f"replay needs a file:// radar source, not {url.text} (live and recorded sources cannot mix)")
-    from drivers.awr1843.parser import RadarFrameParser
-    from drivers.awr1843.profile import load_profile
-    from drivers.awr1843.timed_capture import read_sidecar, timed_chunks
-
-    profile = (
-        load_profile(config.radar.profile) if config.radar.profile and Path(config.radar.profile).exists() else None
-    )
-    mount = config.radar.mount.to_mount()
-    from daemon.runner import expected_radar_stream
-
-    expected = expected_radar_stream(config, profile)  # the live run rejected the same frames
-    if read_sidecar(url.path) is not None:
-        parser = RadarFrameParser(profile, mount, expected=expected)
-
-        def gen() -> Iterator[RadarFrame]:
-            for chunk, t in timed_chunks(url.path):
-                yield from parser.feed(chunk, t)
-            yield from parser.finish(math.inf)
-
-        return gen()
-    from drivers.awr1843.sources import FileRadarSource
-
-    log.info("%s has no .times sidecar: frames paced by the frame period from t = %s", url.path, start_time)
-    return FileRadarSource(
-        url.path, profile, mount, expected=expected, speed=None, start_time=start_time or 0.0
-    ).frames(_NeverStop())
+    def close(self) -> None: ...
 
 
-class _NeverStop:
-    def is_set(self) -> bool:
-        return False
+@dataclass
+class ReplayOptions:
+    speed: float | None = None  # times real time; None: as fast as the CPU allows
+    duration_s: float | None = None  # stop after this much data
+    tlog: str | None = None  # poses from this recording of the autopilot
+    # Poses from a live autopilot instead (an EgoSource on the host's monotonic clock); needs speed 1.
+    live_ego: EgoSource | None = None
+    publisher: ObstaclePublisher | None = None  # where OBSTACLE_DISTANCE & co. go (`--to URL`)
+    progress: ReplayProgress | None = None
+    prefetch: bool = True  # decoders in producer threads; False decodes in the tick loop (bench/replay_speed.py)
 
-    def wait(self, timeout: float | None = None) -> bool:
-        return False
 
+@dataclass
+class ReplaySummary:
+    ticks: int = 0
+    scans: int = 0
+    radar_frames: int = 0
+    poses: int = 0
+    sent: int = 0  # ticks whose bins were sent (or would have been, without a publisher)
+    data_seconds: float = 0.0
+    wall_seconds: float = 0.0  # from opening the captures to the last tick
+    track_ids: set[int] = field(default_factory=set)  # every track written
+    confirmed_ids: set[int] = field(default_factory=set)
+    decoder_waits: int = 0  # items the tick loop found not yet decoded, and waited for
+    cycle_p50_ms: float = 0.0  # one tick's pipeline and publishing
+    cycle_p99_ms: float = 0.0
+    interrupted: bool = False
 
-def _tlog_messages(path: str) -> Iterator[Any]:
-    from daemon.mavlink_env import mavutil
+    @property
+    def ratio(self) -> float:
+        """Data seconds per wall second: the replay's speed in times real time."""
+        return self.data_seconds / max(self.wall_seconds, 1e-9)
 
-    conn = mavutil.mavlink_connection(path, dialect="ardupilotmega")
-    try:
-        while True:
-            msg = conn.recv_match(type=["ATTITUDE", "LOCAL_POSITION_NED", "GLOBAL_POSITION_INT"])
-            if msg is None:
-                return
-            yield msg
-    finally:
-        conn.close()
+    def details(self) -> str:
+        return (
+            f"{self.ticks} ticks over {self.data_seconds:.1f} s of data in {self.wall_seconds:.2f} s "
+            f"({self.ratio:.1f}x real time); {self.scans} revolutions, {self.radar_frames} radar frames, "
+            f"{self.poses} poses; cycle p50 {self.cycle_p50_ms:.1f} ms p99 {self.cycle_p99_ms:.1f} ms; "
+            f"waited {self.decoder_waits} times for a decoder"
+        )
+
+    def count(self, out: PerceptionOutput) -> None:
+        self.ticks += 1
+        self.sent += bool(out.lidar_fresh or out.radar_fresh)
+        for tr in out.tracks:
+            self.track_ids.add(tr.id)
+            if tr.confirmed:
+                self.confirmed_ids.add(tr.id)
 
 
 def run_replay(config: Config, duration_s: float | None = None, fast: bool = True) -> int:
+    """`usv-tracker run` on captures: the poses from ``[mavlink] url`` when it is a .tlog; 0, or 130 when
+    interrupted."""
+    tlog = config.mavlink.url if config.mavlink.url.endswith(".tlog") else None
+    summary = replay(config, ReplayOptions(speed=None if fast else 1.0, duration_s=duration_s, tlog=tlog))
+    log.info("replay: %s", summary.details())
+    return 130 if summary.interrupted else 0
+
+
+def replay(config: Config, options: ReplayOptions) -> ReplaySummary:
+    """Replay the captures ``config`` names; raises OSError/ValueError for captures that cannot be read."""
+    if options.speed is not None and not (math.isfinite(options.speed) and options.speed > 0):
+        raise ValueError(f"replay speed must be a positive factor, got {options.speed}")
+    if options.live_ego is not None and options.speed != 1.0:
+        raise ValueError("live poses need the recorded pace (speed 1)")
+    wall_start = time.monotonic()
+    sensors_off(config)
+    streams: list[Any] = []
+    try:
+        return _replay(config, options, streams, wall_start)
+    finally:
+        for it in streams:
+            close_stream(it)
+
+
+def _replay(config: Config, options: ReplayOptions, streams: list[Any], wall_start: float) -> ReplaySummary:
     from daemon.autopilot_pose import PoseAssembler
 
-    sensors_off(config)
-    lidar_it = _lidar_scans(config)
+    summary = ReplaySummary()
+    lidar_it = lidar_scans(config, options.prefetch)
+    streams.append(lidar_it)
     lidar = Peekable(lidar_it) if lidar_it is not None else None
-    first_lidar = lidar.peek().stamp if lidar is not None and lidar.peek() is not None else None
-    radar_it = _radar_frames(config, first_lidar)
+    first_lidar = lidar.peek().stamp if lidar is not None and lidar.peek() is not None else None  # type: ignore[union-attr]
+    radar_it = radar_frames(config, first_lidar, options.prefetch)
+    streams.append(radar_it)
     radar = Peekable(radar_it) if radar_it is not None else None
-    poses: HistoryEgo | None = None
+    poses: EgoSource | None = None
     pose_msgs: Peekable[Any] | None = None
     assembler = None
-    if config.mavlink.url.endswith(".tlog"):
+    if options.live_ego is not None:
+        poses = options.live_ego  # put on the recording's clock below, once the first tick's time is known
+    elif options.tlog is not None:
         history = PoseHistory(capacity=100_000)
         assembler = PoseAssembler(history)
         poses = HistoryEgo(history, lambda: assembler.world_epoch)
-        pose_msgs = Peekable(_tlog_messages(config.mavlink.url))
+        msgs = tlog_messages(options.tlog, options.prefetch)
+        streams.append(msgs)
+        pose_msgs = Peekable(msgs)
     else:
         log.info("replay without a .tlog: no ego pose, the boat frame at the start is the world frame")
 
     starts = [p.peek().stamp for p in (lidar, radar) if p is not None and p.peek() is not None]  # type: ignore[union-attr]
     if not starts:
-        log.error("replay: the captures hold no LiDAR revolution and no radar frame")
-        return 2
+        raise ValueError("the captures hold no LiDAR revolution and no radar frame")
     period = 1.0 / config.output.rate_hz
     # Ticks fall halfway between revolutions, as the live loop's phase lock puts them: a tick grid started by the
     # radar's first frame could sit on the revolutions' arrivals, and jitter then gives one interval two of them
@@ -198,10 +189,11 @@ def run_replay(config: Config, duration_s: float | None = None, fast: bool = Tru
     inputs = SensorInputs(LatestSlot[LidarScan](), BoundedQueue[RadarFrame](10_000))
     o = config.output
     tracks_file = open(o.tracks_out, "w", encoding="utf-8") if o.tracks_out else None  # noqa: SIM115
+    streams.append(tracks_file)
     loop = DaemonLoop(
         pipeline_for(config),
         inputs,
-        None,
+        options.publisher,
         poses,
         LoopSettings(
             o.rate_hz,
@@ -211,24 +203,35 @@ def run_replay(config: Config, duration_s: float | None = None, fast: bool = Tru
             o.health_interval_s,
             lidar_expected=config.lidar.enabled,
             radar_expected=config.radar.enabled,
+            ais_interval_s=o.ais_interval_s,
+            ais_max_tracks=o.ais_max_tracks,
+            ais_mmsi_base=o.ais_mmsi_base,
         ),
         tracks_out=tracks_file,
         clock=lambda: t_now,
     )
     if assembler is not None:
-        loop.world_to_geodetic = assembler.world_to_geodetic
-    summary = ReplaySummary()
-    wall0 = time.monotonic()
+        loop.world_to_geodetic = assembler.world_to_geodetic  # the recorded autopilot's anchor, not the live one's
+    speed = options.speed
+    progress = options.progress
+    if progress is not None:
+        progress.start(t0)
+    waits_before = _waits(lidar_it, radar_it)
+    mono0 = time.monotonic()
+    if options.live_ego is not None:
+        # data time t is host time mono0 + (t - t0) at the recorded pace
+        loop.poses = ShiftedEgo(options.live_ego, mono0 - t0)
     k = 0
+    t_now = t0
     try:
         while True:
             k += 1
             t_now = t0 + k * period
-            if duration_s is not None and t_now - t0 > duration_s:
+            if options.duration_s is not None and t_now - t0 > options.duration_s:
                 break
             if pose_msgs is not None and assembler is not None:
                 while (m := pose_msgs.peek()) is not None and m._timestamp <= t_now + 0.2:
-                    _feed_pose(assembler, pose_msgs.pop())
+                    feed_pose(assembler, pose_msgs.pop())
                     summary.poses += 1
             if lidar is not None:
                 while (s := lidar.peek()) is not None and s.stamp <= t_now:
@@ -238,47 +241,27 @@ def run_replay(config: Config, duration_s: float | None = None, fast: bool = Tru
                 while (f := radar.peek()) is not None and f.stamp <= t_now:
                     inputs.radar.put(radar.pop(), t_now)
                     summary.radar_frames += 1
-            if not fast:
-                delay = (t_now - t0) - (time.monotonic() - wall0)
+            if speed is not None:
+                delay = (t_now - t0) / speed - (time.monotonic() - mono0)
                 if delay > 0:
                     time.sleep(delay)
-            loop.tick(t_now)
-            summary.ticks += 1
+            summary.count(loop.tick(t_now))
+            if progress is not None:
+                progress.advance(t_now - t0)
             if all(p is None or p.done for p in (lidar, radar)):
                 break
     except KeyboardInterrupt:
         log.info("replay interrupted")
+        summary.interrupted = True
     finally:
-        if tracks_file is not None:
-            tracks_file.close()
+        if progress is not None:
+            progress.close()
     summary.data_seconds = summary.ticks * period
-    summary.wall_seconds = time.monotonic() - wall0
-    p50, p99 = loop.stats.percentiles()
-    log.info(
-        "replay: %d ticks over %.1f s of data in %.2f s (%.1fx real time); %d revolutions, %d radar frames, "
-        "%d poses; cycle p50 %.1f ms p99 %.1f ms",
-        summary.ticks,
-        summary.data_seconds,
-        summary.wall_seconds,
-        summary.data_seconds / max(summary.wall_seconds, 1e-9),
-        summary.scans,
-        summary.radar_frames,
-        summary.poses,
-        p50,
-        p99,
-    )
-    return 0
+    summary.wall_seconds = time.monotonic() - wall_start
+    summary.decoder_waits = _waits(lidar_it, radar_it) - waits_before
+    summary.cycle_p50_ms, summary.cycle_p99_ms = loop.stats.percentiles()
+    return summary
 
 
-def _feed_pose(assembler: Any, msg: Any) -> None:
-    import numpy as np
-
-    t = float(msg._timestamp)
-    kind = msg.get_type()
-    if kind == "ATTITUDE":
-        assembler.on_attitude(t, msg.roll, msg.pitch, msg.yaw, msg.rollspeed, msg.pitchspeed, msg.yawspeed)
-    elif kind == "LOCAL_POSITION_NED":
-        assembler.on_local_position(t, np.array([msg.x, msg.y, msg.z]), np.array([msg.vx, msg.vy, msg.vz]))
-    elif kind == "GLOBAL_POSITION_INT":
-        vel = np.array([msg.vx, msg.vy, msg.vz]) * 0.01
-        assembler.on_global_position(t, msg.lat * 1e-7, msg.lon * 1e-7, msg.alt * 1e-3, vel)
+def _waits(*streams: Any) -> int:
+    return sum(getattr(s, "waits", 0) for s in streams)

@@ -250,3 +250,21 @@ def test_files_that_are_not_captures_raise_a_clear_error(tmp_path: Path) -> None
     short.write_bytes(struct.pack("<I", 0xA1B2C3D4) + b"\0" * 10)
     with pytest.raises(NotAPcapError, match="truncated"):
         list(PcapReader(short))
+
+
+def test_last_time_is_the_last_record_of_either_container(tmp_path: Path) -> None:
+    s = sweep(4)
+    path = tmp_path / "end.pcap"
+    with PcapWriter(path) as w:
+        for t, p in zip(s.host_times, s.payloads, strict=True):
+            w.write_udp(t, p)
+        w.write_udp(s.host_times[-1] + 0.25, encode_position_packet(0, 0), dst_port=8308, src_port=8308)
+    assert PcapReader(path, ports=[2368]).last_time() == pytest.approx(s.host_times[-1] + 0.25, abs=0.5e-6)
+    ng = tmp_path / "end.pcapng"
+    ng.write_bytes(make_synthetic_pcapng())
+    # its last record: the eighth data packet, on the nanosecond interface with the 1 s offset
+    assert PcapReader(ng).last_time() == pytest.approx(sweep(8).host_times[7], abs=2.5e-7)
+    empty = tmp_path / "empty.pcap"
+    with PcapWriter(empty):
+        pass
+    assert PcapReader(empty).last_time() is None

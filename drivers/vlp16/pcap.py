@@ -141,6 +141,17 @@ class PcapReader:
                 self.stats.yielded += 1
                 yield datagram
 
+    def last_time(self) -> float | None:
+        """Capture time of the file's last record (of any kind), None for a capture without one: where a replay
+        ends, for its progress bar. Reads only the containers, not the datagrams (about 0.1 s per minute of VLP-16
+        data)."""
+        last = None
+        with open(self.path, "rb", buffering=1 << 20) as f:
+            frames = self._classic(f) if self.format.startswith("pcap-") else self._pcapng(f)
+            for timestamp, _link_type, _frame in frames:
+                last = timestamp
+        return last
+
     # --- containers ------------------------------------------------------------------------------------
     def _torn(self, what: str) -> None:
         self.stats.torn_tail = True
