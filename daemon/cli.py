@@ -30,7 +30,7 @@ def cmd_check_config(args: argparse.Namespace) -> int:
     from daemon.config_schema import ConfigError
 
     try:
-        load_config(args.file)
+        load_config(args.file, check_files=True)
     except ConfigError as exc:
         print(f"{args.file}: {len(exc.problems)} problem(s):", file=sys.stderr)
         for problem in exc.problems:
