@@ -208,3 +208,17 @@ def test_a_file_far_larger_than_any_cfg_is_not_read_whole() -> None:
     with pytest.raises(RadarProfileError) as err:
         load_profile("/dev/zero")
     assert str(err.value) == f"/dev/zero: larger than {MAX_CFG_BYTES // 1024} KiB: not a radar cfg"
+
+
+@pytest.mark.parametrize(
+    ("bad_line", "unusable"),
+    [
+        ("profileCfg 0 77 1e-310 3 0 0 0 100 1 256 7200 0 0 30", "max_velocity_mps, velocity_resolution_mps"),
+        ("profileCfg 0 77 7 3 39 0 0 100 1 256 1e300 0 0 30", "range_bin_m, range_resolution_m, max_range_m"),
+    ],
+)
+def test_finite_numbers_that_multiply_out_to_no_chirp_design(bad_line: str, unusable: str) -> None:
+    with pytest.raises(RadarProfileError) as err:
+        parse_profile(MINIMAL.replace("profileCfg 0 77 7 3 39 0 0 100 1 256 7200 0 0 30", bad_line), source="b.cfg")
+    assert (err.value.line_number, err.value.line) == (2, bad_line)
+    assert f"profileCfg gives no usable chirp design ({unusable} not a finite positive number)" in str(err.value)

@@ -456,8 +456,9 @@ def _decode_points(payload: memoryview | None, n: int) -> tuple[np.ndarray, np.n
     if len(payload) != POINT_DTYPE.itemsize * n:
         raise FrameDamagedError(f"points TLV of {len(payload)} bytes for {n} points")
     pts = np.frombuffer(payload, dtype=POINT_DTYPE)
-    xyz = np.stack([pts["x"], pts["y"], pts["z"]], axis=1).astype(np.float64)
-    return xyz, pts["velocity"].astype(np.float64)
+    with np.errstate(invalid="ignore"):  # a signalling NaN from a damaged float; such points are dropped later
+        xyz = np.stack([pts["x"], pts["y"], pts["z"]], axis=1).astype(np.float64)
+        return xyz, pts["velocity"].astype(np.float64)
 
 
 # ---------------------------------------------------------------------- encoder

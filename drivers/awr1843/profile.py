@@ -70,6 +70,18 @@ _MIN_ARGS: dict[str, int] = {
     "sensorStart": 0,
     "flushCfg": 0,
 }
+# The chirp-design figures the rest of the daemon uses (RadarProfile properties).
+_DESIGN_FIGURES = (
+    "range_bin_m",
+    "range_resolution_m",
+    "max_range_m",
+    "wavelength_m",
+    "chirp_time_s",
+    "max_velocity_mps",
+    "velocity_resolution_mps",
+    "active_frame_time_s",
+    "frame_period_s",
+)
 _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
 _SDK_HEADER = re.compile(r"SDK\s*ver\s*:\s*(\d+)\.(\d+)", re.IGNORECASE)
 
@@ -296,7 +308,7 @@ def parse_profile(text: str, source: str = "<cfg>") -> RadarProfile:
             chirp_line.number,
             chirp_line.text,
         )
-    return RadarProfile(
+    profile = RadarProfile(
         source=source,
         lines=tuple(lines),
         chirp=profiles[pid][1],
@@ -310,6 +322,18 @@ def parse_profile(text: str, source: str = "<cfg>") -> RadarProfile:
         range_fov_m=range_fov,
         velocity_fov_mps=velocity_fov,
     )
+    # Finite arguments can still multiply out to nothing usable (an idle time of 1e-300 us: infinite v_max), and the
+    # data parser would scale every SDK 2.x Doppler index by it.
+    unusable = [name for name in _DESIGN_FIGURES if not 0 < getattr(profile, name) < math.inf]
+    if unusable:
+        line = profiles[pid][0]
+        raise RadarProfileError(
+            f"profileCfg gives no usable chirp design ({', '.join(unusable)} not a finite positive number)",
+            source,
+            line.number,
+            line.text,
+        )
+    return profile
 
 
 def _check_known_command(line: CfgLine, source: str) -> None:
