@@ -86,6 +86,7 @@ def _build(cls: type[T], table: dict[str, Any], prefix: str, problems: list[str]
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}  # type: ignore[arg-type]
     kwargs: dict[str, Any] = {}
+    reported = len(problems)
     for key, value in table.items():
         full = f"{prefix}.{key}" if prefix else key
         if key not in fields:
@@ -103,7 +104,9 @@ def _build(cls: type[T], table: dict[str, Any], prefix: str, problems: list[str]
     if check is not None:
         try:
             found = check()
-        except TypeError:
+        except (TypeError, AttributeError, ValueError):
+            if len(problems) == reported:
+                raise  # no value was reported: a fault of validate() itself, not of the file
             found = []  # a value of the wrong type was already reported; its range cannot be checked
         problems.extend(f"{prefix}.{p}" if prefix else p for p in found)
     return obj

@@ -147,6 +147,11 @@ def test_values_that_load_but_cannot_work_are_named(tmp_path: Path) -> None:
         "mavlink.baud: -5 must be > 0 (e.g. 921600)",
         "output.health_interval_s: -2.0 must be > 0",
     ]
+    # a value of the wrong type is named once; the section's range checks cannot run on it (and do not crash)
+    path.write_text("[mavlink]\nurl = true\n")
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.problems == ["mavlink.url: expected a string, got True"]
     path.write_text('[mavlink]\nurl = "udpout:127.0.0.1"\n')
     with pytest.raises(ConfigError) as err:
         load_config(path)
