@@ -193,7 +193,7 @@ class MavlinkConfig:
         out = []
         if not self.url:
             out.append("url: empty (use e.g. udpout:127.0.0.1:14550 or /dev/ttyAMA0)")
-        else:
+        elif not self.url.endswith(".tlog"):  # a .tlog is replayed (daemon/replay.py), not opened as a link
             try:
                 parse_autopilot_url(self.url, max(1, self.baud))
             except ValueError as exc:

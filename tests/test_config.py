@@ -152,6 +152,8 @@ def test_values_that_load_but_cannot_work_are_named(tmp_path: Path) -> None:
     with pytest.raises(ConfigError) as err:
         load_config(path)
     assert err.value.problems == ["mavlink.url: expected a string, got True"]
+    path.write_text('[mavlink]\nurl = "run/autopilot.tlog"\n')
+    assert load_config(path).mavlink.url == "run/autopilot.tlog"  # replayed, not opened as a live link
     path.write_text('[mavlink]\nurl = "udpout:127.0.0.1"\n')
     with pytest.raises(ConfigError) as err:
         load_config(path)
