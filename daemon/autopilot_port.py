@@ -25,8 +25,23 @@ log = logging.getLogger(__name__)
 # ArduPilot accepts these unsigned even with signing on (a SiK radio cannot sign)
 _UNSIGNED_OK = frozenset({mavlink.MAVLINK_MSG_ID_RADIO_STATUS, 166})  # 166 = RADIO
 MAX_MESSAGES_PER_READ = 1000  # bounded so the owner's periodic duties still run under a flood
+# pymavlink keeps the last message of every type it has seen, per system. A message id outside the dialect carries
+# no CRC it can check, so line noise makes up a new 'UNKNOWN_<id>' type (24-bit ids) every few bytes: unchecked,
+# that table grows for as long as the noise lasts. The dialect has ~300 types; beyond this many, the made-up go.
+MAX_REMEMBERED_TYPES = 1024
 
 __all__ = ["MAX_MESSAGES_PER_READ", "MavlinkPort", "parse_autopilot_url"]
+
+
+def _forget_made_up_types(conn: Any) -> None:
+    """Keep pymavlink's table of last messages per type bounded (see MAX_REMEMBERED_TYPES); we never read it."""
+    for state in getattr(conn, "sysid_state", {}).values():
+        messages = state.messages
+        if len(messages) > MAX_REMEMBERED_TYPES:
+            for name in [k for k in messages if k.startswith("UNKNOWN_")]:
+                del messages[name]
+            if len(messages) > MAX_REMEMBERED_TYPES:  # instance-keyed copies of real types: start afresh
+                messages.clear()
 
 
 def _allow_unsigned(_mav: Any, msg_id: int) -> bool:
@@ -146,6 +161,7 @@ class MavlinkPort:
             if msg is None:
                 break
             handle(msg)
+        _forget_made_up_types(conn)
         if not readable or conn.mav.total_bytes_received != before:
             return
         if isinstance(conn, mavutil.mavtcp):

@@ -170,7 +170,9 @@ def build_parser() -> argparse.ArgumentParser:
     dec.add_argument("--profile", help="radar .cfg (needed for SDK 2.x Doppler)")
     dec.set_defaults(func=cmd_decode)
 
-    chk = sub.add_parser("check-config", help="check a TOML config; names each bad key and why")
+    chk = sub.add_parser(
+        "check-config", help="check a TOML config and the files it names (pcap, radar cfg); names each problem and why"
+    )
     chk.add_argument("file", type=Path)
     chk.set_defaults(func=cmd_check_config)
 

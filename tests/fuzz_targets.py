@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from daemon.autopilot_port import MAX_REMEMBERED_TYPES
 from tests.conftest import OWN_FIXTURES, REPO, SHARED_FIXTURES
 
 # --- mutation ---------------------------------------------------------------------------------------------------
@@ -465,6 +466,8 @@ class MavlinkInput:
         assert self.link.port.read(self.link._handle_safely, 0.5), "the link dropped on bad input"
         counters = self.link.counters
         assert counters.get("link_failures", 0) == 0, counters
+        conn = self.link.port._conn
+        assert max((len(state.messages) for state in conn.sysid_state.values()), default=0) <= MAX_REMEMBERED_TYPES
         latest = self.link.poses.latest()
         if latest is not None:
             assert np.isfinite(latest.position).all() and math.isfinite(latest.yaw)
