@@ -17,55 +17,31 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
+from daemon.autopilot_url import parse_autopilot_url
 from daemon.mavlink_env import mavlink, mavutil, open_connection
 
 log = logging.getLogger(__name__)
 
-_LOG_SUFFIXES = (".tlog", ".bin", ".log", ".mavlink", ".raw", ".px4log")
-_STREAM_SCHEMES = ("udpin:", "udpout:", "udp:", "udpbcast:", "tcp:", "tcpin:")
 # ArduPilot accepts these unsigned even with signing on (a SiK radio cannot sign)
 _UNSIGNED_OK = frozenset({mavlink.MAVLINK_MSG_ID_RADIO_STATUS, 166})  # 166 = RADIO
 MAX_MESSAGES_PER_READ = 1000  # bounded so the owner's periodic duties still run under a flood
+# pymavlink keeps the last message of every type it has seen, per system. A message id outside the dialect carries
+# no CRC it can check, so line noise makes up a new 'UNKNOWN_<id>' type (24-bit ids) every few bytes: unchecked,
+# that table grows for as long as the noise lasts. The dialect has ~300 types; beyond this many, the made-up go.
+MAX_REMEMBERED_TYPES = 1024
+
+__all__ = ["MAX_MESSAGES_PER_READ", "MavlinkPort", "parse_autopilot_url"]
 
 
-def parse_autopilot_url(url: str, baud: int) -> tuple[str, int]:
-    """(pymavlink device string, baud). Accepts pymavlink's own forms and ``serial://PATH?baud=N``.
-
-    pymavlink strings: ``udpin:HOST:PORT``, ``udpout:HOST:PORT``, ``udp:``, ``udpbcast:``, ``tcp:HOST:PORT``,
-    ``tcpin:HOST:PORT``, a serial device path (``/dev/ttyAMA0``, optionally ``/dev/ttyAMA0,921600``).
-    """
-    url = url.strip()
-    if not url:
-        raise ValueError("empty autopilot URL")
-    if url.lower().endswith(_LOG_SUFFIXES):
-        raise ValueError(f"'{url}' is a log file: replay it through the replay source, not a live link")
-    if url.startswith("serial://"):
-        path, _, query = url[len("serial://") :].partition("?")
-        for item in filter(None, query.split("&")):
-            key, _, value = item.partition("=")
-            if key == "baud":
-                if not value.isdigit():
-                    raise ValueError(f"'{url}': baud '{value}' is not a number")
-                baud = int(value)
-        if not path:
-            raise ValueError(f"'{url}': no device path")
-        return path, baud
-    if url.startswith(_STREAM_SCHEMES):
-        host, sep, port = url.split(":", 1)[1].rpartition(":")
-        if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
-            raise ValueError(f"'{url}': expected SCHEME:HOST:PORT, e.g. udpout:127.0.0.1:14550")
-        return url, baud
-    if url.startswith("/"):
-        path, sep, b = url.rpartition(",")
-        if sep:
-            if not b.isdigit():
-                raise ValueError(f"'{url}': baud '{b}' is not a number")
-            return path, int(b)
-        return url, baud
-    raise ValueError(
-        f"'{url}' is not an autopilot connection (udpin:/udpout:/tcp:/tcpin:HOST:PORT, a serial path, "
-        "or serial://PATH?baud=N)"
-    )
+def _forget_made_up_types(conn: Any) -> None:
+    """Keep pymavlink's table of last messages per type bounded (see MAX_REMEMBERED_TYPES); we never read it."""
+    for state in getattr(conn, "sysid_state", {}).values():
+        messages = state.messages
+        if len(messages) > MAX_REMEMBERED_TYPES:
+            for name in [k for k in messages if k.startswith("UNKNOWN_")]:
+                del messages[name]
+            if len(messages) > MAX_REMEMBERED_TYPES:  # instance-keyed copies of real types: start afresh
+                messages.clear()
 
 
 def _allow_unsigned(_mav: Any, msg_id: int) -> bool:
@@ -185,6 +161,7 @@ class MavlinkPort:
             if msg is None:
                 break
             handle(msg)
+        _forget_made_up_types(conn)
         if not readable or conn.mav.total_bytes_received != before:
             return
         if isinstance(conn, mavutil.mavtcp):

@@ -30,7 +30,7 @@ def cmd_check_config(args: argparse.Namespace) -> int:
     from daemon.config_schema import ConfigError
 
     try:
-        load_config(args.file)
+        load_config(args.file, check_files=True)
     except ConfigError as exc:
         print(f"{args.file}: {len(exc.problems)} problem(s):", file=sys.stderr)
         for problem in exc.problems:
@@ -185,7 +185,9 @@ def build_parser() -> argparse.ArgumentParser:
     dec.add_argument("--profile", help="radar .cfg (needed for SDK 2.x Doppler)")
     dec.set_defaults(func=cmd_decode)
 
-    chk = sub.add_parser("check-config", help="check a TOML config; names each bad key and why")
+    chk = sub.add_parser(
+        "check-config", help="check a TOML config and the files it names (pcap, radar cfg); names each problem and why"
+    )
     chk.add_argument("file", type=Path)
     chk.set_defaults(func=cmd_check_config)
 

@@ -14,8 +14,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from daemon.config_schema import ConfigError, build
+from daemon.autopilot_url import parse_autopilot_url
+from daemon.config_schema import ConfigError, build_with_problems
 from daemon.source_url import SourceUrlError, parse_source_url
+from daemon.tracker_configs import tracker_config_problems
 from drivers.awr1843.expected import platform_code
 from drivers.mount import Mount
 
@@ -28,6 +30,16 @@ DEFAULT_CONFIG_PATH = Path("/etc/usv-tracker/usv-tracker.toml")
 # "9" followed by the MID "00": the ITU allocates no station there, so a tracked boat sent as AIS_VESSEL cannot take
 # the MMSI of a real one on the ground station's map.
 AIS_MMSI_BASE = 900_000_000
+# The example file is 4 KiB; a path to a capture or to /dev/zero must not be read whole.
+MAX_CONFIG_BYTES = 1 << 20
+
+
+def _is_ipv4(text: str) -> bool:
+    try:
+        ipaddress.IPv4Address(text)
+    except ValueError:
+        return False
+    return True
 
 
 @dataclass
@@ -85,12 +97,35 @@ class LidarConfig:
             out.append("silence_timeout_s: must be > 0")
         if self.lock_timeout_s <= 0:
             out.append("lock_timeout_s: must be > 0")
-        if self.accept_ip:
-            try:
-                ipaddress.IPv4Address(self.accept_ip)
-            except ValueError:
-                out.append(f"accept_ip: {self.accept_ip!r} is not an IPv4 address (the sensor's, e.g. 192.168.1.201)")
+        if not -360 <= self.cut_angle_deg <= 360:
+            out.append(f"cut_angle_deg: {self.cut_angle_deg} must be within -360..360 degrees")
+        if self.accept_ip and not _is_ipv4(self.accept_ip):
+            out.append(
+                f"accept_ip: {self.accept_ip!r} is not an IPv4 address (the VLP-16 sends from one, e.g. 192.168.1.201)"
+            )
         return out
+
+    def file_problems(self, prefix: str) -> list[str]:
+        """The capture a pcap:// source replays must be there and be a capture."""
+        if not self.enabled:
+            return []
+        from drivers.vlp16.pcap import NotAPcapError, capture_format
+
+        try:
+            url = parse_source_url(self.source, {"udp", "pcap", "sim"})
+        except SourceUrlError:
+            return []  # already named by validate()
+        if url.scheme != "pcap":
+            return []
+        try:
+            capture_format(url.path)
+        except FileNotFoundError:
+            return [f"{prefix}.source: capture file not found: {url.path}"]
+        except OSError as exc:
+            return [f"{prefix}.source: cannot read {url.path}: {exc.strerror or exc}"]
+        except NotAPcapError as exc:
+            return [f"{prefix}.source: {exc}"]
+        return []
 
 
 @dataclass
@@ -127,6 +162,31 @@ class RadarConfig:
             out.append(f"fov_deg: {self.fov_deg} must be in (0, 360]")
         if self.max_range_m <= 0:
             out.append("max_range_m: must be > 0")
+        if self.silence_timeout_s <= 0:
+            out.append(f"silence_timeout_s: {self.silence_timeout_s} must be > 0")
+        return out
+
+    def file_problems(self, prefix: str) -> list[str]:
+        """The chirp cfg is opened and parsed by the driver's own parser; a file:// dump must be there."""
+        if not self.enabled:
+            return []
+        from drivers.awr1843.errors import RadarProfileError
+        from drivers.awr1843.profile import load_profile
+
+        out = []
+        try:
+            data = parse_source_url(self.data, {"serial", "file", "sim"})
+        except SourceUrlError:
+            data = None  # already named by validate()
+        if self.profile:
+            try:
+                load_profile(self.profile)
+            except RadarProfileError as exc:
+                out.append(f"{prefix}.profile: {exc}")
+        elif self.cli and data is not None and data.scheme == "serial":
+            out.append(f"{prefix}.profile: empty, but a radar configured through its CLI port needs its chirp cfg")
+        if data is not None and data.scheme == "file" and not Path(data.path).is_file():
+            out.append(f"{prefix}.data: radar dump not found: {data.path}")
         return out
 
 
@@ -144,9 +204,16 @@ class MavlinkConfig:
         out = []
         if not self.url:
             out.append("url: empty (use e.g. udpout:127.0.0.1:14550 or /dev/ttyAMA0)")
+        elif not self.url.endswith(".tlog"):  # a .tlog is replayed (daemon/replay.py), not opened as a link
+            try:
+                parse_autopilot_url(self.url, max(1, self.baud))
+            except ValueError as exc:
+                out.append(f"url: {exc}")
         for k in ("system_id", "component_id", "target_system"):
             if not 1 <= getattr(self, k) <= 255:
                 out.append(f"{k}: {getattr(self, k)} must be 1..255")
+        if self.baud <= 0:
+            out.append(f"baud: {self.baud} must be > 0 (e.g. 921600)")
         return out
 
 
@@ -209,6 +276,8 @@ class OutputConfig:
             out.append(f"clear_inner_m: {self.clear_inner_m} must be within [0, max_distance_m) (0 = min_distance_m)")
         if not (math.isfinite(self.ais_interval_s) and self.ais_interval_s >= 0):
             out.append(f"ais_interval_s: {self.ais_interval_s} must be >= 0 (0 = no AIS_VESSEL)")
+        if not self.health_interval_s > 0:
+            out.append(f"health_interval_s: {self.health_interval_s} must be > 0")
         if self.ais_max_tracks < 1:
             out.append(f"ais_max_tracks: {self.ais_max_tracks} must be >= 1")
         if not 0 <= self.ais_mmsi_base <= 999_000_000:
@@ -234,36 +303,60 @@ class Config:
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
 
 
-def load_config(path: str | Path | None, overrides: dict[str, Any] | None = None) -> Config:
-    """Read a TOML file (None: built-in defaults), apply dotted-key overrides, check everything."""
+def load_config(
+    path: str | Path | None, overrides: dict[str, Any] | None = None, *, check_files: bool = False
+) -> Config:
+    """Read a TOML file (None: built-in defaults), apply dotted-key overrides, check everything.
+
+    ``check_files`` also opens the files the configuration names (a pcap to replay, the radar's chirp cfg), as
+    ``check-config`` does before the daemon starts; ``run`` leaves them to start-up, where a radar that cannot
+    start leaves the daemon LiDAR-only.
+    """
     table: dict[str, Any] = {}
     source = str(path) if path else "<defaults>"
     if path is not None:
-        p = Path(path)
-        try:
-            text = p.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            raise ConfigError([f"file not found: {p}"], source) from None
-        except OSError as exc:
-            raise ConfigError([f"cannot read {p}: {exc.strerror}"], source) from None
-        try:
-            table = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError([f"not valid TOML: {exc}"], source) from None
+        table = _read_table(Path(path), source)
     for dotted, value in (overrides or {}).items():
-        node = table
+        node: Any = table
         *parents, leaf = dotted.split(".")
         for part in parents:
             node = node.setdefault(part, {})
-        node[leaf] = value
-    config = build(Config, table, source)
-    _check_tracker_tables(config, source)
+            if not isinstance(node, dict):
+                break  # the file has a value where a table belongs: the schema names it below
+        else:
+            node[leaf] = value
+    config, problems = build_with_problems(Config, table)
+    if not problems:  # the tracker tables take values from the other sections: check those first
+        problems += tracker_config_problems(config)
+    if check_files:
+        for name, section in (("lidar", config.lidar), ("radar", config.radar)):
+            if not any(p.startswith(f"{name}.") for p in problems):  # else it may hold defaults, not the file's
+                problems += section.file_problems(name)
+    if problems:
+        raise ConfigError(problems, source)
     return config
 
 
-def _check_tracker_tables(config: Config, source: str) -> None:
-    from daemon.tracker_configs import tracker_config_problems
-
-    problems = tracker_config_problems(config)
-    if problems:
-        raise ConfigError(problems, source)
+def _read_table(p: Path, source: str) -> dict[str, Any]:
+    try:
+        with p.open("rb") as f:
+            raw = f.read(MAX_CONFIG_BYTES + 1)
+    except FileNotFoundError:
+        raise ConfigError([f"file not found: {p}"], source) from None
+    except OSError as exc:
+        raise ConfigError([f"cannot read {p}: {exc.strerror or exc}"], source) from None
+    if len(raw) > MAX_CONFIG_BYTES:
+        raise ConfigError([f"larger than {MAX_CONFIG_BYTES // 1024} KiB: not a configuration file"], source)
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise ConfigError(
+            [f"not UTF-8 text: byte 0x{raw[exc.start]:02x} on line {line} (TOML files are UTF-8)"], source
+        ) from None
+    try:
+        return tomllib.loads(text)
+    except ValueError as exc:  # TOMLDecodeError, or an integer of more digits than Python converts
+        raise ConfigError([f"not valid TOML: {exc}"], source) from None
+    except RecursionError:
+        raise ConfigError(["not valid TOML: arrays or tables nested too deeply"], source) from None

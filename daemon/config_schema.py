@@ -54,13 +54,23 @@ def _coerce(value: Any, tp: Any, key: str, problems: list[str]) -> Any:
         if not isinstance(value, bool):
             problems.append(f"{key}: expected true or false, got {value!r}")
         return value
+    if origin is dict:
+        if not isinstance(value, dict):
+            problems.append(f"{key}: expected a table, got {value!r}")
+            return None
+        return value
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             problems.append(f"{key}: expected a number, got {value!r}")
             return value
-        if not math.isfinite(value):
+        try:
+            number = float(value)
+        except OverflowError:  # a TOML integer of hundreds of digits
+            problems.append(f"{key}: too large a number (beyond 1.8e308)")
+            return None
+        if not math.isfinite(number):
             problems.append(f"{key}: must be a finite number, got {value!r}")
-        return float(value)
+        return number
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
             problems.append(f"{key}: expected an integer, got {value!r}")
@@ -76,6 +86,7 @@ def _build(cls: type[T], table: dict[str, Any], prefix: str, problems: list[str]
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}  # type: ignore[arg-type]
     kwargs: dict[str, Any] = {}
+    reported = len(problems)
     for key, value in table.items():
         full = f"{prefix}.{key}" if prefix else key
         if key not in fields:
@@ -93,7 +104,9 @@ def _build(cls: type[T], table: dict[str, Any], prefix: str, problems: list[str]
     if check is not None:
         try:
             found = check()
-        except TypeError:
+        except (TypeError, AttributeError, ValueError):
+            if len(problems) == reported:
+                raise  # no value was reported: a fault of validate() itself, not of the file
             found = []  # a value of the wrong type was already reported; its range cannot be checked
         problems.extend(f"{prefix}.{p}" if prefix else p for p in found)
     return obj
@@ -101,11 +114,17 @@ def _build(cls: type[T], table: dict[str, Any], prefix: str, problems: list[str]
 
 def build(cls: type[T], table: dict[str, Any], source: str = "") -> T:
     """Build ``cls`` from a parsed TOML table, raising ConfigError with every problem found."""
-    problems: list[str] = []
-    obj = _build(cls, table, "", problems)
+    obj, problems = build_with_problems(cls, table)
     if problems:
         raise ConfigError(problems, source)
     return obj
+
+
+def build_with_problems(cls: type[T], table: dict[str, Any]) -> tuple[T, list[str]]:
+    """``cls`` from a table and the problems found; a part with problems holds its defaults or the bad value."""
+    problems: list[str] = []
+    obj = _build(cls, table, "", problems)
+    return obj, problems
 
 
 def to_table(obj: Any) -> dict[str, Any]:

@@ -65,6 +65,7 @@ def _decode_pcap(path: Path, as_json: bool, model: str | None) -> int:
 
 
 def _decode_radar(path: Path, as_json: bool, profile: str | None) -> int:
+    from drivers.awr1843.errors import RadarProfileError
     from drivers.awr1843.inspect import NotARadarDumpError, summarise_dat
 
     try:
@@ -87,5 +88,8 @@ def _decode_radar(path: Path, as_json: bool, profile: str | None) -> int:
             f"usv-tracker decode: {exc}. (A VLP-16 capture must be a pcap or pcapng file.)",
             file=sys.stderr,
         )
+        return 2
+    except RadarProfileError as exc:
+        print(f"usv-tracker decode: radar cfg refused: {exc}", file=sys.stderr)
         return 2
     return 0

@@ -36,7 +36,10 @@ def parse_source_url(text: str, allowed: set[str] | None = None) -> SourceUrl:
     expected = ", ".join(f"{s}://" for s in sorted(allowed))
     if "://" not in text:
         raise SourceUrlError(f"'{text}' is not a source URL (expected one of {expected})")
-    parts = urlsplit(text)
+    try:
+        parts = urlsplit(text)
+    except ValueError as exc:  # an unclosed '[' of an IPv6 address, for one
+        raise SourceUrlError(f"'{text}': not a valid URL ({exc})") from None
     scheme = parts.scheme.lower()
     if scheme not in allowed:
         raise SourceUrlError(f"'{text}': scheme '{scheme}://' is not usable here (expected one of {expected})")
@@ -56,4 +59,8 @@ def parse_source_url(text: str, allowed: set[str] | None = None) -> SourceUrl:
     path = parts.netloc + parts.path
     if not path:
         raise SourceUrlError(f"'{text}': no path given")
+    if scheme == "serial" and "baud" in params:
+        baud = params["baud"]
+        if not (baud.isascii() and baud.isdigit() and len(baud) <= 10 and int(baud) > 0):
+            raise SourceUrlError(f"'{text}': baud '{baud}' is not a positive whole number, e.g. ?baud=921600")
     return SourceUrl(scheme, "", None, path, params, text)

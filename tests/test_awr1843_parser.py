@@ -405,3 +405,20 @@ def test_lengths_that_do_not_add_up_drop_the_frame() -> None:
     assert [f.frame_number for f in got] == [20, 22]
     assert (parser.stats.frames_dropped, parser.stats.frames_lost) == (1, 1)
     assert_bytes_accounted(parser, got, {20: len(a), 22: len(c)})
+
+
+def test_a_frame_overrunning_a_magic_cut_by_the_read_is_dropped_as_in_one_read() -> None:
+    """Frame 2 lost 6 padding bytes, so its declared length runs 6 bytes into frame 3's magic word. A read that
+    ends 7 bytes into that magic (one byte short of it) once let frame 2 through, with the magic's first bytes as
+    its padding, and cost the sound frame 3; whatever the reads, frame 2 is now dropped and frame 3 kept."""
+    frames = [encode_frame(k, np.array([[1.0, 5.0, 0.0]]), [0.5], 20.0, 60.0) for k in (1, 2, 3, 4)]
+    assert len(frames[1]) == 96  # 76 bytes of header and TLVs, 20 of padding
+    stream = frames[0] + frames[1][:90] + frames[2] + frames[3]
+    cut = len(frames[0]) + 90 + 7
+    for reads in ([stream], [stream[:cut], stream[cut:]]):
+        parser = RadarFrameParser()
+        got = [f.frame_number for chunk in reads for f in parser.feed(chunk, 0.0)] + [
+            f.frame_number for f in parser.finish()
+        ]
+        assert got == [1, 3, 4]
+        assert (parser.stats.frames_dropped, parser.stats.bytes_skipped) == (1, 90)

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import resource
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 from drivers.awr1843.errors import RadarProfileError
-from drivers.awr1843.profile import load_profile, parse_profile
+from drivers.awr1843.profile import MAX_CFG_BYTES, load_profile, parse_profile
+from tests.conftest import OWN_FIXTURES
 
 BEST_RANGE_50M = "awr1843/xwr18xx_best_range_50m_vis3.6.cfg"
 PROFILE_2D = "awr1843/xwr18xx_sdk3.5_profile_2d.cfg"
@@ -88,7 +92,12 @@ def test_non_power_of_two_samples_pad_the_range_fft() -> None:
         ("frameCfg 0 1 32 0", "frameCfg 0 1 32 0 50 1 0", 6, "frameCfg needs at least 7 arguments, got 4"),
         ("frameCfg 0 1 32 0 fifty 1 0", "frameCfg 0 1 32 0 50 1 0", 6, "argument 5 is not a number: 'fifty'"),
         ("chirpCfg 1 1 0 0 0 0 0 4.5x", "chirpCfg 1 1 0 0 0 0 0 4", 5, "argument 8 is not a number"),
-        ("frameCfg 0 1 0 0 50 1 0", "frameCfg 0 1 32 0 50 1 0", 6, "numLoops > 0"),
+        (
+            "frameCfg 0 1 0 0 50 1 0",
+            "frameCfg 0 1 32 0 50 1 0",
+            6,
+            "argument 3 is 0, outside the device's range 1..255",
+        ),
         (
             "profileCfg 0 77 7 3 39 0 0 100 1 256.5 7200 0 0 30",
             "profileCfg 0 77 7 3 39 0 0 100 1 256 7200 0 0 30",
@@ -125,3 +134,91 @@ def test_unknown_commands_are_kept_for_the_device_to_judge() -> None:
 def test_unreadable_file_is_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(RadarProfileError, match="cannot read radar cfg"):
         load_profile(tmp_path / "missing.cfg")
+
+
+def _one_gib_address_space() -> None:
+    # The unfixed parser filled a table of a billion chirps (2.3 GB): under this limit it fails in seconds.
+    resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))
+
+
+@pytest.mark.parametrize(
+    ("name", "number", "message"),
+    [
+        ("awr1843_chirp_inf.cfg", 4, "chirpCfg argument 2 is not a finite number: '1e999'"),
+        ("awr1843_chirp_billion.cfg", 4, "chirpCfg argument 2 is 1e9, outside the device's range 0..511"),
+        ("awr1843_frame_billion.cfg", 5, "frameCfg argument 2 is 1e9, outside the device's range 0..511"),
+    ],
+)
+def test_counts_beyond_the_device_are_named_by_decode(name: str, number: int, message: str) -> None:
+    cfg = OWN_FIXTURES / "fuzz" / name
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "daemon.cli",
+            "decode",
+            str(OWN_FIXTURES / "awr1843_synthetic.dat"),
+            "--profile",
+            str(cfg),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        preexec_fn=_one_gib_address_space,
+    )
+    assert (res.returncode, res.stdout) == (2, "")
+    assert res.stderr.startswith(f"usv-tracker decode: radar cfg refused: {cfg}:{number}: {message} (line: ")
+    with pytest.raises(RadarProfileError) as err:
+        load_profile(cfg)
+    assert err.value.line_number == number
+    assert message in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("bad_line", "replaces", "message"),
+    [
+        (
+            "profileCfg 4 77 7 3 39 0 0 100 1 256 7200 0 0 30",
+            "profileCfg 0 ",
+            "argument 1 is 4, outside the device's range 0..3",
+        ),
+        (
+            "profileCfg 0 77 7 3 39 0 0 100 1 1e6 7200 0 0 30",
+            "profileCfg 0 ",
+            "argument 10 is 1e6, outside the device's range 2..16384",
+        ),
+        ("chirpCfg 0 0 7 0 0 0 0 1", "chirpCfg 0 0 ", "argument 3 is 7, outside the device's range 0..3"),
+        ("frameCfg 0 1 256 0 50 1 0", "frameCfg ", "argument 3 is 256, outside the device's range 1..255"),
+        ("frameCfg 0 1 32 70000 50 1 0", "frameCfg ", "argument 4 is 70000, outside the device's range 0..65535"),
+        ("frameCfg 0 1 32 0 nan 1 0", "frameCfg ", "argument 5 is not a number: 'nan'"),
+        ("frameCfg 0 1 32 0 -1e999 1 0", "frameCfg ", "argument 5 is not a finite number: '-1e999'"),
+    ],
+)
+def test_every_count_and_index_is_held_to_the_device_limits(bad_line: str, replaces: str, message: str) -> None:
+    lines = MINIMAL.splitlines()
+    number = next(i for i, line in enumerate(lines, start=1) if line.startswith(replaces))
+    lines[number - 1] = bad_line
+    with pytest.raises(RadarProfileError) as err:
+        parse_profile("\n".join(lines), source="boat.cfg")
+    assert (err.value.line_number, err.value.line) == (number, bad_line)
+    assert message in str(err.value)
+
+
+def test_a_file_far_larger_than_any_cfg_is_not_read_whole() -> None:
+    with pytest.raises(RadarProfileError) as err:
+        load_profile("/dev/zero")
+    assert str(err.value) == f"/dev/zero: larger than {MAX_CFG_BYTES // 1024} KiB: not a radar cfg"
+
+
+@pytest.mark.parametrize(
+    ("bad_line", "unusable"),
+    [
+        ("profileCfg 0 77 1e-310 3 0 0 0 100 1 256 7200 0 0 30", "max_velocity_mps, velocity_resolution_mps"),
+        ("profileCfg 0 77 7 3 39 0 0 100 1 256 1e300 0 0 30", "range_bin_m, range_resolution_m, max_range_m"),
+    ],
+)
+def test_finite_numbers_that_multiply_out_to_no_chirp_design(bad_line: str, unusable: str) -> None:
+    with pytest.raises(RadarProfileError) as err:
+        parse_profile(MINIMAL.replace("profileCfg 0 77 7 3 39 0 0 100 1 256 7200 0 0 30", bad_line), source="b.cfg")
+    assert (err.value.line_number, err.value.line) == (2, bad_line)
+    assert f"profileCfg gives no usable chirp design ({unusable} not a finite positive number)" in str(err.value)

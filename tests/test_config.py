@@ -11,9 +11,11 @@ import pytest
 
 from daemon.config import load_config
 from daemon.config_schema import ConfigError
-from tests.conftest import REPO
+from tests.conftest import OWN_FIXTURES, REPO
 
 EXAMPLE = REPO / "config" / "usv-tracker.toml"
+PACKAGED_PROFILE = REPO / "daemon" / "profiles" / "awr1843_50m.cfg"
+LATIN1 = OWN_FIXTURES / "fuzz" / "config_latin1.toml"
 
 
 def test_example_config_loads_with_degrees_converted_once() -> None:
@@ -52,15 +54,27 @@ def test_not_toml_and_missing_file(tmp_path: Path) -> None:
         load_config(tmp_path / "absent.toml")
 
 
-def test_check_config_command(tmp_path: Path) -> None:
-    ok = subprocess.run(
-        [sys.executable, "-m", "daemon.cli", "check-config", str(EXAMPLE)], capture_output=True, text=True
+def check_config(path: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "daemon.cli", "check-config", str(path)], capture_output=True, text=True, timeout=60
     )
+
+
+def installed_example(tmp_path: Path) -> Path:
+    """The example config with its radar cfg where the README's install steps put it (here: the packaged one)."""
+    text = EXAMPLE.read_text().replace('"/etc/usv-tracker/awr1843.cfg"', f'"{PACKAGED_PROFILE}"')
+    path = tmp_path / "usv-tracker.toml"
+    path.write_text(text)
+    return path
+
+
+def test_check_config_command(tmp_path: Path) -> None:
+    ok = check_config(installed_example(tmp_path))
     assert ok.returncode == 0, ok.stderr
     assert "OK" in ok.stdout
     bad = tmp_path / "bad.toml"
     bad.write_text('[radar]\ndata = "com3"\n')
-    res = subprocess.run([sys.executable, "-m", "daemon.cli", "check-config", str(bad)], capture_output=True, text=True)
+    res = check_config(bad)
     assert res.returncode == 2
     assert "radar.data: 'com3' is not a source URL" in res.stderr
 
@@ -72,5 +86,114 @@ def test_lidar_sender_settings_are_checked() -> None:
         load_config(None, {"lidar.accept_ip": "velodyne.local", "lidar.lock_timeout_s": 0.0})
     assert err.value.problems == [
         "lidar.lock_timeout_s: must be > 0",
-        "lidar.accept_ip: 'velodyne.local' is not an IPv4 address (the sensor's, e.g. 192.168.1.201)",
+        "lidar.accept_ip: 'velodyne.local' is not an IPv4 address (the VLP-16 sends from one, e.g. 192.168.1.201)",
     ]
+
+
+def test_a_file_that_is_not_utf8_is_named_not_a_traceback() -> None:
+    with pytest.raises(ConfigError) as err:
+        load_config(LATIN1)
+    assert err.value.problems == ["not UTF-8 text: byte 0xb0 on line 3 (TOML files are UTF-8)"]
+    res = check_config(LATIN1)
+    assert res.returncode == 2
+    assert res.stderr == f"{LATIN1}: 1 problem(s):\n  not UTF-8 text: byte 0xb0 on line 3 (TOML files are UTF-8)\n"
+
+
+def test_what_toml_reads_but_python_cannot_hold_is_named(tmp_path: Path) -> None:
+    cases = {
+        'source = "udp://[::1"': "lidar.source: 'udp://[::1': not a valid URL (Invalid IPv6 URL)",
+        "cut_angle_deg = 1" + "0" * 400: "lidar.cut_angle_deg: too large a number (beyond 1.8e308)",
+    }
+    for line, problem in cases.items():
+        path = tmp_path / "c.toml"
+        path.write_text(f"[lidar]\n{line}\n")
+        with pytest.raises(ConfigError) as err:
+            load_config(path)
+        assert err.value.problems == [problem]
+    path.write_text("a = " + "[" * 5000)
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.problems == ["not valid TOML: arrays or tables nested too deeply"]
+    path.write_text("a = " + "1" * 5000)
+    with pytest.raises(ConfigError, match="not valid TOML: Exceeds the limit"):
+        load_config(path)
+    with pytest.raises(ConfigError) as err:
+        load_config("/dev/zero")
+    assert err.value.problems == ["larger than 1024 KiB: not a configuration file"]
+
+
+def test_a_tracker_table_that_is_not_a_table(tmp_path: Path) -> None:
+    path = tmp_path / "c.toml"
+    path.write_text("[tracker]\nlidar = [1, 2]\nradar = 5\n")
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.problems == [
+        "tracker.lidar: expected a table, got [1, 2]",
+        "tracker.radar: expected a table, got 5",
+    ]
+    # a section given as a value, with a command-line override below it, is named too
+    path.write_text('lidar = "udp://0.0.0.0:2368"\n')
+    with pytest.raises(ConfigError) as err:
+        load_config(path, {"lidar.source": "pcap://x.pcap"})
+    assert err.value.problems == ["lidar: expected a table, got 'udp://0.0.0.0:2368'"]
+
+
+def test_values_that_load_but_cannot_work_are_named(tmp_path: Path) -> None:
+    path = tmp_path / "c.toml"
+    path.write_text(
+        '[lidar]\ncut_angle_deg = 1000\naccept_ip = "not-an-ip"\n'
+        '[radar]\nsilence_timeout_s = -1.0\ncli = "serial:///dev/ttyACM0?baud=fast"\n'
+        '[mavlink]\nurl = "bogus:thing"\nbaud = -5\n'
+        "[output]\nhealth_interval_s = -2.0\n"
+    )
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.problems == [
+        "lidar.cut_angle_deg: 1000.0 must be within -360..360 degrees",
+        "lidar.accept_ip: 'not-an-ip' is not an IPv4 address (the VLP-16 sends from one, e.g. 192.168.1.201)",
+        "radar.cli: 'serial:///dev/ttyACM0?baud=fast': baud 'fast' is not a positive whole number, e.g. ?baud=921600",
+        "radar.silence_timeout_s: -1.0 must be > 0",
+        "mavlink.url: 'bogus:thing' is not an autopilot connection (udpin:/udpout:/tcp:/tcpin:HOST:PORT, a serial "
+        "path, or serial://PATH?baud=N)",
+        "mavlink.baud: -5 must be > 0 (e.g. 921600)",
+        "output.health_interval_s: -2.0 must be > 0",
+    ]
+    # a value of the wrong type is named once; the section's range checks cannot run on it (and do not crash)
+    path.write_text("[mavlink]\nurl = true\n")
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.problems == ["mavlink.url: expected a string, got True"]
+    path.write_text('[mavlink]\nurl = "run/autopilot.tlog"\n')
+    assert load_config(path).mavlink.url == "run/autopilot.tlog"  # replayed, not opened as a live link
+    path.write_text('[mavlink]\nurl = "udpout:127.0.0.1"\n')
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.problems == [
+        "mavlink.url: 'udpout:127.0.0.1': expected SCHEME:HOST:PORT, e.g. udpout:127.0.0.1:14550"
+    ]
+
+
+def test_check_config_opens_the_files_the_config_names(tmp_path: Path) -> None:
+    path = tmp_path / "c.toml"
+    absent_pcap, absent_cfg = tmp_path / "absent.pcap", tmp_path / "absent.cfg"
+    path.write_text(f'[lidar]\nsource = "pcap://{absent_pcap}"\n[radar]\nprofile = "{absent_cfg}"\n')
+    load_config(path)  # `run` leaves them to start-up (a radar that cannot start leaves the daemon LiDAR-only)
+    with pytest.raises(ConfigError) as err:
+        load_config(path, check_files=True)
+    assert err.value.problems == [
+        f"lidar.source: capture file not found: {absent_pcap}",
+        f"radar.profile: {absent_cfg}: cannot read radar cfg: No such file or directory",
+    ]
+    # the cfg is parsed by the driver's own parser: a cfg it refuses is named with its line
+    bad_cfg = tmp_path / "bad.cfg"
+    bad_cfg.write_text(PACKAGED_PROFILE.read_text().replace("frameCfg 0 1 ", "frameCfg 0 9 "))
+    path.write_text(f'[radar]\nprofile = "{bad_cfg}"\n')
+    with pytest.raises(ConfigError) as err:
+        load_config(path, check_files=True)
+    (problem,) = err.value.problems
+    assert (
+        problem.startswith(f"radar.profile: {bad_cfg}:")
+        and "frameCfg uses chirp(s) [2, 3, 4, 5, 6, 7, 8, 9]" in problem
+    )
+    res = check_config(path)
+    assert res.returncode == 2 and "radar.profile:" in res.stderr and "Traceback" not in res.stderr

@@ -304,10 +304,18 @@ class RadarFrameParser:
     def _inner_magic(self, hdr: FrameHeader, final: bool) -> int:
         """Offset of a plausible next header inside the pending frame's span; 0 none; -1 cannot tell yet."""
         buf, start = self._buf, self._pos
-        end = min(len(buf), start + hdr.total_len + len(MAGIC) - 1)  # a magic may straddle the span's end
+        span_end = start + hdr.total_len
+        end = min(len(buf), span_end + len(MAGIC) - 1)  # a magic may straddle the span's end
         while True:
             idx = buf.find(MAGIC, start + self._inner_scanned, end)
             if idx < 0:
+                if not final and end < span_end + len(MAGIC) - 1:
+                    # This read ended before the last place a magic word in the span could end: if the buffer's
+                    # tail is the start of one, the next read decides (else a frame's fate hangs on read sizes).
+                    for at in range(max(start + self._inner_scanned, end - (len(MAGIC) - 1)), min(end, span_end)):
+                        if MAGIC.startswith(buf[at:end]):
+                            self._inner_scanned = at - start
+                            return -1
                 self._inner_scanned = max(self._inner_scanned, end - start - (len(MAGIC) - 1))
                 return 0
             if len(buf) - idx < HEADER_LEN:
@@ -510,8 +518,9 @@ def _decode_points(payload: memoryview | None, n: int) -> tuple[np.ndarray, np.n
     if len(payload) != POINT_DTYPE.itemsize * n:
         raise FrameDamagedError(f"points TLV of {len(payload)} bytes for {n} points")
     pts = np.frombuffer(payload, dtype=POINT_DTYPE)
-    xyz = np.stack([pts["x"], pts["y"], pts["z"]], axis=1).astype(np.float64)
-    return xyz, pts["velocity"].astype(np.float64)
+    with np.errstate(invalid="ignore"):  # a signalling NaN from a damaged float; such points are dropped later
+        xyz = np.stack([pts["x"], pts["y"], pts["z"]], axis=1).astype(np.float64)
+        return xyz, pts["velocity"].astype(np.float64)
 
 
 # ---------------------------------------------------------------------- encoder

@@ -26,6 +26,20 @@ from drivers.awr1843.errors import RadarProfileError
 
 SPEED_OF_LIGHT = 3.0e8  # TI's value in the demo and the sensing estimator
 
+# The device's own limits on the counts and indices a cfg sets. A number beyond them is refused by the radar anyway,
+# and read here it would size a loop or a list (chirpCfg 0 1e9 once filled a billion-entry table, 2.3 GB).
+# mmWave SDK user guide, "Configuration (.cfg) File Format", and mmWaveLink's rlChirpCfg_t / rlFrameCfg_t /
+# rlProfileCfg_t (the structures these lines fill on the AWR1843):
+MAX_CHIRP_INDEX = 511  # chirpCfg / frameCfg chirp start and end index: 0-511
+MAX_PROFILE_ID = 3  # profileCfg profile id, and the profile a chirpCfg names: 0-3
+MAX_LOOPS = 255  # frameCfg number of loops: 1-255
+MAX_FRAMES = 65535  # frameCfg number of frames: 0-65535 (0 = run until sensorStop)
+# profileCfg numAdcSamples: 2..MAX_NUM_SAMPLES, where every enabled RX channel's samples of one chirp must fit the
+# xWR1843's 32 kB ADC buffer at 2 bytes per real sample: 16384 with a single RX, the most any cfg can ask for.
+MIN_ADC_SAMPLES, MAX_ADC_SAMPLES = 2, 16384
+# TI's cfgs are 2-4 kB; a file far larger is not a chirp cfg (and /dev/zero must not be read whole).
+MAX_CFG_BYTES = 64 * 1024
+
 # Minimum argument counts of the commands whose numbers we use or check. Counts differ between SDK
 # versions (subFrameIdx added in 2.x/3.x), so only a floor is enforced; the device has the last word.
 _MIN_ARGS: dict[str, int] = {
@@ -56,6 +70,18 @@ _MIN_ARGS: dict[str, int] = {
     "sensorStart": 0,
     "flushCfg": 0,
 }
+# The chirp-design figures the rest of the daemon uses (RadarProfile properties).
+_DESIGN_FIGURES = (
+    "range_bin_m",
+    "range_resolution_m",
+    "max_range_m",
+    "wavelength_m",
+    "chirp_time_s",
+    "max_velocity_mps",
+    "velocity_resolution_mps",
+    "active_frame_time_s",
+    "frame_period_s",
+)
 _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
 _SDK_HEADER = re.compile(r"SDK\s*ver\s*:\s*(\d+)\.(\d+)", re.IGNORECASE)
 
@@ -178,10 +204,13 @@ def load_profile(path: str | Path) -> RadarProfile:
     """Parse a cfg file; raises ``RadarProfileError`` naming the file and line on malformed input."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8", errors="replace")
+        with p.open("rb") as f:
+            raw = f.read(MAX_CFG_BYTES + 1)
     except OSError as exc:
         raise RadarProfileError(f"cannot read radar cfg: {exc.strerror or exc}", str(p)) from exc
-    return parse_profile(text, source=str(p))
+    if len(raw) > MAX_CFG_BYTES:
+        raise RadarProfileError(f"larger than {MAX_CFG_BYTES // 1024} KiB: not a radar cfg", str(p))
+    return parse_profile(raw.decode("utf-8", errors="replace"), source=str(p))
 
 
 def parse_profile(text: str, source: str = "<cfg>") -> RadarProfile:
@@ -213,13 +242,13 @@ def parse_profile(text: str, source: str = "<cfg>") -> RadarProfile:
         a = line.args
         if line.command == "profileCfg":
             cp = ChirpProfile(
-                profile_id=_int(line, 0, source),
+                profile_id=_int(line, 0, source, 0, MAX_PROFILE_ID),
                 start_freq_ghz=float(a[1]),
                 idle_time_us=float(a[2]),
                 adc_start_time_us=float(a[3]),
                 ramp_end_time_us=float(a[4]),
                 freq_slope_mhz_per_us=float(a[7]),
-                num_adc_samples=_int(line, 9, source),
+                num_adc_samples=_int(line, 9, source, MIN_ADC_SAMPLES, MAX_ADC_SAMPLES),
                 sample_rate_ksps=float(a[10]),
             )
             if cp.freq_slope_mhz_per_us <= 0 or cp.num_adc_samples <= 0 or cp.sample_rate_ksps <= 0:
@@ -232,7 +261,9 @@ def parse_profile(text: str, source: str = "<cfg>") -> RadarProfile:
                 )
             profiles[cp.profile_id] = (line, cp)
         elif line.command == "chirpCfg":
-            start, end, pid = _int(line, 0, source), _int(line, 1, source), _int(line, 2, source)
+            start = _int(line, 0, source, 0, MAX_CHIRP_INDEX)
+            end = _int(line, 1, source, 0, MAX_CHIRP_INDEX)
+            pid = _int(line, 2, source, 0, MAX_PROFILE_ID)
             if end < start:
                 raise RadarProfileError("chirpCfg end index before start index", source, line.number, line.text)
             for k in range(start, end + 1):
@@ -254,20 +285,20 @@ def parse_profile(text: str, source: str = "<cfg>") -> RadarProfile:
         raise RadarProfileError("no frameCfg line: frame period and Doppler size unknown", source)
     if not profiles:
         raise RadarProfileError("no profileCfg line: chirp design unknown", source)
-    chirp_start, chirp_end = _int(frame, 0, source), _int(frame, 1, source)
-    num_loops, num_frames = _int(frame, 2, source), _int(frame, 3, source)
+    chirp_start = _int(frame, 0, source, 0, MAX_CHIRP_INDEX)
+    chirp_end = _int(frame, 1, source, 0, MAX_CHIRP_INDEX)
+    num_loops = _int(frame, 2, source, 1, MAX_LOOPS)
+    num_frames = _int(frame, 3, source, 0, MAX_FRAMES)
     period_ms = float(frame.args[4])
-    if chirp_end < chirp_start or num_loops <= 0 or period_ms <= 0:
+    if chirp_end < chirp_start or period_ms <= 0:
         raise RadarProfileError(
-            "frameCfg needs chirpEnd >= chirpStart, numLoops > 0 and periodicity > 0",
-            source,
-            frame.number,
-            frame.text,
+            "frameCfg needs chirpEnd >= chirpStart and periodicity > 0", source, frame.number, frame.text
         )
     missing = [k for k in range(chirp_start, chirp_end + 1) if k not in chirps]
     if missing:
+        shown = ", ".join(map(str, missing[:8])) + (f", ... ({len(missing)} in all)" if len(missing) > 8 else "")
         raise RadarProfileError(
-            f"frameCfg uses chirp(s) {missing} that no chirpCfg line defines", source, frame.number, frame.text
+            f"frameCfg uses chirp(s) [{shown}] that no chirpCfg line defines", source, frame.number, frame.text
         )
     chirp_line, pid = chirps[chirp_start]
     if pid not in profiles:
@@ -277,7 +308,7 @@ def parse_profile(text: str, source: str = "<cfg>") -> RadarProfile:
             chirp_line.number,
             chirp_line.text,
         )
-    return RadarProfile(
+    profile = RadarProfile(
         source=source,
         lines=tuple(lines),
         chirp=profiles[pid][1],
@@ -291,6 +322,18 @@ def parse_profile(text: str, source: str = "<cfg>") -> RadarProfile:
         range_fov_m=range_fov,
         velocity_fov_mps=velocity_fov,
     )
+    # Finite arguments can still multiply out to nothing usable (an idle time of 1e-300 us: infinite v_max), and the
+    # data parser would scale every SDK 2.x Doppler index by it.
+    unusable = [name for name in _DESIGN_FIGURES if not 0 < getattr(profile, name) < math.inf]
+    if unusable:
+        line = profiles[pid][0]
+        raise RadarProfileError(
+            f"profileCfg gives no usable chirp design ({', '.join(unusable)} not a finite positive number)",
+            source,
+            line.number,
+            line.text,
+        )
+    return profile
 
 
 def _check_known_command(line: CfgLine, source: str) -> None:
@@ -307,15 +350,26 @@ def _check_known_command(line: CfgLine, source: str) -> None:
             raise RadarProfileError(
                 f"{line.command} argument {i + 1} is not a number: {arg!r}", source, line.number, line.text
             )
+        if not math.isfinite(float(arg)):  # 1e999 matches the pattern and is infinity
+            raise RadarProfileError(
+                f"{line.command} argument {i + 1} is not a finite number: {arg!r}", source, line.number, line.text
+            )
 
 
-def _int(line: CfgLine, index: int, source: str) -> int:
-    value = float(line.args[index])
-    if value != int(value):
+def _int(line: CfgLine, index: int, source: str, lowest: int | None = None, highest: int | None = None) -> int:
+    """Argument ``index`` as an integer, within the device's limits ``lowest..highest`` where given."""
+    text = line.args[index]
+    value = float(text)
+    if not value.is_integer():  # also false for inf and nan
         raise RadarProfileError(
-            f"{line.command} argument {index + 1} must be an integer, got {line.args[index]!r}",
+            f"{line.command} argument {index + 1} must be an integer, got {text!r}", source, line.number, line.text
+        )
+    number = int(value)
+    if (lowest is not None and number < lowest) or (highest is not None and number > highest):
+        raise RadarProfileError(
+            f"{line.command} argument {index + 1} is {text}, outside the device's range {lowest}..{highest}",
             source,
             line.number,
             line.text,
         )
-    return int(value)
+    return number

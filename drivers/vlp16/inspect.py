@@ -150,6 +150,8 @@ class PcapSummary:
             "non_udp": self.reader.stats.not_ipv4 + self.reader.stats.not_udp,
             "fragments": self.reader.stats.fragments,
             "truncated": self.reader.stats.truncated + int(self.reader.stats.torn_tail),
+            "bad_blocks": self.reader.stats.bad_blocks,
+            "stopped_at": self.reader.stats.stop_reason,
             "product_ids": {f"0x{k:02X}": v for k, v in products.items()},
             "return_modes": {RETURN_MODE_NAMES.get(k, f"0x{k:02X}"): v for k, v in modes.items()},
             "model": self.model or (PRODUCT_MODELS.get(products.most_common(1)[0][0]) if products else None),
@@ -189,6 +191,10 @@ class PcapSummary:
             parts.append(f"UDP to other ports: {ports}")
         if self.reader.stats.udp == 0:
             parts.append(f"{self.reader.stats.records} frames, none IPv4/UDP")
+        if self.reader.stats.bad_blocks:
+            parts.append(f"{self.reader.stats.bad_blocks} pcapng blocks too short for their fields")
+        if self.reader.stats.stop_reason:
+            parts.append(f"reading stopped at a {self.reader.stats.stop_reason}")
         return "; ".join(parts)
 
 

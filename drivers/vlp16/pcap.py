@@ -5,7 +5,8 @@ pcapng by default, and a capture from the boat may be either. This reader handle
 both byte orders, microsecond and nanosecond (or any ``if_tsresol``) timestamps, and the link layers
 seen in LiDAR captures: Ethernet (with 802.1Q tags), Linux cooked SLL/SLL2, raw IP and BSD loopback.
 Only IPv4/UDP is returned; everything else is counted, never raised: a capture with a torn last record
-or a stray fragment still gives all its good packets.
+or a stray fragment still gives all its good packets. A block too short for its own fields is counted and
+skipped; a length no capture tool writes (a corrupt file) stops the reading there, the packets before it kept.
 """
 
 from __future__ import annotations
@@ -45,6 +46,17 @@ _SPB = 0x00000003
 _OPB = 0x00000002  # obsolete "packet block", still written by old tools
 _IDB = 0x00000001
 
+# libpcap's MAXIMUM_SNAPLEN: no capture tool records more of one packet. A VLP-16 packet is 1206 bytes of payload
+# (1248 on the wire), so a record beyond this is a corrupt length, and it must not become a read of up to 4 GiB.
+MAX_PACKET_LEN = 262_144
+# One such packet in a pcapng block: block header and trailer, the enhanced packet block's fields, its options.
+MAX_BLOCK_LEN = MAX_PACKET_LEN + 4096
+_MIN_SHB_LEN = 28  # type, length, byte-order magic, version, section length, trailing length
+_EPB_FIELDS = struct.calcsize("IIIII")  # interface, timestamp high and low, captured and original length
+_IDB_FIELDS = struct.calcsize("HHI")  # link type, reserved, snap length
+_SPB_FIELDS = struct.calcsize("I")  # original length
+_UNKNOWN_LINK = -1  # an interface whose description block was too short: its packets count as not IPv4
+
 
 class NotAPcapError(ValueError):
     """The file is not a pcap or pcapng capture (or is empty)."""
@@ -71,7 +83,9 @@ class PcapStats:
     fragments: int = 0  # IPv4 fragments (VLP-16 packets never fragment; reassembly is not attempted)
     truncated: int = 0  # record shorter than its headers say (snaplen or a torn file)
     no_timestamp: int = 0  # pcapng simple packet blocks
-    torn_tail: bool = False  # the file ends in the middle of a record
+    bad_blocks: int = 0  # pcapng blocks too short for their own fields, or whose packet overruns them (skipped)
+    torn_tail: bool = False  # reading stopped inside a record: the file ends there, or a length is corrupt
+    stop_reason: str = ""  # why, when torn_tail
 
 
 def _format(head: bytes) -> str:
@@ -155,7 +169,12 @@ class PcapReader:
     # --- containers ------------------------------------------------------------------------------------
     def _torn(self, what: str) -> None:
         self.stats.torn_tail = True
-        log.warning("%s: file ends inside a %s; the packets before it are kept", self.path, what)
+        self.stats.stop_reason = what
+        log.warning("%s: reading stopped at a %s; the packets before it are kept", self.path, what)
+
+    def _bad_block(self, what: str) -> None:
+        self.stats.bad_blocks += 1
+        log.debug("%s: skipped %s", self.path, what)
 
     def _classic(self, f: BinaryIO) -> Iterator[tuple[float, int, bytes]]:
         head = f.read(24)
@@ -172,63 +191,90 @@ class PcapReader:
             if not rh:
                 return
             if len(rh) < 16:
-                self._torn("record header")
+                self._torn("torn record header")
                 return
             seconds, fraction, incl_len, _orig_len = record.unpack(rh)
-            if incl_len > 0x4000000:  # 64 MiB: a corrupt length, not a packet
+            if incl_len > MAX_PACKET_LEN:
                 self._torn(f"corrupt record (length {incl_len})")
                 return
             frame = f.read(incl_len)
             if len(frame) < incl_len:
-                self._torn("record")
+                self._torn("torn record")
                 return
             yield seconds + fraction * scale, link_type, frame
 
     def _pcapng(self, f: BinaryIO) -> Iterator[tuple[float, int, bytes]]:
         order = "<"
         interfaces: list[tuple[int, int, float]] = []  # (link type, ticks per second, offset s)
+        first = True
         while True:
             bh = f.read(8)
             if not bh:
                 return
             if len(bh) < 8:
-                self._torn("block header")
+                self._torn("torn block header")
                 return
             (block_type,) = struct.unpack("<I", bh[:4])
             if block_type == PCAPNG_SHB:
                 bom = f.read(4)
                 if len(bom) < 4:
-                    self._torn("section header")
+                    self._torn("torn section header")
                     return
                 order = "<" if struct.unpack("<I", bom)[0] == PCAPNG_BYTE_ORDER_MAGIC else ">"
                 if struct.unpack(order + "I", bom)[0] != PCAPNG_BYTE_ORDER_MAGIC:
-                    raise NotAPcapError(f"{self.path}: pcapng section header has a bad byte-order magic")
-                (length,) = struct.unpack(order + "I", bh[4:])
-                body = bom + f.read(max(0, length - 12))
-                if len(body) < length - 8:
-                    self._torn("section header")
+                    if first:
+                        raise NotAPcapError(f"{self.path}: pcapng section header has a bad byte-order magic")
+                    self._torn("corrupt section header (bad byte-order magic)")
                     return
+                (length,) = struct.unpack(order + "I", bh[4:])
+                if length < _MIN_SHB_LEN or length % 4 or length > MAX_BLOCK_LEN:
+                    self._torn(f"corrupt section header (length {length})")
+                    return
+                rest = f.read(length - 12)
+                if len(rest) < length - 12:
+                    self._torn("torn section header")
+                    return
+                if rest[-4:] != bh[4:]:
+                    self._torn("corrupt section header (its two length fields differ)")
+                    return
+                first = False
                 interfaces = []  # interface ids are per section
                 continue
             (block_type,) = struct.unpack(order + "I", bh[:4])
             (length,) = struct.unpack(order + "I", bh[4:])
-            if length < 12 or length % 4 or length > 0x4000000:
+            if length < 12 or length % 4 or length > MAX_BLOCK_LEN:
                 self._torn(f"corrupt block (length {length})")
                 return
             body = f.read(length - 8)
             if len(body) < length - 8:
-                self._torn("block")
+                self._torn("torn block")
                 return
-            body = body[:-4]  # trailing copy of the length
+            if body[-4:] != bh[4:]:
+                self._torn("corrupt block (its two length fields differ)")
+                return
+            body = body[:-4]
             if block_type == _IDB:
-                interfaces.append(self._interface(body, order))
-            elif block_type == _EPB:
-                interface, ts_hi, ts_lo, cap_len, _orig = struct.unpack_from(order + "IIIII", body, 0)
-                yield self._packet(interfaces, interface, ts_hi, ts_lo, body[20 : 20 + cap_len])
-            elif block_type == _OPB:
-                interface, _drops, ts_hi, ts_lo, cap_len, _orig = struct.unpack_from(order + "HHIIII", body, 0)
-                yield self._packet(interfaces, interface, ts_hi, ts_lo, body[20 : 20 + cap_len])
+                if len(body) < _IDB_FIELDS:
+                    self._bad_block(f"interface description block of {len(body)} bytes")
+                    interfaces.append((_UNKNOWN_LINK, 1_000_000, 0.0))  # keeps the later interfaces' ids
+                else:
+                    interfaces.append(self._interface(body, order))
+            elif block_type in (_EPB, _OPB):
+                if len(body) < _EPB_FIELDS:
+                    self._bad_block(f"packet block of {len(body)} bytes")
+                    continue
+                if block_type == _EPB:
+                    interface, ts_hi, ts_lo, cap_len, _orig = struct.unpack_from(order + "IIIII", body, 0)
+                else:
+                    interface, _drops, ts_hi, ts_lo, cap_len, _orig = struct.unpack_from(order + "HHIIII", body, 0)
+                if cap_len > len(body) - _EPB_FIELDS:
+                    self._bad_block(f"packet block whose {cap_len}-byte packet overruns it")
+                    continue
+                yield self._packet(interfaces, interface, ts_hi, ts_lo, body[_EPB_FIELDS : _EPB_FIELDS + cap_len])
             elif block_type == _SPB:
+                if len(body) < _SPB_FIELDS:
+                    self._bad_block(f"simple packet block of {len(body)} bytes")
+                    continue
                 self.stats.no_timestamp += 1  # no timestamp: useless for replay
 
     def _packet(
