@@ -26,17 +26,20 @@ def _setup_logging(verbose: bool) -> None:
 
 
 def cmd_check_config(args: argparse.Namespace) -> int:
-    from daemon.config import load_config
+    from daemon.config import file_warnings, load_config
     from daemon.config_schema import ConfigError
 
     try:
-        load_config(args.file, check_files=True)
+        config = load_config(args.file, check_files=True)
     except ConfigError as exc:
         print(f"{args.file}: {len(exc.problems)} problem(s):", file=sys.stderr)
         for problem in exc.problems:
             print(f"  {problem}", file=sys.stderr)
         return 2
-    print(f"{args.file}: OK")
+    warnings = file_warnings(config)
+    for warning in warnings:
+        print(f"  warning: {warning}", file=sys.stderr)
+    print(f"{args.file}: OK" + (f" with {len(warnings)} warning(s)" if warnings else ""))
     return 0
 
 

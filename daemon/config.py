@@ -331,10 +331,22 @@ def load_config(
     if check_files:
         for name, section in (("lidar", config.lidar), ("radar", config.radar)):
             if not any(p.startswith(f"{name}.") for p in problems):  # else it may hold defaults, not the file's
-                problems += section.file_problems(name)
+                problems += [] if name == "radar" and not config.radar.required else section.file_problems(name)
     if problems:
         raise ConfigError(problems, source)
     return config
+
+
+def file_warnings(config: Config) -> list[str]:
+    """Problems with the files of a sensor the daemon can run without: a radar that is not ``required`` and whose
+    chirp cfg or dump is missing or refused leaves the daemon LiDAR-only at start-up, so ``check-config`` (which
+    systemd runs before every start) says so but does not stop the boat's LiDAR from running."""
+    if config.radar.required:
+        return []
+    return [
+        f"{p} (radar.required = false: the daemon will run without the radar)"
+        for p in config.radar.file_problems("radar")
+    ]
 
 
 def _read_table(p: Path, source: str) -> dict[str, Any]:

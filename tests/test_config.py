@@ -176,7 +176,7 @@ def test_values_that_load_but_cannot_work_are_named(tmp_path: Path) -> None:
 def test_check_config_opens_the_files_the_config_names(tmp_path: Path) -> None:
     path = tmp_path / "c.toml"
     absent_pcap, absent_cfg = tmp_path / "absent.pcap", tmp_path / "absent.cfg"
-    path.write_text(f'[lidar]\nsource = "pcap://{absent_pcap}"\n[radar]\nprofile = "{absent_cfg}"\n')
+    path.write_text(f'[lidar]\nsource = "pcap://{absent_pcap}"\n[radar]\nrequired = true\nprofile = "{absent_cfg}"\n')
     load_config(path)  # `run` leaves them to start-up (a radar that cannot start leaves the daemon LiDAR-only)
     with pytest.raises(ConfigError) as err:
         load_config(path, check_files=True)
@@ -187,7 +187,7 @@ def test_check_config_opens_the_files_the_config_names(tmp_path: Path) -> None:
     # the cfg is parsed by the driver's own parser: a cfg it refuses is named with its line
     bad_cfg = tmp_path / "bad.cfg"
     bad_cfg.write_text(PACKAGED_PROFILE.read_text().replace("frameCfg 0 1 ", "frameCfg 0 9 "))
-    path.write_text(f'[radar]\nprofile = "{bad_cfg}"\n')
+    path.write_text(f'[radar]\nrequired = true\nprofile = "{bad_cfg}"\n')
     with pytest.raises(ConfigError) as err:
         load_config(path, check_files=True)
     (problem,) = err.value.problems
@@ -197,3 +197,18 @@ def test_check_config_opens_the_files_the_config_names(tmp_path: Path) -> None:
     )
     res = check_config(path)
     assert res.returncode == 2 and "radar.profile:" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_a_radar_the_daemon_can_run_without_warns_but_does_not_stop_the_start(tmp_path: Path) -> None:
+    """systemd runs check-config before every start: a radar that is not required and whose cfg is missing leaves
+    the daemon LiDAR-only at start-up, so it must not keep the LiDAR from running."""
+    path = tmp_path / "c.toml"
+    absent_cfg = tmp_path / "absent.cfg"
+    path.write_text(f'[radar]\nrequired = false\nprofile = "{absent_cfg}"\n')
+    res = check_config(path)
+    assert res.returncode == 0
+    assert res.stdout == f"{path}: OK with 1 warning(s)\n"
+    assert res.stderr == (
+        f"  warning: radar.profile: {absent_cfg}: cannot read radar cfg: No such file or directory"
+        " (radar.required = false: the daemon will run without the radar)\n"
+    )
