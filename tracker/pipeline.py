@@ -81,7 +81,8 @@ class PipelineSettings:
     # Half the AWR1843BOOST's elevation beam: a low solid nearer than (height - obstacle) / tan(this) passes under it.
     radar_half_vfov_rad: float = np.radians(15.0)
     # Returns within the sea margin inside a confirmed LiDAR track's footprint, grown by this (m), are its hull and
-    # reach the obstacle array (tracker/lidar/hull_gate.py); negative turns it off.
+    # reach the obstacle array (tracker/lidar/hull_gate.py); negative turns it off. Held out (random:1001-1025, LiDAR
+    # only), switching it off: false-clear bins 1,680 -> 2,004 a scene, false-obstacle bins 0.12 % -> 0.09 %.
     hull_margin_grow_m: float = 0.5
 
 

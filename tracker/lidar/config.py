@@ -315,7 +315,8 @@ class AssociationConfig:
     merge_margin: float = 1.0
     # Two live tracks on one hull (ours): when a track's centre lies inside a confirmed track's footprint grown by
     # this margin (m) and their velocities differ by no more than duplicate_max_speed_diff (m/s, where both are
-    # known), the one with fewer hits ends. A negative margin turns it off.
+    # known), the one with fewer hits ends. A negative margin turns it off. Held out (random:1001-1025, LiDAR only),
+    # switching it off: MOTA 0.726 -> 0.668, false track-frames 14.0 % -> 21.5 % of matches.
     duplicate_margin: float = 0.5
     duplicate_max_speed_diff: float = 1.5
 
@@ -342,7 +343,9 @@ class StructureConfig:
     static_min_age_s: float = 2.0
     # A thin piece (minor-axis spread <= line_max_thickness_m, at least line_min_length_m long) whose line, followed from line_gap_m to
     # line_gap_m + line_reach_m beyond either end, runs over remembered structure for at least line_min_share of
-    # that stretch continues a wall: structure (StructureMemory.continues). line_reach_m 0 turns it off.
+    # that stretch continues a wall: structure (StructureMemory.continues). line_reach_m 0 turns it off. Held out
+    # (random:1001-1025, LiDAR only), switching it off: MOTA 0.726 -> 0.703 (worst scene 0.264 -> 0.197), false
+    # track-frames 14.0 % -> 18.2 % of matches. Lengths and shares as chosen on tuning seeds 1-16.
     line_reach_m: float = 30.0
     line_gap_m: float = 1.0
     line_max_thickness_m: float = 0.5
