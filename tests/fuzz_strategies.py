@@ -31,14 +31,21 @@ EDGE_INTS = st.sampled_from(
 
 
 def mutated(target: Target, which: str) -> st.SearchStrategy[bytes]:
-    """Havoc mutations of the target's seeds ('own' or 'public'); hypothesis shrinks the mutation choices."""
-    seeds = target.seeds(which)
-    assert seeds, f"{target.name} has no {which} seeds"
-    return st.builds(
-        lambda i, rnd: mutate(seeds[i % len(seeds)], rnd, seeds, target.max_len),
-        st.integers(0, len(seeds) - 1),
-        st.randoms(use_true_random=False),
-    )
+    """Havoc mutations of the target's seeds ('own' or 'public'); hypothesis shrinks the mutation choices.
+
+    The seeds are read when the first example is drawn, not when the test module is imported: where the public
+    captures are absent their tests are skipped (``needs_public_captures``) and must not fail the collection."""
+
+    def build() -> st.SearchStrategy[bytes]:
+        seeds = target.seeds(which)
+        assert seeds, f"{target.name} has no {which} seeds"
+        return st.builds(
+            lambda i, rnd: mutate(seeds[i % len(seeds)], rnd, seeds, target.max_len),
+            st.integers(0, len(seeds) - 1),
+            st.randoms(use_true_random=False),
+        )
+
+    return st.deferred(build)
 
 
 def randoms() -> st.SearchStrategy[random.Random]:

@@ -3,6 +3,7 @@ dropped, a track recovered after a hard turn, loose returns keeping a far track,
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -363,3 +364,19 @@ def test_a_sparse_cluster_next_to_the_radar_starts_no_track() -> None:
     near = tracks_after((6.0, 0.0), 4, replace(BASE, near_birth_min_points=0))
     assert len(near) == 1
     np.testing.assert_allclose(near[0].position, [6.0, 0.0], atol=0.3)
+
+
+def test_a_track_on_a_steady_turn_publishes_the_turn_models_yaw_rate() -> None:
+    """3 m/s round a 20 m circle to starboard: 0.15 rad/s clockwise, positive as the track's heading convention."""
+    rng = np.random.default_rng(4)
+    radius, rate, centre = 20.0, 0.15, np.array([30.0, 0.0])
+    frames = []
+    for k in range(100):
+        h = rate * 0.1 * k
+        c = centre + radius * np.array([math.sin(h), -math.cos(h)])
+        frames.append((box_points(c, (1.5, 1.5), 8, rng), 3.0 * np.array([math.cos(h), math.sin(h)])))
+    _, outs = run(replace(BASE, motion_model="ct"), frames)
+    rates = [confirmed(o)[0].yaw_rate for o in outs[60:]]
+    assert np.median(rates) == pytest.approx(rate, abs=0.04)
+    _, straight = run(replace(BASE, motion_model="cv"), frames)
+    assert {tr.yaw_rate for o in straight[60:] for tr in confirmed(o)} == {0.0}  # no turn state, no turn rate

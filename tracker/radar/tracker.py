@@ -86,7 +86,7 @@ class RadarTrackState:
             position=x[kalman.POS].copy(),
             velocity=v,
             heading=0.0,  # the box is world-axis-aligned (length = north extent); course is atan2(v_e, v_n)
-            yaw_rate=0.0,
+            yaw_rate=kalman.turn_rate(self.kf)[0],  # the coordinated turn's estimate; 0 for the cv and ca models
             length=float(x[6]),
             width=float(x[7]),
             height=0.0,
