@@ -226,9 +226,9 @@ def markdown(r: dict[str, Any], cli: str) -> str:
         f"| RSS growth after the first minute | {p['rss_growth_mb']:+.1f} MB (fitted slope "
         f"{p['rss_slope_mb_per_h']:+.1f} MB/h) | < 5 MB over the hour: {'met' if growth_ok else '**not met**'} |",
         f"| RSS max | {p['rss_max_mb']:.1f} MB | |",
-        f"| open descriptors first / 1 min / last / max | {fd['first']} / {fd['ref']} / {fd['last']} / {fd['max']} "
+        f"| open descriptors at exec / 1 min / end / max | {fd['first']} / {fd['ref']} / {fd['last']} / {fd['max']} "
         f"| no growth: {'met' if fd['last'] <= fd['ref'] and fd['max'] <= fd['ref'] else '**not met**'} |",
-        f"| threads first / 1 min / last / max | {th['first']} / {th['ref']} / {th['last']} / {th['max']} "
+        f"| threads at exec / 1 min / end / max | {th['first']} / {th['ref']} / {th['last']} / {th['max']} "
         f"| no growth: {'met' if th['last'] <= th['ref'] and th['max'] <= th['ref'] else '**not met**'} |",
         f"| data processed | {r['data_seconds']:.0f} s live in {r['wall_seconds']:.0f} s of wall time "
         f"({r['lidar_packets_sent']:,} VLP-16 data packets sent) | |",
