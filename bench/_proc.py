@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import statistics
 import threading
 import time
 from dataclasses import asdict, dataclass
@@ -67,14 +68,26 @@ class Sampler(threading.Thread):
         return [asdict(s) for s in self.samples]
 
 
-def summarise(samples: list[ProcSample], after_s: float) -> dict[str, Any]:
-    """The soak's figures: RSS at ``after_s`` and at the end, the growth between, maxima, first/last/max counts."""
+def summarise(samples: list[ProcSample], after_s: float, window_s: float = 60.0) -> dict[str, Any]:
+    """The soak's figures: RSS at ``after_s`` and at the end, the growth between, maxima, first/last/max counts.
+
+    A numpy-heavy process's RSS swings by tens of MB from one second to the next (arrays of a busy revolution
+    allocated and given back), so two single samples can show a growth or a shrink that is neither. Besides them:
+    the median and the minimum over ``window_s`` from ``after_s`` and over the last ``window_s`` (the minimum is the
+    floor between the swings, what the process keeps), and a fitted slope.
+    """
     if not samples:
         return {}
     ref = next((s for s in samples if s.t >= after_s), samples[-1])
     last = samples[-1]
     tail = [s for s in samples if s.t >= ref.t]
+    first_w = [s.rss_kb / 1024 for s in tail if s.t < ref.t + window_s]
+    last_w = [s.rss_kb / 1024 for s in tail if s.t > last.t - window_s]
     return {
+        "rss_ref_window_median_mb": statistics.median(first_w),
+        "rss_end_window_median_mb": statistics.median(last_w),
+        "rss_ref_window_min_mb": min(first_w),
+        "rss_end_window_min_mb": min(last_w),
         "samples": len(samples),
         "rss_first_mb": samples[0].rss_kb / 1024,
         "rss_ref_t_s": ref.t,

@@ -223,8 +223,14 @@ def markdown(r: dict[str, Any], cli: str) -> str:
         "| figure | value | goal |",
         "|---|---|---|",
         f"| RSS at 1 min / at the end | {p['rss_ref_mb']:.1f} / {p['rss_end_mb']:.1f} MB | |",
-        f"| RSS growth after the first minute | {p['rss_growth_mb']:+.1f} MB (fitted slope "
-        f"{p['rss_slope_mb_per_h']:+.1f} MB/h) | < 5 MB over the hour: {'met' if growth_ok else '**not met**'} |",
+        f"| RSS growth after the first minute: end sample - 1 min sample | {p['rss_growth_mb']:+.1f} MB | "
+        f"< 5 MB over the hour: {'met' if growth_ok else '**not met**'} |",
+        f"| the same from minute-long windows (minute 2 / the last minute): median, minimum | "
+        f"{p['rss_ref_window_median_mb']:.1f} -> {p['rss_end_window_median_mb']:.1f} MB "
+        f"({p['rss_end_window_median_mb'] - p['rss_ref_window_median_mb']:+.1f}), "
+        f"{p['rss_ref_window_min_mb']:.1f} -> {p['rss_end_window_min_mb']:.1f} MB "
+        f"({p['rss_end_window_min_mb'] - p['rss_ref_window_min_mb']:+.1f}) | |",
+        f"| RSS slope fitted over every sample after 1 min | {p['rss_slope_mb_per_h']:+.1f} MB/h | |",
         f"| RSS max | {p['rss_max_mb']:.1f} MB | |",
         f"| open descriptors at exec / 1 min / end / max | {fd['first']} / {fd['ref']} / {fd['last']} / {fd['max']} "
         f"| no growth: {'met' if fd['last'] <= fd['ref'] and fd['max'] <= fd['ref'] else '**not met**'} |",
@@ -271,7 +277,9 @@ def main() -> None:
     p = r["proc"]
     print(
         f"RSS {p['rss_ref_mb']:.1f} MB at 1 min, {p['rss_end_mb']:.1f} MB at the end ({p['rss_growth_mb']:+.1f} MB, "
-        f"slope {p['rss_slope_mb_per_h']:+.1f} MB/h), max {p['rss_max_mb']:.1f} MB; fds {p['fds']}; "
+        f"slope {p['rss_slope_mb_per_h']:+.1f} MB/h; minute medians {p['rss_ref_window_median_mb']:.1f} -> "
+        f"{p['rss_end_window_median_mb']:.1f}, minima {p['rss_ref_window_min_mb']:.1f} -> "
+        f"{p['rss_end_window_min_mb']:.1f}), max {p['rss_max_mb']:.1f} MB; fds {p['fds']}; "
         f"threads {p['threads']}; {r['data_seconds']:.0f} s of data in {r['wall_seconds']:.0f} s; "
         f"OBSTACLE_DISTANCE {r['obstacle_distance_received']} ({r['obstacle_distance_rate_hz']:.2f}/s); "
         f"exit {r['exit_code']} {r['stop_seconds']:.2f} s after SIGTERM"

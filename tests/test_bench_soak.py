@@ -38,6 +38,9 @@ def test_summary_counts_growth_from_the_reference_minute() -> None:
     assert s["rss_ref_t_s"] == 60.0
     assert s["rss_growth_mb"] == pytest.approx(120 * 10 / 1024)
     assert s["rss_slope_mb_per_h"] == pytest.approx(10 * 3600 / 1024, rel=1e-6)
+    assert s["rss_ref_window_min_mb"] == pytest.approx((100_000 + 2048 + 600) / 1024)  # minute 2's floor
+    assert s["rss_end_window_min_mb"] == pytest.approx((100_000 + 2048 + 1210) / 1024)  # the last minute's
+    assert s["rss_end_window_median_mb"] - s["rss_ref_window_median_mb"] == pytest.approx(610 / 1024)  # 61 s apart
     assert s["fds"] == {"first": 10, "last": 11, "max": 11, "min": 10, "ref": 10}
     assert s["threads"]["last"] == 7
 
