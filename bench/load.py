@@ -27,6 +27,7 @@ import argparse
 import json
 import math
 import multiprocessing as mp
+import os
 import re
 import signal
 import subprocess
@@ -162,6 +163,7 @@ def run_load(scene: Scene, seconds: float, port: int, work: Path) -> dict[str, A
             sampler, watch = Sampler(proc.pid, 1.0), QueueWatch(port)
             sampler.start()
             watch.start()
+            load_before = os.getloadavg()[0]
             start = time.monotonic() + SENDER_START_S
             junk = ctx.Process(
                 target=send_junk, args=(port, JUNK_HZ, seconds + JUNK_LEAD_S, start, results), daemon=True
@@ -182,6 +184,7 @@ def run_load(scene: Scene, seconds: float, port: int, work: Path) -> dict[str, A
             time.sleep(0.5)
             watch.stop()
             sampler.stop()
+            loadavg = (load_before, os.getloadavg()[0])
             ap = sim.autopilot
             assert ap is not None
             window = (sent["lidar"]["begin"], sent["lidar"]["end"])
@@ -193,7 +196,8 @@ def run_load(scene: Scene, seconds: float, port: int, work: Path) -> dict[str, A
                 proc.kill()
                 proc.wait()
     daemon = json.loads(out.read_text())
-    return figures(scene, sent, daemon, watch, sampler, len(received), log_path.read_text(errors="replace"))
+    r = figures(scene, sent, daemon, watch, sampler, len(received), log_path.read_text(errors="replace"))
+    return {**r, "loadavg_before_after": loadavg}
 
 
 def _wait_for(path: Path, proc: subprocess.Popen[bytes], timeout: float) -> None:
@@ -351,6 +355,8 @@ def markdown(rows: dict[str, dict[str, Any]], cli: str) -> str:
         "OBSTACLE_DISTANCE received by the autopilot",
         lambda r: f"{r['obstacle_distance_received'] / r['seconds']:.1f}/s",
     )
+    row("machine's 1-min load average before / after (2 cores)", lambda r: "{:.1f} / {:.1f}".format(
+        *r["loadavg_before_after"]))  # fmt: skip
     row("daemon RSS max / threads", lambda r: f"{r['proc']['rss_max_mb']:.0f} MB / {r['proc']['threads']['max']}")
     lines += ["", "Last health line of each run:", ""]
     lines += [f"- {c}: `{rows[c]['health_last_line']}`" for c in cols]

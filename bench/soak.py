@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import re
 import signal
 import subprocess
@@ -94,12 +95,14 @@ def run_soak(seconds: float, trace_dir: Path | None, work: Path) -> dict[str, An
         traced = 0
         try:
             next_report = 60.0
+            load: list[float] = []  # the machine's 1-minute load average, once a minute: other work on the cores
             while (elapsed := time.monotonic() - wall0) < seconds:
                 if proc.poll() is not None:
                     raise RuntimeError(f"the daemon exited early ({proc.returncode}); see {log_path}")
                 if trace_dir is not None and traced == 0 and elapsed >= REFERENCE_S:
                     traced = _snapshot(proc, trace_dir, 1)
                 if elapsed >= next_report:
+                    load.append(os.getloadavg()[0])
                     s = sampler.samples[-1]
                     print(
                         f"{elapsed / 60:5.1f} min  scene {names[sim.scene_now()]:<10} RSS {s.rss_kb / 1024:6.1f} MB  "
@@ -141,6 +144,7 @@ def run_soak(seconds: float, trace_dir: Path | None, work: Path) -> dict[str, An
         "samples": sampler.as_json(),
         "command": " ".join(args),
         "traced": traced,
+        "loadavg": {"mean": sum(load) / len(load) if load else math.nan, "max": max(load, default=math.nan)},
     }
 
 
@@ -218,7 +222,8 @@ def markdown(r: dict[str, Any], cli: str) -> str:
         f"({len(r['scenes'])} random scenes of the tuning seeds, {r['scenes'][0]} .. {r['scenes'][-1]}, 60 s each; "
         "VLP-16 over UDP, AWR1843 over ptys, ArduPilot over MAVLink UDP, all on 127.0.0.1). "
         f"Sampled every second from /proc ({p['samples']} samples). Machine: 2 cores, shared; the simulator runs on "
-        "the same cores.",
+        f"the same cores, and the 1-minute load average over the run was {r['loadavg']['mean']:.1f} on average "
+        f"(max {r['loadavg']['max']:.1f}).",
         "",
         "| figure | value | goal |",
         "|---|---|---|",
