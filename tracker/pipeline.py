@@ -315,13 +315,14 @@ class PerceptionPipeline:
         if own is None:  # the pose at the sweep's end is unknown though each return's was: the sweep's last pose
             own_pos, own_yaw = np.asarray(pos, float).reshape(-1, 3)[-1, :2], float(np.ravel(yaw)[-1])
         solid_body = world_to_body_2d(pre.points_world[:, :2], own_pos, own_yaw)
-        roll_pt, pitch_pt = (
-            (np.broadcast_to(roll, (scan.n_points,)), np.broadcast_to(pitch, (scan.n_points,)))
-            if index is None or not known.all()
-            else (np.asarray(roll)[index], np.asarray(pitch)[index])
-        )
+        # With part of the sweep's poses unknown the attitude is not trusted at all (the water fit absorbs it, as in
+        # preprocess above); ``roll`` may then be the sampled poses, not one per point, and must not be broadcast.
         if not known.all():
             roll_pt = pitch_pt = np.zeros(scan.n_points)
+        elif index is None:
+            roll_pt, pitch_pt = np.broadcast_to(roll, (scan.n_points,)), np.broadcast_to(pitch, (scan.n_points,))
+        else:
+            roll_pt, pitch_pt = np.asarray(roll)[index], np.asarray(pitch)[index]
         self._lidar_bands = lidar_bands(scan, roll_pt, pitch_pt, pre.water, self.settings)
         if self.lidar_tracker is not None and track_points is not None:
             self._lidar_tracks = self.lidar_tracker.step(
