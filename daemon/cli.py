@@ -26,7 +26,7 @@ def _setup_logging(verbose: bool) -> None:
 
 
 def cmd_check_config(args: argparse.Namespace) -> int:
-    from daemon.config import file_warnings, load_config
+    from daemon.config import file_warnings, load_config, secret_warnings
     from daemon.config_schema import ConfigError
 
     try:
@@ -36,7 +36,7 @@ def cmd_check_config(args: argparse.Namespace) -> int:
         for problem in exc.problems:
             print(f"  {problem}", file=sys.stderr)
         return 2
-    warnings = file_warnings(config)
+    warnings = file_warnings(config) + secret_warnings(config)
     for warning in warnings:
         print(f"  warning: {warning}", file=sys.stderr)
     print(f"{args.file}: OK" + (f" with {len(warnings)} warning(s)" if warnings else ""))

@@ -197,7 +197,11 @@ class MavlinkConfig:
     component_id: int = 196  # MAV_COMP_ID_OBSTACLE_AVOIDANCE
     target_system: int = 1
     baud: int = 921600
-    signing_passphrase: str = ""  # MAVLink 2 signing key = SHA-256 of this (MAVProxy's convention)
+    # MAVLink 2 signing: key = SHA-256 of the passphrase (MAVProxy's convention). Keep the passphrase out of the
+    # config: signing_passphrase_file names a file (root-owned, 0600) whose first line is it. With a key, every
+    # message the autopilot sends must be signed with it (RADIO_STATUS excepted: a SiK radio cannot sign).
+    signing_passphrase_file: str = ""
+    signing_passphrase: str = ""  # the passphrase itself, in the config: accepted, but check-config warns
     send_obstacle_distance_3d: bool = False
 
     def validate(self) -> list[str]:
@@ -214,7 +218,49 @@ class MavlinkConfig:
                 out.append(f"{k}: {getattr(self, k)} must be 1..255")
         if self.baud <= 0:
             out.append(f"baud: {self.baud} must be > 0 (e.g. 921600)")
+        if self.signing_passphrase and self.signing_passphrase_file:
+            out.append("signing_passphrase, signing_passphrase_file: give one of them (the file, to keep it secret)")
         return out
+
+    def file_problems(self, prefix: str) -> list[str]:
+        """The signing passphrase file must be readable and hold a passphrase (its content is never shown)."""
+        if not self.signing_passphrase_file:
+            return []
+        try:
+            signing_passphrase(self)
+        except ConfigError as exc:
+            return [f"{prefix}.{p}" for p in exc.problems]
+        return []
+
+
+def signing_passphrase(m: MavlinkConfig) -> str:
+    """The MAVLink signing passphrase: from ``signing_passphrase_file`` (its first line) when set, else the config's
+    own value ("" = no signing). Raises ConfigError naming the file, never its content."""
+    if not m.signing_passphrase_file:
+        return m.signing_passphrase
+    path = Path(m.signing_passphrase_file)
+    try:
+        with path.open("rb") as f:
+            raw = f.read(4096)
+    except OSError as exc:
+        raise ConfigError([f"signing_passphrase_file: cannot read {path}: {exc.strerror or exc}"], str(path)) from None
+    first = raw.splitlines()[0].strip() if raw.strip() else b""
+    if not first:
+        raise ConfigError([f"signing_passphrase_file: {path} holds no passphrase on its first line"], str(path))
+    try:
+        return first.decode()
+    except UnicodeDecodeError:
+        raise ConfigError([f"signing_passphrase_file: {path}: the passphrase is not UTF-8 text"], str(path)) from None
+
+
+def secret_warnings(config: Config) -> list[str]:
+    """A signing passphrase written in the config itself: it works, but the config is not a secret's place."""
+    if config.mavlink.signing_passphrase:
+        return [
+            "mavlink.signing_passphrase: the passphrase is in the config; move it to a file (0600) named by "
+            "mavlink.signing_passphrase_file"
+        ]
+    return []
 
 
 @dataclass
@@ -329,6 +375,8 @@ def load_config(
     if not problems:  # the tracker tables take values from the other sections: check those first
         problems += tracker_config_problems(config)
     if check_files:
+        if not any(p.startswith("mavlink.") for p in problems):
+            problems += config.mavlink.file_problems("mavlink")
         for name, section in (("lidar", config.lidar), ("radar", config.radar)):
             if not any(p.startswith(f"{name}.") for p in problems):  # else it may hold defaults, not the file's
                 problems += [] if name == "radar" and not config.radar.required else section.file_problems(name)

@@ -14,7 +14,7 @@ import time
 from collections.abc import Callable, Iterator
 
 from daemon.autopilot import AutopilotLink
-from daemon.config import Config
+from daemon.config import Config, signing_passphrase
 from daemon.ego import HistoryEgo
 from daemon.runner import _signing_key
 
@@ -39,7 +39,7 @@ def autopilot_link(config: Config, url: str, live_poses: bool) -> Iterator[Autop
         component_id=m.component_id,
         target_system=m.target_system,
         baud=m.baud,
-        signing_key=_signing_key(m.signing_passphrase),
+        signing_key=_signing_key(signing_passphrase(m)),
         # the recording's poses need none of the autopilot's: a telemetry radio carries only what is used
         **({} if live_poses else {"message_rates_hz": {}}),
     )

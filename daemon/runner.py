@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from daemon.buffers import BoundedQueue, LatestSlot
-from daemon.config import Config
+from daemon.config import Config, signing_passphrase
 from daemon.ego import HistoryEgo
 from daemon.health import source_status
 from daemon.loop import DaemonLoop, LoopSettings, SensorInputs
@@ -239,7 +239,7 @@ def start_daemon(
         component_id=m.component_id,
         target_system=m.target_system,
         baud=m.baud,
-        signing_key=_signing_key(m.signing_passphrase),
+        signing_key=_signing_key(signing_passphrase(m)),
         clock=clock,
     )
     recorder = None

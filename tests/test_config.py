@@ -212,3 +212,36 @@ def test_a_radar_the_daemon_can_run_without_warns_but_does_not_stop_the_start(tm
         f"  warning: radar.profile: {absent_cfg}: cannot read radar cfg: No such file or directory"
         " (radar.required = false: the daemon will run without the radar)\n"
     )
+
+
+def test_the_signing_passphrase_comes_from_a_secret_file_and_is_never_shown(tmp_path: Path) -> None:
+    from daemon.config import signing_passphrase
+
+    secret = tmp_path / "mavlink-signing"
+    secret.write_text("correct horse battery\n")
+    secret.chmod(0o600)
+    path = tmp_path / "c.toml"
+    path.write_text(f'[radar]\nenabled = false\n[mavlink]\nsigning_passphrase_file = "{secret}"\n')
+    assert signing_passphrase(load_config(path, check_files=True).mavlink) == "correct horse battery"
+    res = check_config(path)
+    assert (res.returncode, res.stdout, res.stderr) == (0, f"{path}: OK\n", "")
+    # a file that is not there is named by check-config (exit 2), before systemd starts the daemon
+    path.write_text(f'[radar]\nenabled = false\n[mavlink]\nsigning_passphrase_file = "{tmp_path / "absent"}"\n')
+    res = check_config(path)
+    assert res.returncode == 2
+    assert (
+        f"mavlink.signing_passphrase_file: cannot read {tmp_path / 'absent'}: No such file or directory" in res.stderr
+    )
+    # written in the config itself it still works, with a warning that never repeats it
+    path.write_text('[radar]\nenabled = false\n[mavlink]\nsigning_passphrase = "correct horse battery"\n')
+    res = check_config(path)
+    assert res.returncode == 0 and "move it to a file" in res.stderr
+    assert "correct horse" not in res.stdout + res.stderr
+    path.write_text(
+        f'[radar]\nenabled = false\n[mavlink]\nsigning_passphrase = "x"\nsigning_passphrase_file = "{secret}"\n'
+    )
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.problems == [
+        "mavlink.signing_passphrase, signing_passphrase_file: give one of them (the file, to keep it secret)"
+    ]
