@@ -23,16 +23,16 @@ from typing import Any
 
 import numpy as np
 
+from daemon.tracker_adapters import DAEMON_RADAR_DEFAULTS
 from simulator.scenarios import RADAR_PAPER_SPEEDS
 from simulator.scene import OwnBoat, Scene, Trajectory, Vessel
-from tracker.adapters import DAEMON_RADAR_DEFAULTS
 from tracker.radar import RadarTrackerConfig
 
 BANDS: tuple[tuple[float, float], ...] = ((0.0, 30.0), (30.0, 60.0), (60.0, 90.0))
 BAND_MODEL: dict[str, Any] = {"max_range": 100.0, "snr_at_10m_db": 58.0}
 
 # Settings the benchmark found best on the simulated AWR1843 (see bench/results/radar_paper.md, "Settings"); the
-# daemon uses the same (tracker.adapters), so what is measured here is what runs.
+# daemon uses the same (daemon/tracker_adapters.py), so what is measured here is what runs.
 DAEMON_OVERRIDES: dict[str, Any] = dict(DAEMON_RADAR_DEFAULTS)
 
 

@@ -158,7 +158,7 @@ def open_sources(config: Config, fast: bool) -> Sources:
 
 
 def pipeline_for(config: Config) -> PerceptionPipeline:
-    from tracker.adapters import tracker_factories
+    from daemon.tracker_adapters import tracker_factories
 
     settings = PipelineSettings(
         min_distance_m=config.output.min_distance_m,

@@ -9,7 +9,7 @@ from daemon.config_schema import ConfigError
 
 def tracker_config_problems(config: Any) -> list[str]:
     from daemon.config_schema import build
-    from tracker.adapters import lidar_tracker_table, radar_tracker_table
+    from daemon.tracker_adapters import lidar_tracker_table, radar_tracker_table
     from tracker.lidar.config import LidarTrackerConfig
     from tracker.radar.config import RadarTrackerConfig
 
