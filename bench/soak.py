@@ -39,7 +39,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench._common import save
-from bench._proc import Sampler, summarise
+from bench._proc import ProcSample, Sampler, rss_windows, summarise
 from bench._scene_chain import ChainSimulation, SceneChain
 from daemon.demo import free_udp_port
 from simulator.capture import mounts_toml
@@ -222,8 +222,13 @@ def markdown(r: dict[str, Any], cli: str) -> str:
         f"({len(r['scenes'])} random scenes of the tuning seeds, {r['scenes'][0]} .. {r['scenes'][-1]}, 60 s each; "
         "VLP-16 over UDP, AWR1843 over ptys, ArduPilot over MAVLink UDP, all on 127.0.0.1). "
         f"Sampled every second from /proc ({p['samples']} samples). Machine: 2 cores, shared; the simulator runs on "
-        f"the same cores, and the 1-minute load average over the run was {r['loadavg']['mean']:.1f} on average "
-        f"(max {r['loadavg']['max']:.1f}).",
+        "the same cores"
+        + (
+            f", and the 1-minute load average over the run was {r['loadavg']['mean']:.1f} on average "
+            f"(max {r['loadavg']['max']:.1f})."
+            if "loadavg" in r  # not recorded by the first runs
+            else "."
+        ),
         "",
         "| figure | value | goal |",
         "|---|---|---|",
@@ -237,6 +242,12 @@ def markdown(r: dict[str, Any], cli: str) -> str:
         f"({p['rss_end_window_min_mb'] - p['rss_ref_window_min_mb']:+.1f}) | |",
         f"| RSS slope fitted over every sample after 1 min | {p['rss_slope_mb_per_h']:+.1f} MB/h | |",
         f"| RSS max | {p['rss_max_mb']:.1f} MB | |",
+        "| RSS by sixths of the run (after the first minute): floor / median | "
+        + ", ".join(
+            f"{a / 60:.0f}-{b / 60:.0f} min {lo:.0f} / {med:.0f}"
+            for a, b, lo, med in rss_windows([ProcSample(**x) for x in r["samples"] if x["t"] >= REFERENCE_S])
+        )
+        + " MB | |",
         f"| open descriptors at exec / 1 min / end / max | {fd['first']} / {fd['ref']} / {fd['last']} / {fd['max']} "
         f"| no growth: {'met' if fd['last'] <= fd['ref'] and fd['max'] <= fd['ref'] else '**not met**'} |",
         f"| threads at exec / 1 min / end / max | {th['first']} / {th['ref']} / {th['last']} / {th['max']} "
@@ -245,8 +256,8 @@ def markdown(r: dict[str, Any], cli: str) -> str:
         f"({r['lidar_packets_sent']:,} VLP-16 data packets sent) | |",
         f"| OBSTACLE_DISTANCE the autopilot received | {r['obstacle_distance_received']} "
         f"({r['obstacle_distance_rate_hz']:.2f}/s) | 10/s |",
-        f"| last health line: cycle p50 / p99, deadline misses | {h.get('p50', '-')} / {h.get('p99', '-')} ms, "
-        f"{h.get('misses', '-')} | |",
+        f"| last health line: cycle p50 / p99 over its last minute, deadline misses since start | "
+        f"{h.get('p50', '-')} / {h.get('p99', '-')} ms, {h.get('misses', '-')} | |",
         f"| SIGTERM to exit | {r['stop_seconds']:.2f} s, exit code {r['exit_code']} | < 1 s, 0 |",
         "",
         "The daemon's WARNING and ERROR lines over the run (numbers as N): "
