@@ -38,7 +38,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench._common import save
+from bench._common import RESULTS, save
 from bench._proc import ProcSample, Sampler, rss_windows, summarise
 from bench._scene_chain import ChainSimulation, SceneChain
 from daemon.demo import free_udp_port
@@ -98,7 +98,7 @@ def run_soak(seconds: float, trace_dir: Path | None, work: Path) -> dict[str, An
             load: list[float] = []  # the machine's 1-minute load average, once a minute: other work on the cores
             while (elapsed := time.monotonic() - wall0) < seconds:
                 if proc.poll() is not None:
-                    raise RuntimeError(f"the daemon exited early ({proc.returncode}); see {log_path}")
+                    raise RuntimeError(f"the daemon exited early ({proc.returncode}); see its log")
                 if trace_dir is not None and traced == 0 and elapsed >= REFERENCE_S:
                     traced = _snapshot(proc, trace_dir, 1)
                 if elapsed >= next_report:
@@ -129,6 +129,7 @@ def run_soak(seconds: float, trace_dir: Path | None, work: Path) -> dict[str, An
         statustexts = [s.text for s in ap.statustexts()]
     log_text = log_path.read_text(errors="replace")
     return {
+        "log_text": log_text,
         "seconds_asked": seconds,
         "scenes": names[: chain.at(data_s)[0] + 1],
         "data_seconds": data_s,
@@ -171,8 +172,11 @@ def _log_figures(text: str) -> dict[str, Any]:
     lines = text.splitlines()
     health = [m for m in (HEALTH.search(line) for line in lines) if m]
     problems: dict[str, int] = {}
+    timed: list[str] = []  # the lines themselves, with their time of day, to place a silence in the run
     for line in lines:
         if " WARNING " in line or " ERROR " in line:
+            if len(timed) < 500:
+                timed.append(line)
             key = re.sub(r"^\S+ ", "", line)  # without the time of day
             key = re.sub(r"\d+(\.\d+)?", "N", key)  # counts and times vary; the message is what matters
             problems[key] = problems.get(key, 0) + 1
@@ -182,6 +186,7 @@ def _log_figures(text: str) -> dict[str, Any]:
         "last_health_line": next((line for line in reversed(lines) if "health: " in line), ""),
         "max_p99_ms": max((float(m["p99"]) for m in health), default=math.nan),
         "problems": problems,
+        "problem_lines": timed,
     }
 
 
@@ -286,8 +291,16 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="soak-") as tmp:
         work = Path(tmp)
         trace_dir = work / "trace" if args.trace else None
-        print(f"soak: {seconds / 60:.0f} min live, daemon log {work / 'daemon.log'}", flush=True)
-        r = run_soak(seconds, trace_dir, work)
+        trial = args.quick or args.trace
+        kept = RESULTS / ("soak-trial.log" if trial else "soak.log")
+        print(f"soak: {seconds / 60:.0f} min live; the daemon's log goes to {kept}", flush=True)
+        RESULTS.mkdir(parents=True, exist_ok=True)
+        try:
+            r = run_soak(seconds, trace_dir, work)
+        except Exception:
+            if (work / "daemon.log").exists():
+                kept.write_text((work / "daemon.log").read_text(errors="replace"))
+            raise
         if trace_dir is not None:
             print(trace_report(trace_dir))
     p = r["proc"]
@@ -301,9 +314,9 @@ def main() -> None:
         f"exit {r['exit_code']} {r['stop_seconds']:.2f} s after SIGTERM"
     )
     print(f"daemon WARNING/ERROR lines: {r['log']['problems'] or 'none'}")
-    if args.quick or args.trace:
-        return
-    save("soak", r, markdown(r, cli))
+    kept.write_text(r.pop("log_text"))  # git-ignored like the json: where a silence or a stall fell in the run
+    if not trial:
+        save("soak", r, markdown(r, cli))
 
 
 if __name__ == "__main__":
