@@ -102,6 +102,22 @@ def summarise(samples: list[ProcSample], after_s: float, window_s: float = 60.0)
     }
 
 
+def rss_windows(samples: list[ProcSample], n: int = 6) -> list[tuple[float, float, float, float]]:
+    """The run cut into ``n`` equal windows: (start s, end s, minimum MB, median MB) of each, to show a trend
+    (a leak raises every window's floor) apart from the swings."""
+    if not samples:
+        return []
+    t0 = samples[0].t
+    span = (samples[-1].t - t0) / n
+    out = []
+    for k in range(n):
+        a, b = t0 + k * span, t0 + (k + 1) * span
+        w = [s.rss_kb / 1024 for s in samples if a <= s.t < b or (k == n - 1 and s is samples[-1])]
+        if w:
+            out.append((a, b, min(w), statistics.median(w)))
+    return out
+
+
 def _counts(values: list[int]) -> dict[str, int]:
     return {"first": values[0], "last": values[-1], "max": max(values), "min": min(values)}
 

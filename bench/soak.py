@@ -38,8 +38,8 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench._common import save
-from bench._proc import Sampler, summarise
+from bench._common import RESULTS, save
+from bench._proc import ProcSample, Sampler, rss_windows, summarise
 from bench._scene_chain import ChainSimulation, SceneChain
 from daemon.demo import free_udp_port
 from simulator.capture import mounts_toml
@@ -98,7 +98,7 @@ def run_soak(seconds: float, trace_dir: Path | None, work: Path) -> dict[str, An
             load: list[float] = []  # the machine's 1-minute load average, once a minute: other work on the cores
             while (elapsed := time.monotonic() - wall0) < seconds:
                 if proc.poll() is not None:
-                    raise RuntimeError(f"the daemon exited early ({proc.returncode}); see {log_path}")
+                    raise RuntimeError(f"the daemon exited early ({proc.returncode}); see its log")
                 if trace_dir is not None and traced == 0 and elapsed >= REFERENCE_S:
                     traced = _snapshot(proc, trace_dir, 1)
                 if elapsed >= next_report:
@@ -129,6 +129,7 @@ def run_soak(seconds: float, trace_dir: Path | None, work: Path) -> dict[str, An
         statustexts = [s.text for s in ap.statustexts()]
     log_text = log_path.read_text(errors="replace")
     return {
+        "log_text": log_text,
         "seconds_asked": seconds,
         "scenes": names[: chain.at(data_s)[0] + 1],
         "data_seconds": data_s,
@@ -171,8 +172,11 @@ def _log_figures(text: str) -> dict[str, Any]:
     lines = text.splitlines()
     health = [m for m in (HEALTH.search(line) for line in lines) if m]
     problems: dict[str, int] = {}
+    timed: list[str] = []  # the lines themselves, with their time of day, to place a silence in the run
     for line in lines:
         if " WARNING " in line or " ERROR " in line:
+            if len(timed) < 500:
+                timed.append(line)
             key = re.sub(r"^\S+ ", "", line)  # without the time of day
             key = re.sub(r"\d+(\.\d+)?", "N", key)  # counts and times vary; the message is what matters
             problems[key] = problems.get(key, 0) + 1
@@ -182,6 +186,7 @@ def _log_figures(text: str) -> dict[str, Any]:
         "last_health_line": next((line for line in reversed(lines) if "health: " in line), ""),
         "max_p99_ms": max((float(m["p99"]) for m in health), default=math.nan),
         "problems": problems,
+        "problem_lines": timed,
     }
 
 
@@ -222,8 +227,13 @@ def markdown(r: dict[str, Any], cli: str) -> str:
         f"({len(r['scenes'])} random scenes of the tuning seeds, {r['scenes'][0]} .. {r['scenes'][-1]}, 60 s each; "
         "VLP-16 over UDP, AWR1843 over ptys, ArduPilot over MAVLink UDP, all on 127.0.0.1). "
         f"Sampled every second from /proc ({p['samples']} samples). Machine: 2 cores, shared; the simulator runs on "
-        f"the same cores, and the 1-minute load average over the run was {r['loadavg']['mean']:.1f} on average "
-        f"(max {r['loadavg']['max']:.1f}).",
+        "the same cores"
+        + (
+            f", and the 1-minute load average over the run was {r['loadavg']['mean']:.1f} on average "
+            f"(max {r['loadavg']['max']:.1f})."
+            if "loadavg" in r  # not recorded by the first runs
+            else "."
+        ),
         "",
         "| figure | value | goal |",
         "|---|---|---|",
@@ -237,6 +247,12 @@ def markdown(r: dict[str, Any], cli: str) -> str:
         f"({p['rss_end_window_min_mb'] - p['rss_ref_window_min_mb']:+.1f}) | |",
         f"| RSS slope fitted over every sample after 1 min | {p['rss_slope_mb_per_h']:+.1f} MB/h | |",
         f"| RSS max | {p['rss_max_mb']:.1f} MB | |",
+        "| RSS by sixths of the run (after the first minute): floor / median | "
+        + ", ".join(
+            f"{a / 60:.0f}-{b / 60:.0f} min {lo:.0f} / {med:.0f}"
+            for a, b, lo, med in rss_windows([ProcSample(**x) for x in r["samples"] if x["t"] >= REFERENCE_S])
+        )
+        + " MB | |",
         f"| open descriptors at exec / 1 min / end / max | {fd['first']} / {fd['ref']} / {fd['last']} / {fd['max']} "
         f"| no growth: {'met' if fd['last'] <= fd['ref'] and fd['max'] <= fd['ref'] else '**not met**'} |",
         f"| threads at exec / 1 min / end / max | {th['first']} / {th['ref']} / {th['last']} / {th['max']} "
@@ -245,8 +261,8 @@ def markdown(r: dict[str, Any], cli: str) -> str:
         f"({r['lidar_packets_sent']:,} VLP-16 data packets sent) | |",
         f"| OBSTACLE_DISTANCE the autopilot received | {r['obstacle_distance_received']} "
         f"({r['obstacle_distance_rate_hz']:.2f}/s) | 10/s |",
-        f"| last health line: cycle p50 / p99, deadline misses | {h.get('p50', '-')} / {h.get('p99', '-')} ms, "
-        f"{h.get('misses', '-')} | |",
+        f"| last health line: cycle p50 / p99 over its last minute, deadline misses since start | "
+        f"{h.get('p50', '-')} / {h.get('p99', '-')} ms, {h.get('misses', '-')} | |",
         f"| SIGTERM to exit | {r['stop_seconds']:.2f} s, exit code {r['exit_code']} | < 1 s, 0 |",
         "",
         "The daemon's WARNING and ERROR lines over the run (numbers as N): "
@@ -275,8 +291,16 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="soak-") as tmp:
         work = Path(tmp)
         trace_dir = work / "trace" if args.trace else None
-        print(f"soak: {seconds / 60:.0f} min live, daemon log {work / 'daemon.log'}", flush=True)
-        r = run_soak(seconds, trace_dir, work)
+        trial = args.quick or args.trace
+        kept = RESULTS / ("soak-trial.log" if trial else "soak.log")
+        print(f"soak: {seconds / 60:.0f} min live; the daemon's log goes to {kept}", flush=True)
+        RESULTS.mkdir(parents=True, exist_ok=True)
+        try:
+            r = run_soak(seconds, trace_dir, work)
+        except Exception:
+            if (work / "daemon.log").exists():
+                kept.write_text((work / "daemon.log").read_text(errors="replace"))
+            raise
         if trace_dir is not None:
             print(trace_report(trace_dir))
     p = r["proc"]
@@ -290,9 +314,9 @@ def main() -> None:
         f"exit {r['exit_code']} {r['stop_seconds']:.2f} s after SIGTERM"
     )
     print(f"daemon WARNING/ERROR lines: {r['log']['problems'] or 'none'}")
-    if args.quick or args.trace:
-        return
-    save("soak", r, markdown(r, cli))
+    kept.write_text(r.pop("log_text"))  # git-ignored like the json: where a silence or a stall fell in the run
+    if not trial:
+        save("soak", r, markdown(r, cli))
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ import socket
 
 import pytest
 
-from bench._proc import ProcSample, sample, summarise, udp_socket
+from bench._proc import ProcSample, rss_windows, sample, summarise, udp_socket
 from bench._scene_chain import SceneChain
 from drivers.vlp16.packet import PACKET_PERIOD_US
 
@@ -57,3 +57,10 @@ def test_proc_readers_see_this_process_and_a_socket_queue() -> None:
         queued, drops = udp_socket(port) or (0, -1)
         assert queued >= 300 and drops == 0  # the kernel counts its bookkeeping too: at least the payloads
     assert udp_socket(port) is None
+
+
+def test_rss_windows_show_the_floor_and_median_of_each_part_of_the_run() -> None:
+    samples = [ProcSample(60.0 + t, 100_000 + (5000 if t % 2 else 0) + 100 * t, 10, 6) for t in range(0, 601)]
+    w = rss_windows(samples, 3)
+    assert [(a, b) for a, b, _, _ in w] == [(60.0, 260.0), (260.0, 460.0), (460.0, 660.0)]
+    assert [lo for _, _, lo, _ in w] == pytest.approx([100_000 / 1024, 120_000 / 1024, 140_000 / 1024])
