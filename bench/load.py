@@ -42,7 +42,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench._common import save
+from bench._common import RESULTS, save
 from bench._proc import Sampler, summarise, udp_socket
 from bench._udp_senders import replay_capture, send_junk
 from daemon.demo import free_udp_port, simulation_settings
@@ -180,8 +180,10 @@ def run_load(scene: Scene, seconds: float, port: int, work: Path) -> dict[str, A
                 sent.update(results.get(timeout=seconds + 120.0))
             junk.join()
             lidar.join()
-            # the last revolutions through the loop; well within the 2 s after which a silent sender loses its lock
-            time.sleep(0.5)
+            # The last revolution through the loop (at most a tick), and stopped before the 0.5 s after which the
+            # daemon would report the LiDAR silent and the 2 s after which a silent sender loses its lock: neither
+            # is the load's doing.
+            time.sleep(0.25)
             watch.stop()
             sampler.stop()
             loadavg = (load_before, os.getloadavg()[0])
@@ -196,7 +198,10 @@ def run_load(scene: Scene, seconds: float, port: int, work: Path) -> dict[str, A
                 proc.kill()
                 proc.wait()
     daemon = json.loads(out.read_text())
-    r = figures(scene, sent, daemon, watch, sampler, len(received), log_path.read_text(errors="replace"))
+    log_text = log_path.read_text(errors="replace")
+    # git-ignored like the json: what the daemon said, with its times, to check any line the figures quote
+    (RESULTS / f"load-{scene.name.replace(':', '_')}.log").write_text(log_text)
+    r = figures(scene, sent, daemon, watch, sampler, len(received), log_text)
     return {**r, "loadavg_before_after": loadavg}
 
 
