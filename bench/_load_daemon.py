@@ -3,7 +3,7 @@
     python -m bench._load_daemon OUT.json run --lidar udp://... --radar-cli ... --mavlink ...   # `usv-tracker run`'s flags
 
 It starts exactly as `usv-tracker run` does live (daemon.runner: start_daemon, the start-up objects frozen out of the
-garbage collector, run_live; logging as the CLI sets it up), touches OUT.json.ready once everything is open, and
+garbage collector, run_live; logging as the CLI sets it up, stamped to the millisecond), touches OUT.json.ready once everything is open, and
 on SIGTERM stops and writes what a bench needs and the health line does not carry: the LiDAR source's own
 counters (packets taken, other senders' datagrams dropped, the sender it locked onto), the hand-over buffers, the
 radar parser, and the time and duration of every cycle (the health line keeps only the last minute's p50/p99).
@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import signal
 import sys
 import time
@@ -33,6 +34,13 @@ def main(argv: list[str]) -> int:
     out = Path(argv[0])
     args = build_parser().parse_args(argv[1:])
     _setup_logging(args.verbose)
+    # the CLI's format to the millisecond, so the bench can tell a line of the loaded window from one just before it
+    logging.basicConfig(
+        force=True,
+        level=logging.getLogger().level,
+        format="%(asctime)s.%(msecs)03d %(levelname)-7s %(name)s: %(message)s",
+        datefmt="%H:%M:%S",
+    )
     config = load_config(args.config, _run_overrides(args))
     daemon = start_daemon(config)
     loop = daemon.loop

@@ -178,20 +178,19 @@ def run_load(scene: Scene, seconds: float, port: int, work: Path) -> dict[str, A
             sent: dict[str, Any] = {}
             for _ in range(2):
                 sent.update(results.get(timeout=seconds + 120.0))
-            junk.join()
-            lidar.join()
-            # The last revolution through the loop (at most a tick), and stopped before the 0.5 s after which the
-            # daemon would report the LiDAR silent and the 2 s after which a silent sender loses its lock: neither
-            # is the load's doing.
-            time.sleep(0.25)
+            # The last revolution through the loop (at most a tick), then stopped at once: well before the 0.5 s
+            # after which the daemon would report the ended LiDAR silent, which is not the load's doing.
+            time.sleep(0.15)
+            proc.send_signal(signal.SIGTERM)
             watch.stop()
             sampler.stop()
             loadavg = (load_before, os.getloadavg()[0])
+            junk.join()
+            lidar.join()
             ap = sim.autopilot
             assert ap is not None
             window = (sent["lidar"]["begin"], sent["lidar"]["end"])
             received = [m for m in ap.obstacle_distances() if window[0] <= m.host_time <= window[1]]
-            proc.send_signal(signal.SIGTERM)
             proc.wait(timeout=15.0)
         finally:
             if proc.poll() is None:
@@ -283,15 +282,15 @@ def figures(
 
 
 def _within(line: str, begin_wall: float, end_wall: float) -> bool:
-    """Whether a log line (stamped %H:%M:%S, local time, as the CLI logs) falls in the window, to the second."""
-    m = re.match(r"(\d\d):(\d\d):(\d\d) ", line)
+    """Whether a log line (stamped %H:%M:%S.mmm, local time: bench/_load_daemon.py) falls in the window."""
+    m = re.match(r"(\d\d):(\d\d):(\d\d)\.(\d\d\d) ", line)
     if m is None:
         return False
-    t = int(m[1]) * 3600 + int(m[2]) * 60 + int(m[3])
+    t = int(m[1]) * 3600 + int(m[2]) * 60 + int(m[3]) + int(m[4]) / 1000
 
-    def of_day(x: float) -> int:
+    def of_day(x: float) -> float:
         lt = time.localtime(x)
-        return lt.tm_hour * 3600 + lt.tm_min * 60 + lt.tm_sec
+        return lt.tm_hour * 3600 + lt.tm_min * 60 + lt.tm_sec + x % 1.0
 
     return of_day(begin_wall) <= t <= of_day(end_wall)
 
