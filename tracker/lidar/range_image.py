@@ -52,13 +52,39 @@ class RangeImage:
 
     def _count(self, r: np.ndarray, offsets: list[tuple[int, int]], abs_tol: float, rel_tol: float) -> np.ndarray:
         """For each return: how many cells at (sequence, ring) ``offsets`` hold a range within abs_tol + rel_tol x
-        its own. One gather of (N, offsets) cells: the padding (one row, two columns each side) keeps every
-        offset of at most one sequence and two rings inside the image, so no bounds are checked."""
+        its own. The comparison runs once per offset over the whole image as shifted slices (about 36k cells, no
+        index arrays), then each return reads its own cell: a per-return gather of (N, offsets) cells cost 4 ms a
+        revolution at 25k returns. The padding (one row, two columns each side) keeps every offset of at most one
+        sequence and two rings inside the image. A return that shares its cell with another (dual returns, or two
+        firings rounded into one sequence) is not the cell's range and is counted on its own."""
+        image = self.image
+        n_seq = image.shape[0] - 2
+        centre = image[1 : n_seq + 1, 2 : RINGS + 2]
+        with np.errstate(invalid="ignore"):
+            tol = abs_tol + rel_tol * centre
+            counts = np.zeros(centre.shape, dtype=np.int8)
+            for ds, dr in offsets:
+                other = image[1 + ds : n_seq + 1 + ds, 2 + dr : RINGS + 2 + dr]
+                counts += np.abs(other - centre) <= tol
+        out = counts[self.seq, self.ring].astype(np.int64)
+        shared = centre[self.seq, self.ring] != r
+        if shared.any():
+            out[shared] = self._count_gather(r[shared], self.seq[shared], self.ring[shared], offsets, abs_tol, rel_tol)
+        return out
+
+    def _count_gather(
+        self,
+        r: np.ndarray,
+        seq: np.ndarray,
+        ring: np.ndarray,
+        offsets: list[tuple[int, int]],
+        abs_tol: float,
+        rel_tol: float,
+    ) -> np.ndarray:
         ds = np.array([o[0] for o in offsets], dtype=np.int64)
         dr = np.array([o[1] for o in offsets], dtype=np.int64)
-        flat = (
-            (self.seq + 1)[:, None] * self.image.shape[1] + (self.ring + 2)[:, None] + (ds * self.image.shape[1] + dr)
-        )
+        width = self.image.shape[1]
+        flat = (seq + 1)[:, None] * width + (ring + 2)[:, None] + (ds * width + dr)
         other = np.take(self.image.ravel(), flat)
         with np.errstate(invalid="ignore"):
             near = np.abs(other - r[:, None]) <= (abs_tol + rel_tol * r)[:, None]
