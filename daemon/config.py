@@ -298,6 +298,10 @@ class OutputConfig:
     tracks_out: str = ""  # JSON lines, one per tick
     record_dir: str = ""  # raw captures of every source, for replay at the desk
     health_interval_s: float = 5.0
+    # Live, the obstacle array must be ready this long after a tick starts; a tracker whose recent time would carry
+    # the cycle past it is skipped for that cycle (its tracks coast; the health line counts it). 0 = never skip.
+    # 70 ms of the 100 ms tick leaves the rest to publishing and to a Pi 4's ArduPilot.
+    cycle_budget_ms: float = 70.0
     # Confirmed tracks as AIS_VESSEL for the ground station's map, every ais_interval_s (0 = off: it costs radio
     # bandwidth, ~60 bytes per vessel, and ArduPilot's forwarding to the GCS link is to be checked per setup).
     ais_interval_s: float = 0.0
@@ -322,6 +326,9 @@ class OutputConfig:
             out.append(f"clear_inner_m: {self.clear_inner_m} must be within [0, max_distance_m) (0 = min_distance_m)")
         if not (math.isfinite(self.ais_interval_s) and self.ais_interval_s >= 0):
             out.append(f"ais_interval_s: {self.ais_interval_s} must be >= 0 (0 = no AIS_VESSEL)")
+        period_ms = 1000.0 / self.rate_hz if 1 <= self.rate_hz <= 50 else math.inf  # a bad rate is named above
+        if not (math.isfinite(self.cycle_budget_ms) and 0 <= self.cycle_budget_ms < period_ms):
+            out.append(f"cycle_budget_ms: {self.cycle_budget_ms} must be within [0, the tick period) (0 = never skip)")
         if not self.health_interval_s > 0:
             out.append(f"health_interval_s: {self.health_interval_s} must be > 0")
         if self.ais_max_tracks < 1:

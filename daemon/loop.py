@@ -63,6 +63,9 @@ class LoopSettings:
     ais_interval_s: float = 0.0  # AIS_VESSEL per confirmed track this often; 0 = never (daemon.ais)
     ais_max_tracks: int = 10
     ais_mmsi_base: int = MMSI_BASE
+    # Live, the obstacle array must be ready this long after a tick starts: a tracker that would not fit is skipped
+    # for that cycle (tracking degrades, the obstacles do not). 0 = never skip. Replays never skip.
+    cycle_budget_s: float = 0.07
 
 
 @dataclass
@@ -101,6 +104,8 @@ class DaemonLoop:
         self.ais_sent = 0
         self.failed_ticks = 0
         self._failed_in_a_row = 0
+        self.degraded_ticks = 0  # ticks that skipped a tracker to keep the obstacle array on time
+        self._degraded_logged = -math.inf
         self._last_ais = -math.inf
         self._publishing: bool | None = None
         self._waiting_for_first_data = False  # no data since start-up, within STARTUP_GRACE_S so far
@@ -118,11 +123,14 @@ class DaemonLoop:
         self.world_to_geodetic: Callable[[np.ndarray], tuple[Any, Any, Any] | None] | None = None
 
     # ---- one cycle -------------------------------------------------------------------------------------------
-    def tick(self, t: float) -> PerceptionOutput:
+    def tick(self, t: float, deadline: float | None = None) -> PerceptionOutput:
+        """One cycle at time ``t``; ``deadline`` (time.perf_counter()) is when the obstacle array must be ready."""
         t0 = time.perf_counter()
         scan = self.inputs.lidar.take()
         frames = self.inputs.radar.take_all()
-        out = self.pipeline.step(t, scan, frames, self.poses)
+        out = self.pipeline.step(t, scan, frames, self.poses, deadline=deadline)
+        if out.tracking_skipped:
+            self._on_degraded(t, out.tracking_skipped)
         t_pub = time.perf_counter()
         self._publish(out)
         if self.alerts is not None:
@@ -135,6 +143,18 @@ class DaemonLoop:
         if self.on_output is not None:
             self.on_output(out)
         return out
+
+    def _on_degraded(self, t: float, skipped: tuple[str, ...]) -> None:
+        self.degraded_ticks += 1
+        if t - self._degraded_logged >= 60.0:
+            self._degraded_logged = t
+            log.warning(
+                "cycle over its %.0f ms budget: %s tracking skipped to send the obstacles on time (%d cycles so far; "
+                "the machine is overloaded or the scene is extreme)",
+                self.s.cycle_budget_s * 1e3,
+                " and ".join(skipped),
+                self.degraded_ticks,
+            )
 
     def _publish(self, out: PerceptionOutput) -> None:
         has_data = out.lidar_fresh or out.radar_fresh
@@ -292,6 +312,11 @@ class DaemonLoop:
             f"cycle p50 {p50:.1f} ms p99 {p99:.1f} ms misses {self.stats.deadline_misses} tracks {n_tracks} "
             "(stage p50 " + " ".join(f"{k} {v:.1f}" for k, v in self.stats.stage_p50().items()) + " ms)"
         )
+        if self.degraded_ticks:
+            skipped = self.pipeline.tracking_skipped
+            line += (
+                f" degraded {self.degraded_ticks} (tracking skipped lidar {skipped['lidar']} radar {skipped['radar']})"
+            )
         if self.failed_ticks:
             line += f" failed cycles {self.failed_ticks}"
         if self.status_text is not None:
@@ -320,11 +345,12 @@ class DaemonLoop:
                 break
             lidar = self.inputs.lidar.stats
             shift = lock.shift(now, lidar.last_put, lidar.received) if self.s.lidar_expected else 0.0
-            self.guarded_tick(now)
+            budget = self.s.cycle_budget_s
+            self.guarded_tick(now, time.perf_counter() + budget if budget > 0 else None)
             self.maybe_log_health(now)
             stop.wait(schedule.after_tick(self.clock(), shift))
 
-    def guarded_tick(self, t: float) -> PerceptionOutput | None:
+    def guarded_tick(self, t: float, deadline: float | None = None) -> PerceptionOutput | None:
         """A tick that survives a failing cycle: logged with its traceback, tracks restarted, the next tick runs.
 
         A bug met by one odd frame must not leave the autopilot without obstacles until systemd's watchdog restarts
@@ -332,7 +358,7 @@ class DaemonLoop:
         broken for good, and the exception goes up so that the service fails and is restarted.
         """
         try:
-            out = self.tick(t)
+            out = self.tick(t, deadline)
         except Exception:
             self.failed_ticks += 1
             self._failed_in_a_row += 1

@@ -271,6 +271,7 @@ def start_daemon(
             ais_interval_s=o.ais_interval_s,
             ais_max_tracks=o.ais_max_tracks,
             ais_mmsi_base=o.ais_mmsi_base,
+            cycle_budget_s=o.cycle_budget_ms / 1e3,
         ),
         notifier=notifier,
         tracks_out=tracks_file,

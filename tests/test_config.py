@@ -245,3 +245,13 @@ def test_the_signing_passphrase_comes_from_a_secret_file_and_is_never_shown(tmp_
     assert err.value.problems == [
         "mavlink.signing_passphrase, signing_passphrase_file: give one of them (the file, to keep it secret)"
     ]
+
+
+def test_the_cycle_budget_must_leave_the_tick_room(tmp_path: Path) -> None:
+    path = tmp_path / "c.toml"
+    path.write_text("[output]\nrate_hz = 20.0\ncycle_budget_ms = 50.0\n")
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.problems == ["output.cycle_budget_ms: 50.0 must be within [0, the tick period) (0 = never skip)"]
+    path.write_text("[output]\nrate_hz = 20.0\ncycle_budget_ms = 40.0\n")
+    assert load_config(path).output.cycle_budget_ms == 40.0

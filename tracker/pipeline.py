@@ -101,6 +101,27 @@ class PerceptionOutput:
     # (72,) m per bin: out to where the live sensors vouch that a solid min_obstacle_height_m tall would have been
     # returned (0: nowhere). A bin is sent "clear" only when this reaches max_distance_m.
     clear_to_m: np.ndarray = field(default_factory=lambda: np.zeros(72))
+    # Trackers ("lidar", "radar") skipped this cycle to keep the obstacle array inside its deadline: their tracks
+    # coasted, the array came from this cycle's returns and the tracks as they were.
+    tracking_skipped: tuple[str, ...] = ()
+
+
+class TrackingCost:
+    """The time a tracker is expected to take this cycle: the recent worst, decaying by ``decay`` each cycle.
+
+    The decay is what brings a skipped tracker back: under a lasting overload it runs every few cycles (each run
+    measures it afresh), not never; after one slow cycle it is trusted again within a second.
+    """
+
+    def __init__(self, decay: float = 0.8) -> None:
+        self.decay = decay
+        self.expected_s = 0.0
+
+    def measured(self, seconds: float) -> None:
+        self.expected_s = max(self.expected_s * self.decay, seconds)
+
+    def skipped(self) -> None:
+        self.expected_s *= self.decay
 
 
 def _timed(timings: dict[str, float], key: str, fn: Callable[[], Any]) -> Any:
@@ -138,6 +159,10 @@ class PerceptionPipeline:
         # The water surface is a body-relative estimate: it survives a change of world frame.
         self.water = WaterSurface(cfg.water if cfg is not None else None)
         self.last_preprocess: Any = None
+        self._cost = {"lidar": TrackingCost(), "radar": TrackingCost()}
+        self._deadline: float | None = None
+        self._skipped: list[str] = []
+        self.tracking_skipped = {"lidar": 0, "radar": 0}
 
     def reset_tracks(self) -> None:
         """Start the trackers afresh (tracks, maps), keeping the world frame: after a failed cycle, whose partial
@@ -153,9 +178,19 @@ class PerceptionPipeline:
         self._lidar_tracks, self._radar_tracks = [], []
 
     def step(
-        self, t: float, scan: LidarScan | None, radar_frames: Sequence[RadarFrame], ego: EgoSource | None
+        self,
+        t: float,
+        scan: LidarScan | None,
+        radar_frames: Sequence[RadarFrame],
+        ego: EgoSource | None,
+        deadline: float | None = None,
     ) -> PerceptionOutput:
+        """One cycle. ``deadline`` (time.perf_counter() seconds, None: none) is when the obstacle array must be
+        ready: a tracker whose expected time would carry the cycle past it is skipped for this cycle (its tracks
+        coast) and the output says so. Replays pass none, so that their output does not depend on the machine."""
         timings: dict[str, float] = {}
+        self._deadline = deadline
+        self._skipped = []
         s = self.settings
         solid: list[np.ndarray] = []
         n_lidar = n_radar = 0
@@ -238,7 +273,17 @@ class PerceptionPipeline:
             timings_ms=timings,
             solid_points_body=np.concatenate(solid) if solid else np.empty((0, 2)),
             clear_to_m=clear_to,
+            tracking_skipped=tuple(dict.fromkeys(self._skipped)),
         )
+
+    def _may_track(self, sensor: str) -> bool:
+        """Whether the ``sensor``'s tracker fits before the deadline this cycle; counts a skip when it does not."""
+        if self._deadline is None or time.perf_counter() + self._cost[sensor].expected_s <= self._deadline:
+            return True
+        self._cost[sensor].skipped()
+        self.tracking_skipped[sensor] += 1
+        self._skipped.append(sensor)
+        return False
 
     def _clear_to(self, lidar_fresh: bool, radar_fresh: bool) -> np.ndarray:
         """(72,) m per bin out to which the live sensors vouch for "no solid": the union of the LiDAR's beam bands
@@ -324,15 +369,18 @@ class PerceptionPipeline:
         else:
             roll_pt, pitch_pt = np.asarray(roll)[index], np.asarray(pitch)[index]
         self._lidar_bands = lidar_bands(scan, roll_pt, pitch_pt, pre.water, self.settings)
-        if self.lidar_tracker is not None and track_points is not None:
+        if self.lidar_tracker is not None and track_points is not None and self._may_track("lidar"):
+            t0 = time.perf_counter()
             self._lidar_tracks = self.lidar_tracker.step(
                 track_points, scan.stamp, own_pos, own_yaw, point_times=scan.t[pre.keep]
             )
-            if self.settings.hull_margin_grow_m >= 0 and pre.within_margin_world.shape[0]:
-                low = pre.within_margin_world[:, :2]
-                hull = low[on_tracked_hulls(low, self._lidar_tracks, self.settings.hull_margin_grow_m)]
-                if hull.shape[0]:
-                    solid_body = np.concatenate([solid_body, world_to_body_2d(hull, own_pos, own_yaw)])
+            self._cost["lidar"].measured(time.perf_counter() - t0)
+        tracking = self.lidar_tracker is not None and track_points is not None
+        if tracking and self.settings.hull_margin_grow_m >= 0 and pre.within_margin_world.shape[0]:
+            low = pre.within_margin_world[:, :2]
+            hull = low[on_tracked_hulls(low, self._lidar_tracks, self.settings.hull_margin_grow_m)]
+            if hull.shape[0]:
+                solid_body = np.concatenate([solid_body, world_to_body_2d(hull, own_pos, own_yaw)])
         return solid_body, int(solid_body.shape[0])
 
     # ---- radar ----------------------------------------------------------------------------------------------
@@ -344,7 +392,12 @@ class PerceptionPipeline:
         if ego_ok and pose is None:
             self.skipped_no_pose += 1
             return frame.xyz[finite][:, :2]
+        if not self._may_track("radar"):
+            # the frame's raw returns are mostly sea clutter near the boat: the shore and tracks as they were
+            return self._radar_solid
+        t0 = time.perf_counter()
         self._radar_tracks = self.radar_tracker.step_frame(frame, pose)
+        self._cost["radar"].measured(time.perf_counter() - t0)
         # Vessels reach the obstacle array as confirmed radar tracks (their hulls); returns go in directly only
         # where they are shore. A raw cluster is not enough: with the AWR1843's 3-10 returns per boat, clusters of
         # 3 returns are needed for tracking, and sea clutter near the boat forms such clusters every few frames.
