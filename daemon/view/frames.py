@@ -23,18 +23,6 @@ from tracker.obstacle_map import BIN_WIDTH_RAD, N_BINS, UNKNOWN
 OBSTACLE, CLEAR, UNKNOWN_STATE = 0, 1, 2  # /obstacles "state" per bin
 
 
-def ned_to_enu(p: np.ndarray) -> np.ndarray:
-    """(..., 3) world NED -> world ENU."""
-    p = np.asarray(p, dtype=float)
-    return np.stack([p[..., 1], p[..., 0], -p[..., 2]], axis=-1)
-
-
-def frd_to_flu(p: np.ndarray) -> np.ndarray:
-    """(..., 3) body FRD -> boat FLU."""
-    p = np.asarray(p, dtype=float)
-    return np.stack([p[..., 0], -p[..., 1], -p[..., 2]], axis=-1)
-
-
 def enu_yaw(heading: float) -> float:
     """A heading (rad, 0 = north, clockwise) as a yaw about ENU's z (0 = east, counter-clockwise)."""
     return math.pi / 2 - heading
@@ -127,15 +115,17 @@ STRUCTURE_RGBA = np.array((150, 150, 150, 200), dtype=np.uint8)
 DOPPLER_STILL_MPS = 0.25  # |Doppler| below this: drawn as standing still
 
 
-def _fill(cloud: np.ndarray, xyz: np.ndarray, rgba: np.ndarray) -> None:
-    cloud["x"], cloud["y"], cloud["z"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
-    cloud["red"], cloud["green"], cloud["blue"], cloud["alpha"] = rgba[:, 0], rgba[:, 1], rgba[:, 2], rgba[:, 3]
+def _fill(cloud: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray, rgba: np.ndarray) -> None:
+    cloud["x"], cloud["y"], cloud["z"] = x, y, z
+    # the four colour bytes sit side by side: one copy of (n, 4) bytes, not four strided ones
+    start = cloud.dtype.fields["red"][1]
+    cloud.view(np.uint8).reshape(cloud.size, cloud.dtype.itemsize)[:, start : start + 4] = rgba
 
 
 def lidar_cloud(xyz_frd: np.ndarray, intensity: np.ndarray, reason: np.ndarray) -> np.ndarray:
     """Every return of a revolution in "boat" (FLU), with its intensity and drop reason, coloured by reason."""
     cloud = np.empty(xyz_frd.shape[0], LIDAR_DTYPE)
-    _fill(cloud, frd_to_flu(xyz_frd), REASON_RGBA[reason])
+    _fill(cloud, xyz_frd[:, 0], -xyz_frd[:, 1], -xyz_frd[:, 2], REASON_RGBA[reason])
     cloud["intensity"] = intensity
     cloud["reason"] = reason
     return cloud
@@ -145,16 +135,20 @@ def cluster_cloud(clusters_ned: list[np.ndarray], structure: np.ndarray) -> np.n
     """The LiDAR tracker's clusters in "world" (ENU), a colour per cluster, structure (quays, shore) grey."""
     if not clusters_ned:
         return np.empty(0, CLUSTER_DTYPE)
-    sizes = np.fromiter((len(c) for c in clusters_ned), int, len(clusters_ned))
-    label = np.repeat(np.arange(len(clusters_ned)), sizes)
-    is_structure = np.zeros(len(clusters_ned), dtype=bool)
-    is_structure[: structure.size] = structure[: len(clusters_ned)]
-    rgba = CLUSTER_RGBA[label % len(CLUSTER_RGBA)]
-    rgba[is_structure[label]] = STRUCTURE_RGBA
+    k = len(clusters_ned)
+    sizes = np.fromiter((len(c) for c in clusters_ned), int, k)
+    is_structure = np.zeros(k, dtype=bool)
+    is_structure[: min(structure.size, k)] = structure[:k]
+    colour = CLUSTER_RGBA[np.arange(k) % len(CLUSTER_RGBA)]
+    colour[is_structure] = STRUCTURE_RGBA
+    # per cluster first, then repeated: no per-point fancy indexing
+    label = np.repeat(np.arange(k, dtype=np.uint16), sizes)
+    rgba = np.repeat(colour, sizes, axis=0)
+    ned = np.concatenate(clusters_ned)
     cloud = np.empty(label.size, CLUSTER_DTYPE)
-    _fill(cloud, ned_to_enu(np.concatenate(clusters_ned)[:, :3]), rgba)
+    _fill(cloud, ned[:, 1], ned[:, 0], -ned[:, 2], rgba)
     cloud["cluster"] = label
-    cloud["structure"] = is_structure[label]
+    cloud["structure"] = np.repeat(is_structure, sizes)
     return cloud
 
 
@@ -165,7 +159,7 @@ def radar_cloud(xyz_frd: np.ndarray, doppler: np.ndarray, snr: np.ndarray) -> np
     rgba[doppler < -DOPPLER_STILL_MPS, 1:3] = 60
     rgba[doppler > DOPPLER_STILL_MPS, 0:2] = 60
     cloud = np.empty(xyz_frd.shape[0], RADAR_DTYPE)
-    _fill(cloud, frd_to_flu(xyz_frd), rgba)
+    _fill(cloud, xyz_frd[:, 0], -xyz_frd[:, 1], -xyz_frd[:, 2], rgba)
     cloud["doppler"] = doppler
     cloud["snr"] = snr
     return cloud
@@ -189,9 +183,8 @@ def obstacle_cloud(distances_cm: np.ndarray, max_cm: int) -> np.ndarray:
     state = bin_states(distances_cm, max_cm)
     r = bin_radii(distances_cm, max_cm)
     bearing = np.arange(N_BINS) * BIN_WIDTH_RAD
-    xyz = np.stack([r * np.cos(bearing), -r * np.sin(bearing), np.zeros(N_BINS)], axis=1)
     cloud = np.empty(N_BINS, OBSTACLE_DTYPE)
-    _fill(cloud, xyz, STATE_RGBA[state])
+    _fill(cloud, r * np.cos(bearing), -r * np.sin(bearing), np.zeros(N_BINS), STATE_RGBA[state])
     cloud["distance_cm"] = distances_cm
     cloud["bin"] = np.arange(N_BINS)
     cloud["state"] = state

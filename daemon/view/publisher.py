@@ -28,6 +28,7 @@ from typing import Any
 import foxglove
 import numpy as np
 from foxglove.channels import FrameTransformsChannel, PointCloudChannel, SceneUpdateChannel
+from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 from foxglove.messages import (
     ArrowPrimitive,
     Color,
@@ -78,7 +79,7 @@ HEALTH_SCHEMA: dict[str, Any] = {
     "type": "object",
     "title": "usv_tracker.Health",
     "properties": {
-        "t": {"type": "number", "description": "tick time, s (Unix in a replay, host monotonic + offset live)"},
+        "t": {"type": "number", "description": "tick time, Unix s (the messages' log time)"},
         "lidar_fresh": {"type": "boolean"},
         "radar_fresh": {"type": "boolean"},
         "ego_available": {"type": "boolean"},
@@ -145,8 +146,15 @@ class FoxgloveView:
         self.mcap_path = Path(mcap_path) if mcap_path is not None else None
         try:
             if self.mcap_path is not None:
-                # overwritten like --tracks-out: a second run with the same command line replaces the first
-                self.writer = foxglove.open_mcap(self.mcap_path, allow_overwrite=True, context=ctx)
+                # Overwritten like --tracks-out: a second run with the same command line replaces the first. LZ4, not
+                # the default zstd: a full revolution is ~0.6 MB a tick, and zstd took ~13 ms of the loop's thread
+                # for it (bench/view_cost.py), LZ4 ~6 ms, for a file ~30 % larger.
+                self.writer = foxglove.open_mcap(
+                    self.mcap_path,
+                    allow_overwrite=True,
+                    context=ctx,
+                    writer_options=MCAPWriteOptions(compression=MCAPCompression.Lz4),
+                )
             if host is not None:
                 self.server = foxglove.start_server(name="usv-tracker", host=host, port=port, context=ctx)
         except Exception:
@@ -405,7 +413,7 @@ class FoxgloveView:
             return round(float(x), 3) if math.isfinite(x) else None
 
         return {
-            "t": round(out.t, 6),
+            "t": round(out.t + self.time_offset_s, 6),
             "lidar_fresh": out.lidar_fresh,
             "radar_fresh": out.radar_fresh,
             "ego_available": out.ego_available,
