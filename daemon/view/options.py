@@ -33,7 +33,10 @@ def host_port(text: str) -> tuple[str, int]:
     try:
         number = int(port)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected HOST:PORT, e.g. 127.0.0.1:{DEFAULT_PORT}, got {text!r}") from None
+        raise argparse.ArgumentTypeError(
+            f"expected HOST:PORT, e.g. 127.0.0.1:{DEFAULT_PORT}, got {text!r} (a bare --foxglove goes after any "
+            "positional argument such as the recording)"
+        ) from None
     if not 0 <= number <= 65535:
         raise argparse.ArgumentTypeError(f"port out of range: {number}")
     return host, number
