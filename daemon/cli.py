@@ -6,8 +6,10 @@ import argparse
 import logging
 import sys
 from pathlib import Path
+from typing import Any
 
 from daemon.config import DEFAULT_CONFIG_PATH
+from daemon.view.options import add_view_arguments
 
 log = logging.getLogger("usv-tracker")
 
@@ -70,6 +72,17 @@ def _run_overrides(args: argparse.Namespace) -> dict[str, object]:
     return overrides
 
 
+def _open_view(args: argparse.Namespace) -> tuple[Any, int | None]:
+    """(the view the options ask for or None, None), or (None, 2) after saying why it cannot be had."""
+    from daemon.view.options import ViewError, open_view
+
+    try:
+        return open_view(args), None
+    except ViewError as exc:
+        log.error("%s", exc)
+        return None, 2
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from daemon.config import load_config
     from daemon.config_schema import ConfigError
@@ -83,7 +96,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     except ConfigError as exc:
         log.error("configuration rejected: %s", "; ".join(exc.problems))
         return 2
-    return run_daemon(config, fast=args.fast, duration_s=args.seconds)
+    view, failed = _open_view(args)
+    if failed is not None:
+        return failed
+    try:
+        return run_daemon(config, fast=args.fast, duration_s=args.seconds, view=view)
+    finally:
+        if view is not None:
+            view.close()
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
@@ -119,7 +139,16 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
     if not _describe_drawn_scene(args.scenario, args.seconds):
         return 2
-    return run_demo(seconds=args.seconds, scenario=args.scenario, out_dir=Path(args.out), live_view=not args.quiet)
+    view, failed = _open_view(args)
+    if failed is not None:
+        return failed
+    try:
+        return run_demo(
+            seconds=args.seconds, scenario=args.scenario, out_dir=Path(args.out), live_view=not args.quiet, view=view
+        )
+    finally:
+        if view is not None:
+            view.close()
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -154,6 +183,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--record", help="record raw sensor captures into this directory")
     run.add_argument("--fast", action="store_true", help="replay captures on the data's clock, as fast as possible")
     run.add_argument("--seconds", type=float, default=None, help="stop after this many seconds (default: run on)")
+    add_view_arguments(run)
     run.set_defaults(func=cmd_run)
 
     from daemon.replay_cli import add_arguments as add_replay_arguments
@@ -170,6 +200,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--scene", "--scenario", dest="scenario", default="harbour", help=SCENE_HELP)
     demo.add_argument("--out", default="demo-output", help="directory for the summary picture and logs")
     demo.add_argument("--quiet", action="store_true", help="no live view, summary only")
+    add_view_arguments(demo)
     demo.set_defaults(func=cmd_demo)
 
     sim = sub.add_parser("simulate", help="play sensors and autopilot over loopback, or write capture files")

@@ -14,6 +14,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -70,7 +71,11 @@ def _fmt_sector(d_m: float) -> str:
 
 
 def run_demo(
-    seconds: float = 30.0, scenario: str = "harbour", out_dir: Path = Path("demo-output"), live_view: bool = True
+    seconds: float = 30.0,
+    scenario: str = "harbour",
+    out_dir: Path = Path("demo-output"),
+    live_view: bool = True,
+    view: Any = None,
 ) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     print(f"usv-tracker demo: scenario '{scenario}' for {seconds:.0f} s (simulated VLP-16, AWR1843 and ArduPilot)")
@@ -79,7 +84,7 @@ def run_demo(
         config.output.tracks_out = str(out_dir / "tracks.jsonl")
         config.output.ais_interval_s = 1.0  # the tracks on the ground station's map (off by default on a boat)
         try:
-            daemon = start_daemon(config)
+            daemon = start_daemon(config, view=view)
         except StartupError as exc:
             print(f"demo: the daemon could not start: {exc}", file=sys.stderr)
             return 1

@@ -85,6 +85,7 @@ class ReplayOptions:
     publisher: ObstaclePublisher | None = None  # where OBSTACLE_DISTANCE & co. go (`--to URL`)
     progress: ReplayProgress | None = None
     prefetch: bool = True  # decoders in producer threads; False decodes in the tick loop (bench/replay_speed.py)
+    view: Any = None  # daemon.view.publisher.FoxgloveView (--foxglove/--mcap): every tick published to it
 
 
 @dataclass
@@ -125,11 +126,11 @@ class ReplaySummary:
                 self.confirmed_ids.add(tr.id)
 
 
-def run_replay(config: Config, duration_s: float | None = None, fast: bool = True) -> int:
+def run_replay(config: Config, duration_s: float | None = None, fast: bool = True, view: Any = None) -> int:
     """`usv-tracker run` on captures: the poses from ``[mavlink] url`` when it is a .tlog; 0, or 130 when
     interrupted."""
     tlog = config.mavlink.url if config.mavlink.url.endswith(".tlog") else None
-    summary = replay(config, ReplayOptions(speed=None if fast else 1.0, duration_s=duration_s, tlog=tlog))
+    summary = replay(config, ReplayOptions(speed=None if fast else 1.0, duration_s=duration_s, tlog=tlog, view=view))
     log.info("replay: %s", summary.details())
     return 130 if summary.interrupted else 0
 
@@ -212,6 +213,8 @@ def _replay(config: Config, options: ReplayOptions, streams: list[Any], wall_sta
     )
     if assembler is not None:
         loop.world_to_geodetic = assembler.world_to_geodetic  # the recorded autopilot's anchor, not the live one's
+    if options.view is not None:
+        options.view.attach(loop, time_offset_s=0.0)  # ticks are on the capture's clock: Unix time already
     speed = options.speed
     progress = options.progress
     if progress is not None:

@@ -9,6 +9,8 @@ import math
 import sys
 from pathlib import Path
 
+from daemon.view.options import ViewError, add_view_arguments, open_view
+
 log = logging.getLogger("usv-tracker")
 
 
@@ -50,6 +52,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-radar", action="store_true", help="replay the LiDAR only")
     p.add_argument("--seconds", type=float, default=None, help="stop after this many seconds of data")
     p.add_argument("--quiet", action="store_true", help="no progress bar (there is none when stderr is no terminal)")
+    add_view_arguments(p)
 
 
 def _check(args: argparse.Namespace) -> str | None:
@@ -92,15 +95,23 @@ def run(args: argparse.Namespace) -> int:
     live = args.pose == "live"
     if rec.tlog is None and not live:
         log.warning("no .tlog in the recording: no own pose, the boat's frame at the start is the world")
+    try:
+        view = open_view(args)
+    except ViewError as exc:
+        log.error("%s", exc)
+        return 2
     bar = wants_bar(sys.stderr, args.quiet)
     options = ReplayOptions(
         speed=None if args.fast else args.speed,
         duration_s=args.seconds,
         tlog=None if live or rec.tlog is None else str(rec.tlog),
         progress=ProgressBar(data_end(rec, config), args.seconds) if bar else None,
+        view=view,
     )
     try:
         with contextlib.ExitStack() as stack:
+            if view is not None:
+                stack.callback(view.close)
             if args.to:
                 link = stack.enter_context(autopilot_link(config, args.to, live))
                 options.publisher = link

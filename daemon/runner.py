@@ -225,8 +225,10 @@ def start_daemon(
     fast: bool = False,
     notifier: SystemdNotifier | None = None,
     clock: Callable[[], float] = time.monotonic,
+    view: Any = None,
 ) -> RunningDaemon:
-    """Open everything and start reader threads; the caller drives ``result.loop``."""
+    """Open everything and start reader threads; the caller drives ``result.loop``. ``view`` (daemon/view, opened
+    and closed by the caller) is given every tick."""
     from daemon.autopilot import AutopilotLink
 
     sources = open_sources(config, fast)
@@ -286,6 +288,8 @@ def start_daemon(
         r.start()
     loop.status_text = lambda: source_status(sources.lidar, sources.radar, link)
     loop.alerts = SourceAlerts(sources.lidar, sources.radar).poll
+    if view is not None:
+        view.attach(loop, time_offset_s=time.time() - clock())  # the loop ticks on the monotonic clock
     return RunningDaemon(config, loop, sources, link, readers, stop, tracks_file, recorder)
 
 
@@ -300,19 +304,19 @@ def freeze_startup_objects() -> None:
     atexit.register(gc.unfreeze)
 
 
-def run_daemon(config: Config, fast: bool = False, duration_s: float | None = None) -> int:
+def run_daemon(config: Config, fast: bool = False, duration_s: float | None = None, view: Any = None) -> int:
     """`usv-tracker run`: exit 0 on SIGTERM/SIGINT, 2 when start-up is impossible (systemd then restarts us)."""
     notifier = SystemdNotifier()
     from daemon.replay import is_replay, run_replay
 
     if fast or is_replay(config):
         try:
-            return run_replay(config, duration_s, fast=fast)
+            return run_replay(config, duration_s, fast=fast, view=view)
         except (OSError, ValueError) as exc:
             log.error("cannot replay: %s", exc)
             return 2
     try:
-        daemon = start_daemon(config, fast=False, notifier=notifier)
+        daemon = start_daemon(config, fast=False, notifier=notifier, view=view)
     except StartupError as exc:
         log.error("cannot start: %s", exc)
         notifier.status(f"cannot start: {exc}"[:200])

@@ -125,3 +125,23 @@ def test_empty_scan_and_a_bad_pose_index() -> None:
     body = np.array([[10.0, 0.0, -2.0], [12.0, 0.0, -2.0]])
     with pytest.raises(ValueError, match="pose index"):
         preprocess(body, np.zeros((2, 3)), np.zeros(2), np.zeros(2), np.zeros(2), CFG, pose_index=np.array([0, 2]))
+
+
+def test_reasons_name_each_points_rule_and_add_up_to_the_counts() -> None:
+    from tracker.lidar.preprocess import HEIGHT, KEPT, NONFINITE, OWN_BOAT, RANGE, SPRAY
+
+    body = np.array(
+        [
+            [20.0, 5.0, -1.0],  # kept
+            [20.0, 5.0, -16.0],  # too high
+            [0.5, 0.2, 0.0],  # closer than min_range
+            [-2.0, 0.5, -1.0],  # on the own boat
+            [np.nan, 1.0, 1.0],
+            [30.0, -8.0, 0.1],  # a lone low return in mid-sea: spray
+        ]
+    )
+    res = preprocess(body, POS, 0.0, 0.0, math.pi / 2, CFG, reasons=True)
+    assert res.reason is not None and res.reason.dtype == np.int8
+    assert res.reason.tolist() == [KEPT, HEIGHT, RANGE, OWN_BOAT, NONFINITE, SPRAY]
+    assert np.bincount(res.reason, minlength=8).tolist() == list(res.counts().values())
+    assert preprocess(body, POS, 0.0, 0.0, math.pi / 2, CFG).reason is None  # not asked for: not built

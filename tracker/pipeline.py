@@ -163,6 +163,11 @@ class PerceptionPipeline:
         self._deadline: float | None = None
         self._skipped: list[str] = []
         self.tracking_skipped = {"lidar": 0, "radar": 0}
+        # The live view (daemon/view) sets this: keep each tick's inputs and the LiDAR's per-point reasons. Off, the
+        # cycle does nothing more than the boat needs.
+        self.keep_view_detail = False
+        self.last_scan: LidarScan | None = None  # this tick's revolution, None when none came
+        self.last_radar_frames: list[RadarFrame] = []  # this tick's radar frames
 
     def reset_tracks(self) -> None:
         """Start the trackers afresh (tracks, maps), keeping the world frame: after a failed cycle, whose partial
@@ -195,6 +200,9 @@ class PerceptionPipeline:
         solid: list[np.ndarray] = []
         n_lidar = n_radar = 0
         ego_ok = ego is not None and ego.available
+        if self.keep_view_detail:
+            self.last_scan = scan
+            self.last_radar_frames = list(radar_frames)
         if ego is not None and ego.epoch != self._epoch:
             if self._epoch is not None:
                 log.info("world frame changed (epoch %s -> %s): tracks restarted", self._epoch, ego.epoch)
@@ -332,6 +340,7 @@ class PerceptionPipeline:
                 t=scan.stamp,
                 ring=scan.ring,
                 point_t=scan.t,
+                reasons=self.keep_view_detail,
             )
             track_points = None
             self.skipped_no_pose += 1
@@ -348,6 +357,7 @@ class PerceptionPipeline:
                 t=scan.stamp,
                 ring=scan.ring,
                 point_t=scan.t,
+                reasons=self.keep_view_detail,
             )
             track_points = pre.points_world
         self.last_preprocess = pre

@@ -22,6 +22,10 @@ from tracker.lidar.water import WaterEstimate, WaterSurface
 
 log = logging.getLogger(__name__)
 
+# Why a return was dropped (PreprocessResult.reason), one code per point; the first rule that dropped it wins.
+KEPT, NONFINITE, RANGE, OWN_BOAT, HEIGHT, WATER, ISOLATED, SPRAY = range(8)
+REASON_NAMES = ("kept", "nonfinite", "range", "own_boat", "height", "water", "isolated", "spray")
+
 
 @dataclass
 class PreprocessResult:
@@ -39,6 +43,15 @@ class PreprocessResult:
     # (L, 3) world NED: returns within the sea margin yet above its floor, not alone in the range image and beyond
     # the spray range: a crest's top or a hull's lower strakes; only a known hull around them can tell which
     within_margin_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    # (N,) int8 over the input points, KEPT or the rule that dropped each one; only with preprocess(reasons=True)
+    # (the live view asks for it), so the boat's hot path never builds it.
+    reason: np.ndarray | None = None
+
+    def counts(self) -> dict[str, int]:
+        """Returns kept and dropped, by rule (REASON_NAMES order); they add up to the revolution's points."""
+        kept = int(self.points_world.shape[0])
+        n = (self.n_nonfinite, self.n_range, self.n_own_boat, self.n_height, self.n_water, self.n_isolated)
+        return dict(zip(REASON_NAMES, (kept, *n, self.n_spray), strict=True))
 
 
 _EXACT_BELOW = 10  # cube counts under 10x the minimum get an exact ball count (dense surfaces never need one)
@@ -116,6 +129,7 @@ def preprocess(
     t: float = 0.0,
     ring: np.ndarray | None = None,
     point_t: np.ndarray | None = None,
+    reasons: bool = False,
 ) -> PreprocessResult:
     """Filter one revolution and move it to the world frame.
 
@@ -128,6 +142,7 @@ def preprocess(
     water, which every lower beam meets, from one beam's line along a quay face. With ``ring`` and the firing
     times ``point_t`` the revolution's range image (range_image.py) also drops lone returns (rain, spray) and keeps
     returns on vertical faces out of the water estimate; without them those two rules are not applied.
+    ``reasons`` also returns, per point, the rule that dropped it (PreprocessResult.reason).
     """
     cfg = config or PreprocessConfig()
     xyz = np.asarray(xyz_body, dtype=float).reshape(-1, 3)
@@ -179,12 +194,14 @@ def preprocess(
     n_water = int(np.count_nonzero(in_band & ~solid))
     # Rain and spray: alone in the range image (no firing beside it returned at its range).
     n_isolated = n_grazing = 0
+    isolated = None
     if image is not None and cfg.continuity_min_neighbours > 0:
         neighbours = np.take(neighbours_all, idx)
         need = cfg.continuity_min_neighbours + (np.take(r2, idx) < cfg.continuity_near_range**2)
         alone = solid & (neighbours < need)
         n_isolated = int(np.count_nonzero(alone))
         solid &= ~alone
+        isolated = alone
         # Calm water is a mirror: a firing that meets it does not return. So while the water is not returning (no
         # surface measured, and fewer water-like returns than a fit needs), a return within the sea margin in a
         # line of returns at its range is the foot of a solid the beam met just before the water: a RIB at 41 m
@@ -242,6 +259,7 @@ def preprocess(
     if image is not None:
         undecided &= np.take(neighbours_all, idx) > 0
     n_nonfinite = n - int(np.count_nonzero(finite))
+    reason = _reasons(n, finite, in_range, idx, in_band, isolated, spray, good) if reasons else None
     if n_nonfinite:
         log.debug("preprocess: %d non-finite returns skipped", n_nonfinite)
     return PreprocessResult(
@@ -257,4 +275,31 @@ def preprocess(
         n_grazing=n_grazing,
         water=estimate,
         within_margin_world=np.compress(undecided, world, axis=0),
+        reason=reason,
     )
+
+
+def _reasons(
+    n: int,
+    finite: np.ndarray,
+    in_range: np.ndarray,
+    idx: np.ndarray,
+    in_band: np.ndarray,
+    isolated: np.ndarray | None,
+    spray: np.ndarray,
+    good: np.ndarray,
+) -> np.ndarray:
+    """Each point's code from the masks the rules left, in the order the counts were taken (a point counted under
+    one rule is never counted again), so that np.bincount(reason) gives PreprocessResult.counts() (as long as
+    foot_min_neighbours exceeds the isolation test's need, as shipped: a rescued foot is then never also isolated)."""
+    reason = np.full(n, OWN_BOAT, dtype=np.int8)  # finite and in range but not among idx: the own-boat box
+    reason[~in_range] = RANGE
+    reason[~finite] = NONFINITE
+    sub = np.full(idx.size, WATER, dtype=np.int8)  # in the height band, yet at or below the sea margin
+    sub[~in_band] = HEIGHT
+    if isolated is not None:
+        sub[isolated] = ISOLATED
+    sub[spray] = SPRAY
+    sub[good] = KEPT  # a foot rescued from the margin (n_grazing) is kept, not water
+    reason[idx] = sub
+    return reason
