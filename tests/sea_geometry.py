@@ -27,6 +27,7 @@ VERTICAL_OFFSET_M = (
     np.array([11.2, -0.7, 9.7, -2.2, 8.1, -3.7, 6.6, -5.1, 5.1, -6.6, 3.7, -8.1, 2.2, -9.7, 0.7, -11.2]) * 1e-3
 )
 RING_OF_LASER = np.argsort(np.argsort(ELEVATION_DEG)).astype(np.uint8)  # 0 = lowest beam
+RAIN = -2  # WaterReturns.wall of a rain drop's return
 
 
 @dataclass(frozen=True)
@@ -35,7 +36,7 @@ class WaterReturns:
     t: np.ndarray  # (N,) firing time, s
     ring: np.ndarray  # (N,) uint8
     xyz_world: np.ndarray  # (N, 3) world NED, m
-    wall: np.ndarray  # (N,) index of the wall hit, -1 for the water
+    wall: np.ndarray  # (N,) index of the wall hit, -1 for the water, RAIN for a rain drop
 
 
 def revolution_over_water(
@@ -49,6 +50,7 @@ def revolution_over_water(
     t0: float = 0.0,
     walls: tuple[tuple[tuple[float, float], tuple[float, float], float], ...] = (),
     water_returns: bool = True,
+    rain: tuple[int, float, int] | None = None,
 ) -> WaterReturns:
     """Every firing of one 10 Hz revolution that meets the water within ``max_range`` returns, where it meets it.
 
@@ -56,7 +58,9 @@ def revolution_over_water(
     (up positive), solved along each ray by fixed-point iteration (it converges for the gentle slopes used here).
     ``walls`` are vertical faces from the mean water up to a top height: ((north, east), (north, east), top); a
     firing that meets one before the water returns from the wall. ``water_returns=False`` is calm water: a firing
-    that meets the water returns nothing.
+    that meets the water returns nothing. ``rain`` = (drops, reach m, seed): that many firings, drawn at random,
+    meet a drop in mid-air out to ``reach`` (horizontal range 1 + (reach - 1) u^2, u uniform: denser close in) and
+    return from it when it lies before what they would otherwise meet.
     """
     az = np.radians(np.arange(0.0, 360.0, step_deg))
     n_az = az.size
@@ -93,8 +97,18 @@ def revolution_over_water(
         on = (den != 0) & (mu > 0.5) & (mu < lam) & (along >= 0) & (along <= 1) & (-p[:, 2] >= 0) & (-p[:, 2] <= top)
         lam = np.where(on, mu, lam)
         wall[on] = k
+    if rain is not None:
+        count, reach, seed = rain
+        draw = np.random.default_rng(seed)
+        pick = draw.choice(t.size, size=count, replace=False)
+        lam_drop = (1.0 + (reach - 1.0) * draw.random(count) ** 2) / np.hypot(d_body[pick, 0], d_body[pick, 1])
+        first = lam_drop < lam[pick]
+        lam[pick[first]] = lam_drop[first]
+        wall[pick[first]] = RAIN
     hit = (
-        ((down & water_returns) | (wall >= 0)) & (lam > 0.5) & (lam * np.hypot(d_body[:, 0], d_body[:, 1]) <= max_range)
+        ((down & water_returns) | (wall >= 0) | (wall == RAIN))
+        & (lam > 0.5)
+        & (lam * np.hypot(d_body[:, 0], d_body[:, 1]) <= max_range)
     )
     xyz_body = o_body[hit] + lam[hit, None] * d_body[hit]
     xyz_world = o_world[hit] + lam[hit, None] * d_world[hit]

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from drivers.mount import Mount
-from tests.sea_geometry import SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
+from tests.sea_geometry import RAIN, SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
 from tracker.lidar.coverage import band_intervals, beam_elevations_level, swept_bins, vouched_range
 from tracker.obstacle_map import UNKNOWN
 
@@ -74,14 +74,14 @@ def test_a_lost_packet_leaves_its_bins_unswept() -> None:
     assert np.flatnonzero(~swept).tolist() == [10]  # bin 10 spans 47.5-52.5 deg
 
 
-def _one_revolution(walls, pitch_deg: float = 0.0):
+def _one_revolution(walls, pitch_deg: float = 0.0, rain: tuple[int, float, int] | None = None):
     pitch = math.radians(pitch_deg)
 
     def attitude(t):
         return np.zeros(np.shape(t)), np.full(np.shape(t), pitch)
 
     pipeline = lidar_pipeline(MOUNT)
-    ret = revolution_over_water(MOUNT, attitude, yaw=0.0, walls=walls, water_returns=False)
+    ret = revolution_over_water(MOUNT, attitude, yaw=0.0, walls=walls, water_returns=False, rain=rain)
     out = pipeline.step(0.1, scan_of(ret, 0.1, intensity=30.0), [], SteadyEgo(attitude, 0.0))
     return out, ret, pipeline
 
@@ -101,6 +101,22 @@ def test_a_quay_at_80_m_seen_only_by_the_lowest_beam_at_grazing_incidence_is_an_
         assert abs(int(d[j]) - expect * 100) <= 0.01 * expect * 100 + 30, (j, int(d[j]), expect)
     others = np.setdiff1d(np.arange(72), bins)
     assert np.all(d[others] == UNKNOWN)  # nothing returned and nothing vouched
+
+
+def test_rain_over_a_glassy_sea_does_not_hide_a_quay_seen_at_grazing_incidence() -> None:
+    # The quay above with 1,500 drops a revolution within 12 m. The drops are alone in the range image, not water:
+    # counted as water returns they made the glassy sea look rough, and the quay's foot in the sea margin was lost.
+    out, ret, pipeline = _one_revolution((((80.0, -50.0), (80.0, 50.0), 1.0),), rain=(1500, 12.0, 5))
+    drops = ret.wall == RAIN
+    assert 1400 <= np.count_nonzero(drops) <= 1500  # a few firings would have met nothing before their drop anyway
+    pre = pipeline.last_preprocess
+    assert not pre.water.measured and pre.n_grazing > 100
+    assert pre.n_isolated >= 0.9 * np.count_nonzero(drops)
+    d = out.distances_cm
+    for j in np.r_[69:72, 0:4]:  # within 17.5 deg of the bow
+        off = abs(5.0 * (j if j < 36 else j - 72))
+        expect = 80.0 / math.cos(math.radians(max(off - 2.5, 0.0)))
+        assert abs(int(d[j]) - expect * 100) <= 0.01 * expect * 100 + 30, (j, int(d[j]), expect)
 
 
 def test_a_low_hull_at_50_m_caught_by_one_beam_is_an_obstacle() -> None:

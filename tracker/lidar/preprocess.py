@@ -208,9 +208,11 @@ def preprocess(
         # met by the -1 deg beam 3 cm above its waterline, a quay 80 m off. Once the water does return, a line of
         # water returns is possible and nothing in the margin is trusted.
         # The water's activity is judged close in, where a rough sea returns the steep beams by the hundred and
-        # solids' feet are few: low returns within calm_near_range that are not on a vertical face.
+        # solids' feet are few: returns within the sea margin within calm_near_range that are not on a vertical
+        # face. Rain drops and spray above the margin (dropped as alone just above) are not the water: counted as
+        # such, 1,000 drops a revolution made a glassy sea look rough and no foot was kept in rain.
         r2_idx = np.take(r2, idx)
-        near_low = in_band & ~solid & (r2_idx < cfg.calm_near_range**2)
+        near_low = in_band & (height <= margin) & (r2_idx < cfg.calm_near_range**2)
         if vertical is not None:
             near_low &= ~vertical
         calm = not estimate.measured and int(np.count_nonzero(near_low)) < cfg.calm_max_near_returns
