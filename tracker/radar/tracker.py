@@ -221,12 +221,12 @@ class RadarTracker:
             (cl, False) for cl in self._merge_births([clusters[di] for di in spawn]) if not self._near_clutter(cl)
         ]
         births += [(cl, True) for cl in self._pooled_births(out, groups)]
-        casters = self._shadow_casters(out, groups)
         used = list(groups.items())
+        shadows = self._shadows(out, groups, lost)
         for ti, cl in used:
-            self._update_track(self.tracks[ti], cl, t, out, casters)
-        for ti in lost:
-            self._miss_track(self.tracks[ti], t, frame_dt, out, casters)
+            self._update_track(self.tracks[ti], cl, t, out, shadows[ti])
+        for ti, ashore in zip(lost, self._ashore(lost), strict=True):
+            self._miss_track(self.tracks[ti], t, frame_dt, ashore, shadows.get(ti))
         for cl, sparse in births:
             self.tracks.append(self._start_track(cl, sparse, t, out))
         self._update_static_map(out, used)
@@ -235,7 +235,7 @@ class RadarTracker:
         return self.current_tracks()
 
     def _update_track(
-        self, tr: RadarTrackState, cl: RadarCluster, t: float, out: DetectorOutput, casters: ShadowCasters
+        self, tr: RadarTrackState, cl: RadarCluster, t: float, out: DetectorOutput, shadow: np.ndarray | None
     ) -> None:
         """Eq. 7 with the cluster the track was given: centre (visible sides, lit edge when partly hidden), size from
         the outline, Doppler velocity with its turn-rate row; then the lifecycle and the motion discriminator."""
@@ -244,7 +244,6 @@ class RadarTracker:
         outline = self._outline(tr, cl)
         size = self._outline_size(outline if tr.shape else None, box_size)
         centre = self._centre(outline, cl, box_centre, out.sensor_ne)
-        shadow = self._shadow(tr, casters, out.sensor_ne)
         hidden = tr.shadowed = 0.0 if shadow is None else float(shadow.mean())
         if cfg.occlusion_lit_edge:
             centre = occlusion.lit_edge_centre(
@@ -266,22 +265,28 @@ class RadarTracker:
         if cfg.motion_discriminator_enabled:
             tr.motion.observe(t, cl.points, self._doppler_moving(cl), self._filter_moving(tr))
 
+    def _ashore(self, lost: list[int]) -> np.ndarray:
+        """(len(lost),) bool: the lost track's centre now lies on the shore (map or shore lines), with
+        ``drop_tracks_on_shore``; one query for all of them."""
+        cfg = self.cfg
+        if not (lost and cfg.shore_filter_enabled and cfg.drop_tracks_on_shore):
+            return np.zeros(len(lost), bool)
+        centres = np.array([self.tracks[ti].kf.x[kalman.POS, 0] for ti in lost])
+        return self.detector.static_map.on_shore(centres) | self.detector.shore_lines.near(centres, cfg.shore_margin_m)
+
     def _miss_track(
-        self, tr: RadarTrackState, t: float, frame_dt: float, out: DetectorOutput, casters: ShadowCasters
+        self, tr: RadarTrackState, t: float, frame_dt: float, ashore: bool, shadow: np.ndarray | None
     ) -> None:
         """No cluster this frame. A confirmed track at least ``occluded_min_share`` in a nearer object's shadow may
-        coast ``max_unseen_time_occluded_s``, its velocity and turn rate relaxing toward zero meanwhile."""
+        coast ``max_unseen_time_occluded_s``, its velocity and turn rate relaxing toward zero meanwhile. One whose
+        centre now lies on the shore (``ashore``) is deleted."""
         cfg = self.cfg
-        if cfg.shore_filter_enabled and cfg.drop_tracks_on_shore:
-            centre = tr.kf.x[kalman.POS, 0].reshape(1, 2)
-            on_map = self.detector.static_map.on_shore(centre)[0]
-            if on_map or self.detector.shore_lines.near(centre, cfg.shore_margin_m)[0]:
-                # Its returns now count as shore (a quay piece tracked before the wall was known): it is no object.
-                tr.life.status = TrackStatus.DELETED
-                return
+        if ashore:
+            # Its returns now count as shore (a quay piece tracked before the wall was known): it is no object.
+            tr.life.status = TrackStatus.DELETED
+            return
         hidden = False
-        if tr.life.confirmed and cfg.max_unseen_time_occluded_s > cfg.max_unseen_time_s:
-            shadow = self._shadow(tr, casters, out.sensor_ne)
+        if self._coasts_in_shadow(tr):
             tr.shadowed = 0.0 if shadow is None else float(shadow.mean())
             hidden = tr.shadowed >= cfg.occluded_min_share
         if hidden and cfg.occluded_velocity_decay_s > 0:
@@ -404,12 +409,26 @@ class RadarTracker:
         parts += [cl.points for cl in out.clusters if cl.shore != SHORE_KEEP]
         return ShadowCasters.of(parts, out.sensor_ne)
 
-    def _shadow(self, tr: RadarTrackState, casters: ShadowCasters, sensor_ne: np.ndarray) -> np.ndarray | None:
-        """The track's shadowed bearing bins this frame (occlusion.shadow), or None."""
+    def _shadows(
+        self, out: DetectorOutput, groups: dict[int, RadarCluster], lost: list[int]
+    ) -> dict[int, np.ndarray | None]:
+        """Shadowed bearing bins (occlusion.shadow) of every track updated this frame and of every lost one that may
+        coast in a shadow, by track index; all in one pass, before any update (an update moves only its own track's
+        box, and a track's shadow is read from its predicted box)."""
         cfg = self.cfg
-        return occlusion.shadow(
-            kalman.box_of(tr.kf), casters, sensor_ne, cfg.occlusion_margin_m, cfg.merge_gap_m, cfg.hull_point_pad_m
+        need = list(groups) + [ti for ti in lost if self._coasts_in_shadow(self.tracks[ti])]
+        if not need:
+            return {}
+        casters = self._shadow_casters(out, groups)
+        boxes = np.array([kalman.box_of(self.tracks[ti].kf) for ti in need])
+        found = occlusion.shadows(
+            boxes, casters, out.sensor_ne, cfg.occlusion_margin_m, cfg.merge_gap_m, cfg.hull_point_pad_m
         )
+        return dict(zip(need, found, strict=True))
+
+    def _coasts_in_shadow(self, tr: RadarTrackState) -> bool:
+        """A lost track's shadow matters: it is confirmed and a hidden track may coast longer."""
+        return tr.life.confirmed and self.cfg.max_unseen_time_occluded_s > self.cfg.max_unseen_time_s
 
     def _turn_gain(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray | None:
         """(2,) how the cluster's fitted Doppler velocity moves per rad/s of the hull's turn rate, or None.
