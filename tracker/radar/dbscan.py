@@ -13,6 +13,13 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 
+def kd_tree(points: np.ndarray) -> cKDTree:
+    """A k-d tree split at sliding midpoints, its nodes not shrunk to their points: the same neighbours and distances
+    as scipy's default (median splits, compact nodes), built in half the time for the few thousand points of a
+    radar frame or shore, where building costs as much as the queries."""
+    return cKDTree(points, balanced_tree=False, compact_nodes=False)
+
+
 def dbscan(points: np.ndarray, eps: float, min_points: int) -> np.ndarray:
     """(n,) int labels for (n, d) points: 0, 1, ... per cluster, -1 for noise. Distances <= eps are neighbours."""
     x = np.asarray(points, float)
@@ -26,7 +33,7 @@ def dbscan(points: np.ndarray, eps: float, min_points: int) -> np.ndarray:
         raise ValueError("dbscan: points must be finite (filter NaN/inf before clustering)")
     if eps <= 0 or min_points < 1:
         raise ValueError(f"dbscan: need eps > 0 and min_points >= 1, got {eps}, {min_points}")
-    pairs = cKDTree(x).query_pairs(eps, output_type="ndarray")
+    pairs = kd_tree(x).query_pairs(eps, output_type="ndarray")
     a, b = (pairs[:, 0], pairs[:, 1]) if pairs.size else (np.empty(0, int), np.empty(0, int))
     counts = 1 + np.bincount(a, minlength=n) + np.bincount(b, minlength=n)
     core = counts >= min_points

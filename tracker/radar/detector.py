@@ -23,11 +23,10 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from tracker.ego import rotation_matrices
 from tracker.radar.config import RadarTrackerConfig
-from tracker.radar.dbscan import dbscan, dbscan_1d_grouped
+from tracker.radar.dbscan import dbscan, dbscan_1d_grouped, kd_tree
 from tracker.radar.multipath import MultipathSettings, multipath_ghosts
 from tracker.radar.shore_lines import ShoreLines
 from tracker.radar.static_map import StaticMap
@@ -292,7 +291,7 @@ class RadarDetector:
             # Sea clutter is static-looking but scattered: over minutes it would fill the water near the boat with
             # "occupied" cells. A wall or a hull gives returns with neighbours in the same frame; lone ones are left out.
             idx = np.flatnonzero(static)
-            pairs = cKDTree(world[idx]).query_pairs(c.cluster_radius_m, output_type="ndarray")
+            pairs = kd_tree(world[idx]).query_pairs(c.cluster_radius_m, output_type="ndarray")
             nbrs = np.bincount(pairs.reshape(-1), minlength=idx.size)
             static[idx[nbrs < c.static_map_min_neighbours]] = False
 

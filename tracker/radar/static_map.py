@@ -23,6 +23,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from tracker.radar.config import RadarTrackerConfig
+from tracker.radar.dbscan import kd_tree
 
 log = logging.getLogger(__name__)
 
@@ -223,7 +224,7 @@ class StaticMap:
             return True
         self._shore_rc = shore
         self._shore_keys = np.sort(_keys(shore))
-        self._tree = cKDTree((shore + 0.5) * self.res)
+        self._tree = kd_tree((shore + 0.5) * self.res)
         # Contour: shore cells with at least one of their four neighbours not shore (on a raster of their bounds).
         r, c = (shore - shore.min(axis=0) + 1).T
         raster = np.zeros((r.max() + 2, c.max() + 2), bool)
