@@ -308,7 +308,7 @@ class RadarDetector:
         clusters: list[RadarCluster] = []
         for k in range(n_clusters):  # one iteration per cluster (a handful), each vectorised
             idx = np.flatnonzero(labels == k)
-            if per_cluster and ghost[idx].mean() >= c.multipath_cluster_ghost_share:
+            if per_cluster and np.count_nonzero(ghost[idx]) / idx.size >= c.multipath_cluster_ghost_share:
                 self._count(counts, "ghost_clusters", 1)
                 continue
             clusters.append(self._make_cluster(idx, world, xyz, dop, dop_world, snr_a, los, rng))
@@ -316,7 +316,7 @@ class RadarDetector:
         # 6b. shore filter, with the shore as known before this frame
         if c.shore_filter_enabled and clusters:
             verdict = self.static_map.shore_verdict(sensor_ne, [cl.points for cl in clusters])
-            line_share = np.array([on_line[cl.index].mean() for cl in clusters])
+            line_share = np.array([np.count_nonzero(on_line[cl.index]) / cl.n_points for cl in clusters])
             verdict[(verdict == SHORE_KEEP) & (line_share >= c.shore_on_fraction)] = SHORE_ON
             for cl, v in zip(clusters, verdict, strict=True):
                 cl.shore = int(v)

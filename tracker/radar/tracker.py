@@ -35,6 +35,18 @@ log = logging.getLogger(__name__)
 _GATE = 2.0  # costs: 1 - IoU in [0, 1) for overlapping boxes, 1 + distance / gate in [1, 2] for the fallback
 
 
+def small_median(values: np.ndarray) -> float:
+    """np.median of a short 1-D array of finite values, without its generic machinery (most of its cost at the few
+    returns of a cluster): the middle value, or the mean of the two middle ones, as np.median takes it."""
+    v = np.sort(values)
+    n = v.size
+    if n == 0:
+        return math.nan
+    if n % 2:
+        return float(v[n // 2])
+    return float((v[n // 2 - 1] + v[n // 2]) / 2)
+
+
 def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(n, m) IoU of axis-aligned boxes given as (k, 4) [min0, min1, max0, max1]."""
     lo = np.maximum(a[:, None, :2], b[None, :, :2])
@@ -113,6 +125,7 @@ class RadarTracker:
         self.t_last = -math.inf
         self.last: DetectorOutput | None = None
         self._pool: deque[tuple[DetectorOutput, np.ndarray]] = deque()  # recent frames and their unused loose returns
+        self._boxes = np.empty((0, 4))  # every track's predicted box this frame (kalman.box_of), until the updates
         self.skipped_frames = 0
 
     # --- access to the last cycle ------------------------------------------------------------------------------------
@@ -212,6 +225,7 @@ class RadarTracker:
             far = float(np.hypot(*(tr.kf.x[kalman.POS, 0] - out.sensor_ne))) > cfg.turn_model_max_range_m
             if far and tr.kf.dim_x > kalman.TURN:
                 kalman.freeze_turn_rate(tr.kf)  # before the update, so it cannot learn a rate either
+        self._boxes = self._predicted_boxes()
         clusters = out.kept_clusters
         claims, spawn = self._associate(clusters)
         groups = {ti: self.detector.merge_clusters([clusters[di] for di in dis]) for ti, dis in claims.items()}
@@ -244,7 +258,7 @@ class RadarTracker:
         outline = self._outline(tr, cl)
         size = self._outline_size(outline if tr.shape else None, box_size)
         centre = self._centre(outline, cl, box_centre, out.sensor_ne)
-        hidden = tr.shadowed = 0.0 if shadow is None else float(shadow.mean())
+        hidden = tr.shadowed = 0.0 if shadow is None else np.count_nonzero(shadow) / shadow.size
         if cfg.occlusion_lit_edge:
             centre = occlusion.lit_edge_centre(
                 centre, cl.points, tr.kf.x[kalman.POS, 0], tr.kf.x[kalman.SIZE, 0], shadow, out.sensor_ne
@@ -287,7 +301,7 @@ class RadarTracker:
             return
         hidden = False
         if self._coasts_in_shadow(tr):
-            tr.shadowed = 0.0 if shadow is None else float(shadow.mean())
+            tr.shadowed = 0.0 if shadow is None else np.count_nonzero(shadow) / shadow.size
             hidden = tr.shadowed >= cfg.occluded_min_share
         if hidden and cfg.occluded_velocity_decay_s > 0:
             decay = math.exp(-frame_dt / cfg.occluded_velocity_decay_s)
@@ -316,6 +330,15 @@ class RadarTracker:
             tr.motion.observe(t, cl.points, self._doppler_moving(cl))
         return tr
 
+    def _predicted_boxes(self) -> np.ndarray:
+        """(tracks, 4) kalman.box_of of every track, from one stacked state array: association, loose returns,
+        pooled births and shadows all read the predicted boxes, before any update moves them."""
+        if not self.tracks:
+            return np.empty((0, 4))
+        x = np.array([tr.kf.x[:, 0] for tr in self.tracks])
+        half = x[:, kalman.SIZE] / 2
+        return np.concatenate([x[:, kalman.POS] - half, x[:, kalman.POS] + half], axis=1)
+
     def _associate(self, clusters: list[RadarCluster]) -> tuple[dict[int, list[int]], list[int]]:
         """Clusters per track, and the clusters that start tracks.
 
@@ -328,7 +351,7 @@ class RadarTracker:
             return {}, []
         if not self.tracks:
             return {}, list(range(len(clusters)))
-        track_boxes = np.array([kalman.box_of(tr.kf) for tr in self.tracks])
+        track_boxes = self._boxes
         det_boxes = np.array([c.box() for c in clusters])
         a = gated_assignment(association_cost(track_boxes, det_boxes, cfg), _GATE)
         claims: dict[int, list[int]] = {int(ti): [int(di)] for ti, di in a.matches}
@@ -355,7 +378,7 @@ class RadarTracker:
         lost = [ti for ti, tr in enumerate(self.tracks) if ti not in claims and tr.life.confirmed]
         if not lost:
             return spawn
-        centres = np.array([kalman.box_of(self.tracks[ti].kf) for ti in lost])
+        centres = self._boxes[lost]
         centres = (centres[:, :2] + centres[:, 2:]) / 2
         cand = np.array(spawn)
         det_c = (det_boxes[cand, :2] + det_boxes[cand, 2:]) / 2
@@ -420,7 +443,7 @@ class RadarTracker:
         if not need:
             return {}
         casters = self._shadow_casters(out, groups)
-        boxes = np.array([kalman.box_of(self.tracks[ti].kf) for ti in need])
+        boxes = self._boxes[need]
         found = occlusion.shadows(
             boxes, casters, out.sensor_ne, cfg.occlusion_margin_m, cfg.merge_gap_m, cfg.hull_point_pad_m
         )
@@ -482,7 +505,7 @@ class RadarTracker:
     def _near_clutter(self, cl: RadarCluster) -> bool:
         """Too few returns, too near the radar, to start a track (``near_birth_min_points``)."""
         cfg = self.cfg
-        return cl.n_points < cfg.near_birth_min_points and float(np.median(cl.range_m)) < cfg.near_birth_range_m
+        return cl.n_points < cfg.near_birth_min_points and small_median(cl.range_m) < cfg.near_birth_range_m
 
     def _pooled_births(self, out: DetectorOutput, groups: dict[int, RadarCluster]) -> list[RadarCluster]:
         """New tracks from the loose returns of the last ``birth_window_frames`` frames clustered together (not in the
@@ -509,7 +532,7 @@ class RadarTracker:
         spatial = dbscan(pts, cfg.cluster_radius_m, cfg.cluster_min_points)
         labels = self.detector.split_by_doppler(spatial, dop)
         now = len(self._pool) - 1
-        boxes = np.array([kalman.box_of(tr.kf) for tr in self.tracks]).reshape(-1, 4)
+        boxes = self._boxes
         births: list[RadarCluster] = []
         for lab in np.unique(labels[labels >= 0]):  # a handful of pooled clusters
             mine = labels == lab
@@ -553,7 +576,7 @@ class RadarTracker:
         idx = np.flatnonzero(out.loose)
         if cfg.update_min_points <= 0 or not cand or idx.size == 0:
             return {}
-        boxes = np.array([kalman.box_of(self.tracks[ti].kf) for ti in cand])
+        boxes = self._boxes[cand]
         pts = out.points[idx]
         gaps = box_gap_matrix(boxes, np.concatenate([pts, pts], axis=1))
         owner = np.argmin(gaps, axis=0)
@@ -595,7 +618,7 @@ class RadarTracker:
             best = float(g @ miss) / gg if gg > 1e-12 else w
             w = min(max(best, w - spread, -self.cfg.max_turn_rate), w + spread, self.cfg.max_turn_rate)
             miss = miss - w * g
-        return bool(abs(float(np.median(miss))) <= self.cfg.merge_doppler_tolerance_mps)
+        return bool(abs(small_median(miss)) <= self.cfg.merge_doppler_tolerance_mps)
 
     def _prune_duplicates(self) -> None:
         """Two tracks on one boat (born from pieces of one hull before either was established): the younger goes.
@@ -711,7 +734,7 @@ class RadarTracker:
         ok = np.isfinite(cl.doppler_world)
         if not ok.any():
             return True
-        miss = float(np.median(cl.doppler_world[ok] - cl.los[ok] @ tr.kf.x[kalman.VEL, 0]))
+        miss = small_median(cl.doppler_world[ok] - cl.los[ok] @ tr.kf.x[kalman.VEL, 0])
         return abs(miss) <= self.cfg.map_exclude_doppler_tolerance_mps
 
     def current_tracks(self) -> list[Track]:
