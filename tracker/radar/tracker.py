@@ -531,25 +531,11 @@ class RadarTracker:
         dop = np.concatenate([o.doppler_world[m] for o, m in self._pool])
         spatial = dbscan(pts, cfg.cluster_radius_m, cfg.cluster_min_points)
         labels = self.detector.split_by_doppler(spatial, dop)
-        now = len(self._pool) - 1
-        boxes = self._boxes
         births: list[RadarCluster] = []
-        for lab in np.unique(labels[labels >= 0]):  # a handful of pooled clusters
+        for lab in self._pooled_candidates(pts, labels, frame):
             mine = labels == lab
-            frames = np.unique(frame[mine])
-            if frames[-1] != now or frames.size < 2:
-                continue
-            p = pts[mine]
-            box = np.concatenate([p.min(axis=0), p.max(axis=0)])[None, :]
-            if len(boxes):
-                # Sparse returns this close to a track are that track's (a far boat's track may sit a couple of
-                # metres off its returns); a second track there would be a duplicate.
-                centre = (box[0, :2] + box[0, 2:]) / 2
-                near = np.linalg.norm((boxes[:, :2] + boxes[:, 2:]) / 2 - centre, axis=1).min()
-                if box_gap_matrix(boxes, box).min() <= cfg.merge_gap_m or near <= cfg.recovery_gate_m:
-                    continue
             parts = []
-            for k in frames:
+            for k in np.unique(frame[mine]):
                 o, m = self._pool[int(k)]
                 sel = rows[mine & (frame == k)]
                 parts.append(self.detector.cluster_of(o, sel))
@@ -564,6 +550,32 @@ class RadarTracker:
                 b for b, v, f in zip(births, verdict, on_line, strict=True) if v == 0 and f < cfg.shore_on_fraction
             ]
         return births
+
+    def _pooled_candidates(self, pts: np.ndarray, labels: np.ndarray, frame: np.ndarray) -> list[int]:
+        """Labels of the pooled clusters that may start a track, ascending: with returns of this frame (the pool's
+        last) and of an earlier one, clear of every track. All clusters judged at once (a dozen a frame)."""
+        cfg = self.cfg
+        valid = labels >= 0
+        if not valid.any():
+            return []
+        lab, p = labels[valid], pts[valid]
+        n_lab = int(lab.max()) + 1
+        seen = np.zeros((n_lab, len(self._pool)), bool)
+        seen[lab, frame[valid]] = True
+        ok = seen[:, -1] & (seen.sum(axis=1) >= 2)
+        lo = np.full((n_lab, 2), np.inf)
+        hi = np.full((n_lab, 2), -np.inf)
+        np.minimum.at(lo, lab, p)
+        np.maximum.at(hi, lab, p)
+        boxes = self._boxes
+        if len(boxes):
+            # Sparse returns this close to a track are that track's (a far boat's track may sit a couple of
+            # metres off its returns); a second track there would be a duplicate.
+            box = np.concatenate([lo, hi], axis=1)
+            centre = (box[:, :2] + box[:, 2:]) / 2
+            near = np.linalg.norm((boxes[:, None, :2] + boxes[:, None, 2:]) / 2 - centre[None], axis=2).min(axis=0)
+            ok &= ~((box_gap_matrix(boxes, box).min(axis=0) <= cfg.merge_gap_m) | (near <= cfg.recovery_gate_m))
+        return np.flatnonzero(ok).tolist()
 
     def _gather_loose(self, out: DetectorOutput, lost: list[int]) -> dict[int, RadarCluster]:
         """Confirmed tracks (and tentative ones born sparse) without a cluster this frame take the loose returns within ``merge_gap_m`` of their predicted box
