@@ -184,11 +184,12 @@ class StaticMap:
         if pool > 1:
             # Evidence pooled over pool x pool cells: a wall seen through 1 deg of azimuth noise spreads its returns
             # over a metre, so single 0.25 m cells fill up far slower than the wall is really seen.
-            blocks = np.stack(np.divmod(self._touched, self.size), axis=1) // pool
-            _, inv = np.unique(blocks[:, 0] * self.size + blocks[:, 1], return_inverse=True)
-            inv = inv.reshape(-1)
-            pooled = np.bincount(inv, weights=value)[inv]
-            recent = np.bincount(inv, weights=recent)[inv] > 0
+            # Block numbers straight from the flat index (no sort): bincount sums each block's cells in the same
+            # order as over np.unique's labels.
+            row, col = np.divmod(self._touched, self.size)
+            block = (row // pool) * (self.size // pool + 1) + col // pool
+            pooled = np.bincount(block, weights=value)[block]
+            recent = np.bincount(block, weights=recent)[block] > 0
         else:
             pooled = value
         # Occupied: enough evidence, and seen lately. A structure is judged by what is there now: the returns a slow
