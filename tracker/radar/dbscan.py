@@ -68,22 +68,28 @@ def dbscan(points: np.ndarray, eps: float, min_points: int) -> np.ndarray:
 def component_labels(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(n,) connected-component label of each node given edges a[k] - b[k]: the lowest node index in its component.
 
-    Min-label propagation along the edges with pointer jumping (lab = lab[lab]), which halves the remaining distance
-    each round; for the few hundred nodes of a radar frame this is several times faster than building a sparse
-    matrix for scipy's connected_components.
+    Root hooking with edge filtering: every node points at a root; each round, every edge still joining two
+    different roots hooks the higher root onto the lower, pointers are flattened, and edges inside one root's tree
+    are dropped for good. A component's lowest node is never hooked, so it ends as the root of all its nodes. The
+    edge list shrinks each round, so a shore window's ~16k cell links cost a quarter of what min-label propagation
+    over all of them every round did; for the few hundred nodes of a radar frame this is several times faster than
+    building a sparse matrix for scipy's connected_components.
     """
     lab = np.arange(n)
     if a.size == 0:
         return lab
     while True:
-        m = np.minimum(lab[a], lab[b])
-        new = lab.copy()
-        np.minimum.at(new, a, m)
-        np.minimum.at(new, b, m)
-        new = new[new]
-        if np.array_equal(new, lab):
+        la, lb = lab[a], lab[b]
+        cross = la != lb
+        if not cross.any():
             return lab
-        lab = new
+        a, b, la, lb = a[cross], b[cross], la[cross], lb[cross]
+        np.minimum.at(lab, np.maximum(la, lb), np.minimum(la, lb))
+        while True:  # flatten: every node points at its root again
+            up = lab[lab]
+            if np.array_equal(up, lab):
+                break
+            lab = up
 
 
 def dbscan_1d_grouped(values: np.ndarray, groups: np.ndarray, eps: float, min_points: int) -> np.ndarray:

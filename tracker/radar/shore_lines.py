@@ -133,7 +133,7 @@ class ShoreLines:
         w = np.bincount(of_point).astype(float)
         centroid = np.column_stack([np.bincount(of_point, pts[:, 0]), np.bincount(of_point, pts[:, 1])]) / w[:, None]
         pairs = kd_tree(centroid).query_pairs(self.link_m, output_type="ndarray")
-        # numpy label propagation, not scipy's sparse connected_components: a few hundred cells and ~2000 pairs cost
+        # numpy component labels, not scipy's sparse connected_components: a few hundred cells and ~2000 pairs cost
         # it less than building the sparse matrix does (same labels, numbered by their lowest cell).
         lowest = component_labels(centroid.shape[0], pairs[:, 0], pairs[:, 1])
         return np.unique(lowest, return_inverse=True)[1].reshape(-1)[of_point]
