@@ -36,6 +36,18 @@ def _keys(cells_rc: np.ndarray) -> np.ndarray:
     return (rc[:, 0] + (1 << 30)) * (1 << 31) + (rc[:, 1] + (1 << 30))
 
 
+def _dilate_3x3(mask: np.ndarray) -> np.ndarray:
+    """ndimage.binary_dilation of a 2-D bool array by a 3 x 3 square (outside counts as empty), as two shifted ORs
+    per axis: a tenth of ndimage's call overhead on the ~100 x 100 block rasters of a shore extraction."""
+    rows = mask.copy()
+    rows[1:] |= mask[:-1]
+    rows[:-1] |= mask[1:]
+    out = rows.copy()
+    out[:, 1:] |= rows[:, :-1]
+    out[:, :-1] |= rows[:, 1:]
+    return out
+
+
 class StaticMap:
     """World-frame (north, east) evidence grid that follows the boat, with the shore extracted from it."""
 
@@ -207,7 +219,7 @@ class StaticMap:
         coarse -= lo
         blocks = np.zeros(tuple(coarse.max(axis=0) + 2), bool)
         blocks[coarse[:, 0], coarse[:, 1]] = True
-        grown = ndimage.binary_dilation(blocks, np.ones((3, 3), bool))
+        grown = _dilate_3x3(blocks)
         labels, n_lab = ndimage.label(grown, structure=np.ones((3, 3), bool))
         lab = labels[coarse[:, 0], coarse[:, 1]]
         big = np.zeros(n_lab + 1, bool)
