@@ -531,25 +531,35 @@ class RadarTracker:
         dop = np.concatenate([o.doppler_world[m] for o, m in self._pool])
         spatial = dbscan(pts, cfg.cluster_radius_m, cfg.cluster_min_points)
         labels = self.detector.split_by_doppler(spatial, dop)
-        births: list[RadarCluster] = []
-        for lab in self._pooled_candidates(pts, labels, frame):
-            mine = labels == lab
-            parts = []
-            for k in np.unique(frame[mine]):
-                o, m = self._pool[int(k)]
-                sel = rows[mine & (frame == k)]
-                parts.append(self.detector.cluster_of(o, sel))
-                m[sel] = False
-            births.append(self.detector.merge_clusters(parts))
-        if births and cfg.shore_filter_enabled:
-            verdict = self.detector.static_map.shore_verdict(out.sensor_ne, [b.points for b in births])
-            near_line = self.detector.shore_lines.near(np.concatenate([b.points for b in births]), cfg.shore_margin_m)
-            owner = np.repeat(np.arange(len(births)), [b.n_points for b in births])
-            on_line = np.bincount(owner, near_line, len(births)) / np.array([b.n_points for b in births])
-            births = [
-                b for b, v, f in zip(births, verdict, on_line, strict=True) if v == 0 and f < cfg.shore_on_fraction
-            ]
-        return births
+        members = [np.flatnonzero(labels == lab) for lab in self._pooled_candidates(pts, labels, frame)]
+        if members:  # a candidate's returns are spent, whether it starts a track or lies on the shore
+            spent = np.concatenate(members)
+            for k, (_, m) in enumerate(self._pool):
+                m[rows[spent[frame[spent] == k]]] = False
+        if members and cfg.shore_filter_enabled:
+            # Judged on the pooled points, which are the birth's returns in its own order (frame, then row), before
+            # any cluster is built: most candidates near a quay are shore.
+            clear = self._clear_of_shore(out, [pts[idx] for idx in members])
+            members = [idx for idx, ok in zip(members, clear, strict=True) if ok]
+        return [self._pooled_cluster(idx, rows, frame) for idx in members]
+
+    def _clear_of_shore(self, out: DetectorOutput, groups: list[np.ndarray]) -> list[bool]:
+        """Per group of (k, 2) world returns: neither on or behind the mapped shore nor mostly on a shore line."""
+        cfg = self.cfg
+        verdict = self.detector.static_map.shore_verdict(out.sensor_ne, groups)
+        near_line = self.detector.shore_lines.near(np.concatenate(groups), cfg.shore_margin_m)
+        sizes = np.array([len(g) for g in groups])
+        owner = np.repeat(np.arange(len(groups)), sizes)
+        on_line = np.bincount(owner, near_line, len(groups)) / sizes
+        return [bool(v == 0 and f < cfg.shore_on_fraction) for v, f in zip(verdict, on_line, strict=True)]
+
+    def _pooled_cluster(self, idx: np.ndarray, rows: np.ndarray, frame: np.ndarray) -> RadarCluster:
+        """The cluster of pooled returns ``idx``: one piece per frame it spans, merged."""
+        parts = []
+        for k in np.unique(frame[idx]):
+            o, _ = self._pool[int(k)]
+            parts.append(self.detector.cluster_of(o, rows[idx[frame[idx] == k]]))
+        return self.detector.merge_clusters(parts)
 
     def _pooled_candidates(self, pts: np.ndarray, labels: np.ndarray, frame: np.ndarray) -> list[int]:
         """Labels of the pooled clusters that may start a track, ascending: with returns of this frame (the pool's
