@@ -89,8 +89,9 @@ def shadows(
         return out
     box, front = boxes[rows], front[rows]
     b_track = np.array([math.atan2(centres[i, 1], centres[i, 0]) for i in rows.tolist()])
-    pts = casters.points[None, :, :]
-    own = np.all((pts >= box[:, None, :2] - own_gap_m) & (pts <= box[:, None, 2:] + own_gap_m), axis=2)
+    px, py = casters.points[:, 0], casters.points[:, 1]
+    grown = np.concatenate([box[:, :2] - own_gap_m, box[:, 2:] + own_gap_m], axis=1)
+    own = (px >= grown[:, 0, None]) & (py >= grown[:, 1, None]) & (px <= grown[:, 2, None]) & (py <= grown[:, 3, None])
     d = wrap(casters.bearing[None, :] - b_track[:, None])
     front &= ~own & (np.abs(d) < math.pi / 2)
     corners = np.stack([box[:, [0, 1]], box[:, [0, 3]], box[:, [2, 1]], box[:, [2, 3]]], axis=1) - sensor_ne
@@ -103,18 +104,27 @@ def shadows(
     n_casters = int(casters.owner.max()) + 1
     r, c = np.nonzero(front)
     slot = r * n_casters + casters.owner[c]
-    pad = point_pad_m / np.maximum(casters.range_m[c], 1e-3)
+    pad = (point_pad_m / np.maximum(casters.range_m, 1e-3))[c]
     lo = np.full(rows.size * n_casters, np.inf)
     hi = np.full(rows.size * n_casters, -np.inf)
     np.minimum.at(lo, slot, d[r, c] - pad)
     np.maximum.at(hi, slot, d[r, c] + pad)
     lo, hi = lo.reshape(rows.size, 1, n_casters), hi.reshape(rows.size, 1, n_casters)
-    bins = np.linspace(-half, half, SHADOW_BINS, axis=1)[:, :, None]
+    bins = _bins(half)[:, :, None]
     shadowed = ((bins >= lo) & (bins <= hi)).any(axis=2)
     for k, row in enumerate(rows.tolist()):
         if shadowed[k].any():
             out[row] = shadowed[k]
     return out
+
+
+def _bins(half: np.ndarray) -> np.ndarray:
+    """(k, SHADOW_BINS) np.linspace(-h, h, SHADOW_BINS) for each h of ``half`` (> 0), computed as linspace does
+    (i * step + start, the last one set to the end) without its per-call overhead, ~80 us."""
+    step = (half - -half) / (SHADOW_BINS - 1)
+    bins = np.arange(SHADOW_BINS, dtype=float)[None, :] * step[:, None] + (-half)[:, None]
+    bins[:, -1] = half
+    return bins
 
 
 def lit_edge_centre(
