@@ -127,3 +127,11 @@ def test_a_larger_boat_at_twice_the_range_is_not_a_ghost_of_a_smaller_one() -> N
     strict = replace(SETTINGS, min_snr_drop_db=10.0)
     assert multipath_ghosts(r, az, dop, snr, strict).tolist() == [False, False, True]  # 14 dB down: a ghost
     assert multipath_ghosts(r, az, dop, snr, SETTINGS).tolist() == [False, True, True]  # any weaker: both
+
+
+def test_bearing_windows_wrap_round_the_back() -> None:
+    # returns either side of +-180 deg are 2 deg apart: a ghost pairs with its original across the wrap
+    r = np.array([10.0, 20.2])
+    az = np.radians([179.0, -179.0])
+    got = multipath_ghosts(r, az, np.array([1.0, 2.0]), np.array([20.0, 9.0]), SETTINGS)
+    np.testing.assert_array_equal(got, [False, True])

@@ -39,3 +39,18 @@ def test_the_centre_of_a_half_hidden_hull_is_measured_from_its_lit_edge() -> Non
                                   box_centre)  # fmt: skip
     np.testing.assert_array_equal(lit_edge_centre(box_centre, returns, box_centre, np.array([2.0, 4.0]), None, SENSOR),
                                   box_centre)  # fmt: skip
+
+
+def test_batched_shadows_and_bins_match_the_one_box_arithmetic() -> None:
+    from tracker.radar.occlusion import _bins, shadows
+
+    rng = np.random.default_rng(4)
+    half = rng.uniform(1e-4, 0.5, 50)
+    for h, row in zip(half, _bins(half), strict=True):
+        np.testing.assert_array_equal(row, np.linspace(-h, h, SHADOW_BINS))
+    # a nearer boat over part of one track, nothing in front of the other: one pass gives each its own answer
+    casters = ShadowCasters.of([np.array([[20.0, 0.5], [20.0, 1.5]])], SENSOR)
+    far = np.array([BOX, [39.0, -40.0, 41.0, -36.0]])
+    got = shadows(far, casters, SENSOR, 1.0, 1.0, 0.3)
+    np.testing.assert_array_equal(got[0], shadow(BOX, casters, SENSOR, 1.0, 1.0, 0.3))
+    assert got[0] is not None and got[0].any() and got[1] is None

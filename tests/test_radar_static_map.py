@@ -149,3 +149,14 @@ def test_shore_horizon_is_reused_only_for_the_same_radar_position_and_shore() ->
     np.testing.assert_array_equal(m.shore_horizon(here), h_here)
     m.update_shore(100.0, np.zeros(2), 100.0)  # 100 s later every hit has decayed: no shore, no horizon
     assert np.isinf(m.shore_horizon(here)).all()
+
+
+def test_block_dilation_matches_ndimage() -> None:
+    from scipy import ndimage
+
+    from tracker.radar.static_map import _dilate_3x3
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        mask = rng.random((int(rng.integers(1, 40)), int(rng.integers(1, 40)))) < rng.uniform(0.0, 0.3)
+        np.testing.assert_array_equal(_dilate_3x3(mask), ndimage.binary_dilation(mask, np.ones((3, 3), bool)))

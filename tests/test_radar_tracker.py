@@ -264,3 +264,13 @@ def test_the_filter_veto_keeps_a_slow_crossing_boat_off_zero_speed() -> None:
         # at the end: its speed, or "unknown" while the hulls and the filter disagree - never a false zero
         assert final[0].motion is not MotionState.STATIC and final[0].motion is not MotionState.ABSOLUTELY_STATIC
         assert np.isnan(v).all() or np.allclose(v, [0.0, 0.5], atol=0.2)
+
+
+def test_small_median_is_numpys_median() -> None:
+    from tracker.radar.tracker import small_median
+
+    rng = np.random.default_rng(1)
+    for n in range(1, 30):
+        values = rng.normal(0.0, 3.0, n)
+        assert small_median(values) == float(np.median(values))
+    assert math.isnan(small_median(np.empty(0)))

@@ -23,11 +23,10 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from tracker.ego import rotation_matrices
 from tracker.radar.config import RadarTrackerConfig
-from tracker.radar.dbscan import dbscan, dbscan_1d_grouped
+from tracker.radar.dbscan import dbscan, dbscan_1d_grouped, kd_tree
 from tracker.radar.multipath import MultipathSettings, multipath_ghosts
 from tracker.radar.shore_lines import ShoreLines
 from tracker.radar.static_map import StaticMap
@@ -292,7 +291,7 @@ class RadarDetector:
             # Sea clutter is static-looking but scattered: over minutes it would fill the water near the boat with
             # "occupied" cells. A wall or a hull gives returns with neighbours in the same frame; lone ones are left out.
             idx = np.flatnonzero(static)
-            pairs = cKDTree(world[idx]).query_pairs(c.cluster_radius_m, output_type="ndarray")
+            pairs = kd_tree(world[idx]).query_pairs(c.cluster_radius_m, output_type="ndarray")
             nbrs = np.bincount(pairs.reshape(-1), minlength=idx.size)
             static[idx[nbrs < c.static_map_min_neighbours]] = False
 
@@ -309,7 +308,7 @@ class RadarDetector:
         clusters: list[RadarCluster] = []
         for k in range(n_clusters):  # one iteration per cluster (a handful), each vectorised
             idx = np.flatnonzero(labels == k)
-            if per_cluster and ghost[idx].mean() >= c.multipath_cluster_ghost_share:
+            if per_cluster and np.count_nonzero(ghost[idx]) / idx.size >= c.multipath_cluster_ghost_share:
                 self._count(counts, "ghost_clusters", 1)
                 continue
             clusters.append(self._make_cluster(idx, world, xyz, dop, dop_world, snr_a, los, rng))
@@ -317,7 +316,7 @@ class RadarDetector:
         # 6b. shore filter, with the shore as known before this frame
         if c.shore_filter_enabled and clusters:
             verdict = self.static_map.shore_verdict(sensor_ne, [cl.points for cl in clusters])
-            line_share = np.array([on_line[cl.index].mean() for cl in clusters])
+            line_share = np.array([np.count_nonzero(on_line[cl.index]) / cl.n_points for cl in clusters])
             verdict[(verdict == SHORE_KEEP) & (line_share >= c.shore_on_fraction)] = SHORE_ON
             for cl, v in zip(clusters, verdict, strict=True):
                 cl.shore = int(v)

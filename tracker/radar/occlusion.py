@@ -64,30 +64,67 @@ def shadow(
     piece of the track's own hull does not hide it). Each caster shadows the bearing span of its returns, each return
     taken ``point_pad_m`` wide.
     """
-    centre = (box[:2] + box[2:]) / 2 - sensor_ne
-    r_track = math.hypot(centre[0], centre[1])
-    front = casters.range_m < r_track - margin_m
-    if not front.any():  # nothing nearer: the usual case, decided before any trigonometry
-        return None
-    own = np.all((casters.points >= box[:2] - own_gap_m) & (casters.points <= box[2:] + own_gap_m), axis=1)
-    b_track = math.atan2(centre[1], centre[0])
-    d = wrap(casters.bearing - b_track)
+    return shadows(np.asarray(box, float).reshape(1, 4), casters, sensor_ne, margin_m, own_gap_m, point_pad_m)[0]
+
+
+def shadows(
+    boxes: np.ndarray,
+    casters: ShadowCasters,
+    sensor_ne: np.ndarray,
+    margin_m: float,
+    own_gap_m: float,
+    point_pad_m: float,
+) -> list[np.ndarray | None]:
+    """``shadow`` of each of the (k, 4) ``boxes``, all tracks of a frame in one pass over the casters (per-track
+    calls were dozens of tiny numpy operations each)."""
+    out: list[np.ndarray | None] = [None] * len(boxes)
+    if len(boxes) == 0 or casters.range_m.size == 0:
+        return out
+    centres = (boxes[:, :2] + boxes[:, 2:]) / 2 - sensor_ne
+    # Python's hypot and atan2 per box, as a scalar call gives them (numpy's may differ in the last bit)
+    r_track = np.array([math.hypot(c[0], c[1]) for c in centres.tolist()])
+    front = casters.range_m[None, :] < (r_track - margin_m)[:, None]
+    rows = np.flatnonzero(front.any(axis=1))
+    if rows.size == 0:  # nothing nearer than any track: the usual case, decided before any trigonometry
+        return out
+    box, front = boxes[rows], front[rows]
+    b_track = np.array([math.atan2(centres[i, 1], centres[i, 0]) for i in rows.tolist()])
+    px, py = casters.points[:, 0], casters.points[:, 1]
+    grown = np.concatenate([box[:, :2] - own_gap_m, box[:, 2:] + own_gap_m], axis=1)
+    own = (px >= grown[:, 0, None]) & (py >= grown[:, 1, None]) & (px <= grown[:, 2, None]) & (py <= grown[:, 3, None])
+    d = wrap(casters.bearing[None, :] - b_track[:, None])
     front &= ~own & (np.abs(d) < math.pi / 2)
-    if not front.any():
-        return None
-    corners = np.array([[box[0], box[1]], [box[0], box[3]], [box[2], box[1]], [box[2], box[3]]]) - sensor_ne
-    half = float(np.abs(wrap(np.arctan2(corners[:, 1], corners[:, 0]) - b_track)).max())
-    if half <= 0:
-        return None
-    k = casters.owner[front]
-    pad = point_pad_m / np.maximum(casters.range_m[front], 1e-3)
-    lo = np.full(k.max() + 1, np.inf)
-    hi = np.full(k.max() + 1, -np.inf)
-    np.minimum.at(lo, k, d[front] - pad)
-    np.maximum.at(hi, k, d[front] + pad)
-    bins = np.linspace(-half, half, SHADOW_BINS)
-    shadowed = ((bins[:, None] >= lo[None, :]) & (bins[:, None] <= hi[None, :])).any(axis=1)
-    return shadowed if shadowed.any() else None
+    corners = np.stack([box[:, [0, 1]], box[:, [0, 3]], box[:, [2, 1]], box[:, [2, 3]]], axis=1) - sensor_ne
+    half = np.abs(wrap(np.arctan2(corners[..., 1], corners[..., 0]) - b_track[:, None])).max(axis=1)
+    live = front.any(axis=1) & (half > 0)
+    if not live.any():
+        return out
+    rows, front, d, half = rows[live], front[live], d[live], half[live]
+    # Each row's casters' bearing spans, as (row, caster) slots of one flat array.
+    n_casters = int(casters.owner.max()) + 1
+    r, c = np.nonzero(front)
+    slot = r * n_casters + casters.owner[c]
+    pad = (point_pad_m / np.maximum(casters.range_m, 1e-3))[c]
+    lo = np.full(rows.size * n_casters, np.inf)
+    hi = np.full(rows.size * n_casters, -np.inf)
+    np.minimum.at(lo, slot, d[r, c] - pad)
+    np.maximum.at(hi, slot, d[r, c] + pad)
+    lo, hi = lo.reshape(rows.size, 1, n_casters), hi.reshape(rows.size, 1, n_casters)
+    bins = _bins(half)[:, :, None]
+    shadowed = ((bins >= lo) & (bins <= hi)).any(axis=2)
+    for k, row in enumerate(rows.tolist()):
+        if shadowed[k].any():
+            out[row] = shadowed[k]
+    return out
+
+
+def _bins(half: np.ndarray) -> np.ndarray:
+    """(k, SHADOW_BINS) np.linspace(-h, h, SHADOW_BINS) for each h of ``half`` (> 0), computed as linspace does
+    (i * step + start, the last one set to the end) without its per-call overhead, ~80 us."""
+    step = (half - -half) / (SHADOW_BINS - 1)
+    bins = np.arange(SHADOW_BINS, dtype=float)[None, :] * step[:, None] + (-half)[:, None]
+    bins[:, -1] = half
+    return bins
 
 
 def lit_edge_centre(

@@ -16,7 +16,7 @@ from collections import deque
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tracker.radar.dbscan import component_labels
+from tracker.radar.dbscan import component_labels, kd_tree
 
 
 class ShoreLines:
@@ -113,7 +113,7 @@ class ShoreLines:
         thick = self.max_thickness_m + self.thickness_per_m * rng
         line = (count >= 3) & (hi - lo >= self.min_extent_m) & (np.sqrt(minor) <= thick)
         on_all = line[comp]
-        self._line_tree = cKDTree(allp[on_all]) if on_all.any() else None
+        self._line_tree = kd_tree(allp[on_all]) if on_all.any() else None
         return on_all[n - pts.shape[0] :]
 
     def _components(self, pts: np.ndarray) -> np.ndarray:
@@ -132,8 +132,8 @@ class ShoreLines:
         of_point = of_point.reshape(-1)
         w = np.bincount(of_point).astype(float)
         centroid = np.column_stack([np.bincount(of_point, pts[:, 0]), np.bincount(of_point, pts[:, 1])]) / w[:, None]
-        pairs = cKDTree(centroid).query_pairs(self.link_m, output_type="ndarray")
-        # numpy label propagation, not scipy's sparse connected_components: a few hundred cells and ~2000 pairs cost
+        pairs = kd_tree(centroid).query_pairs(self.link_m, output_type="ndarray")
+        # numpy component labels, not scipy's sparse connected_components: a few hundred cells and ~2000 pairs cost
         # it less than building the sparse matrix does (same labels, numbered by their lowest cell).
         lowest = component_labels(centroid.shape[0], pairs[:, 0], pairs[:, 1])
         return np.unique(lowest, return_inverse=True)[1].reshape(-1)[of_point]

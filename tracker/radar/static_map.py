@@ -23,6 +23,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from tracker.radar.config import RadarTrackerConfig
+from tracker.radar.dbscan import kd_tree
 
 log = logging.getLogger(__name__)
 
@@ -33,6 +34,18 @@ def _keys(cells_rc: np.ndarray) -> np.ndarray:
     """One int64 per (row, col) world cell; rows and cols within +-2^30 cells (+-268 000 km at 0.25 m)."""
     rc = np.asarray(cells_rc, np.int64).reshape(-1, 2)
     return (rc[:, 0] + (1 << 30)) * (1 << 31) + (rc[:, 1] + (1 << 30))
+
+
+def _dilate_3x3(mask: np.ndarray) -> np.ndarray:
+    """ndimage.binary_dilation of a 2-D bool array by a 3 x 3 square (outside counts as empty), as two shifted ORs
+    per axis: a tenth of ndimage's call overhead on the ~100 x 100 block rasters of a shore extraction."""
+    rows = mask.copy()
+    rows[1:] |= mask[:-1]
+    rows[:-1] |= mask[1:]
+    out = rows.copy()
+    out[:, 1:] |= rows[:, :-1]
+    out[:, :-1] |= rows[:, 1:]
+    return out
 
 
 class StaticMap:
@@ -183,11 +196,12 @@ class StaticMap:
         if pool > 1:
             # Evidence pooled over pool x pool cells: a wall seen through 1 deg of azimuth noise spreads its returns
             # over a metre, so single 0.25 m cells fill up far slower than the wall is really seen.
-            blocks = np.stack(np.divmod(self._touched, self.size), axis=1) // pool
-            _, inv = np.unique(blocks[:, 0] * self.size + blocks[:, 1], return_inverse=True)
-            inv = inv.reshape(-1)
-            pooled = np.bincount(inv, weights=value)[inv]
-            recent = np.bincount(inv, weights=recent)[inv] > 0
+            # Block numbers straight from the flat index (no sort): bincount sums each block's cells in the same
+            # order as over np.unique's labels.
+            row, col = np.divmod(self._touched, self.size)
+            block = (row // pool) * (self.size // pool + 1) + col // pool
+            pooled = np.bincount(block, weights=value)[block]
+            recent = np.bincount(block, weights=recent)[block] > 0
         else:
             pooled = value
         # Occupied: enough evidence, and seen lately. A structure is judged by what is there now: the returns a slow
@@ -205,7 +219,7 @@ class StaticMap:
         coarse -= lo
         blocks = np.zeros(tuple(coarse.max(axis=0) + 2), bool)
         blocks[coarse[:, 0], coarse[:, 1]] = True
-        grown = ndimage.binary_dilation(blocks, np.ones((3, 3), bool))
+        grown = _dilate_3x3(blocks)
         labels, n_lab = ndimage.label(grown, structure=np.ones((3, 3), bool))
         lab = labels[coarse[:, 0], coarse[:, 1]]
         big = np.zeros(n_lab + 1, bool)
@@ -223,7 +237,7 @@ class StaticMap:
             return True
         self._shore_rc = shore
         self._shore_keys = np.sort(_keys(shore))
-        self._tree = cKDTree((shore + 0.5) * self.res)
+        self._tree = kd_tree((shore + 0.5) * self.res)
         # Contour: shore cells with at least one of their four neighbours not shore (on a raster of their bounds).
         r, c = (shore - shore.min(axis=0) + 1).T
         raster = np.zeros((r.max() + 2, c.max() + 2), bool)

@@ -35,6 +35,18 @@ log = logging.getLogger(__name__)
 _GATE = 2.0  # costs: 1 - IoU in [0, 1) for overlapping boxes, 1 + distance / gate in [1, 2] for the fallback
 
 
+def small_median(values: np.ndarray) -> float:
+    """np.median of a short 1-D array of finite values, without its generic machinery (most of its cost at the few
+    returns of a cluster): the middle value, or the mean of the two middle ones, as np.median takes it."""
+    v = np.sort(values)
+    n = v.size
+    if n == 0:
+        return math.nan
+    if n % 2:
+        return float(v[n // 2])
+    return float((v[n // 2 - 1] + v[n // 2]) / 2)
+
+
 def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(n, m) IoU of axis-aligned boxes given as (k, 4) [min0, min1, max0, max1]."""
     lo = np.maximum(a[:, None, :2], b[None, :, :2])
@@ -113,6 +125,7 @@ class RadarTracker:
         self.t_last = -math.inf
         self.last: DetectorOutput | None = None
         self._pool: deque[tuple[DetectorOutput, np.ndarray]] = deque()  # recent frames and their unused loose returns
+        self._boxes = np.empty((0, 4))  # every track's predicted box this frame (kalman.box_of), until the updates
         self.skipped_frames = 0
 
     # --- access to the last cycle ------------------------------------------------------------------------------------
@@ -212,6 +225,7 @@ class RadarTracker:
             far = float(np.hypot(*(tr.kf.x[kalman.POS, 0] - out.sensor_ne))) > cfg.turn_model_max_range_m
             if far and tr.kf.dim_x > kalman.TURN:
                 kalman.freeze_turn_rate(tr.kf)  # before the update, so it cannot learn a rate either
+        self._boxes = self._predicted_boxes()
         clusters = out.kept_clusters
         claims, spawn = self._associate(clusters)
         groups = {ti: self.detector.merge_clusters([clusters[di] for di in dis]) for ti, dis in claims.items()}
@@ -221,12 +235,12 @@ class RadarTracker:
             (cl, False) for cl in self._merge_births([clusters[di] for di in spawn]) if not self._near_clutter(cl)
         ]
         births += [(cl, True) for cl in self._pooled_births(out, groups)]
-        casters = self._shadow_casters(out, groups)
         used = list(groups.items())
+        shadows = self._shadows(out, groups, lost)
         for ti, cl in used:
-            self._update_track(self.tracks[ti], cl, t, out, casters)
-        for ti in lost:
-            self._miss_track(self.tracks[ti], t, frame_dt, out, casters)
+            self._update_track(self.tracks[ti], cl, t, out, shadows[ti])
+        for ti, ashore in zip(lost, self._ashore(lost), strict=True):
+            self._miss_track(self.tracks[ti], t, frame_dt, ashore, shadows.get(ti))
         for cl, sparse in births:
             self.tracks.append(self._start_track(cl, sparse, t, out))
         self._update_static_map(out, used)
@@ -235,7 +249,7 @@ class RadarTracker:
         return self.current_tracks()
 
     def _update_track(
-        self, tr: RadarTrackState, cl: RadarCluster, t: float, out: DetectorOutput, casters: ShadowCasters
+        self, tr: RadarTrackState, cl: RadarCluster, t: float, out: DetectorOutput, shadow: np.ndarray | None
     ) -> None:
         """Eq. 7 with the cluster the track was given: centre (visible sides, lit edge when partly hidden), size from
         the outline, Doppler velocity with its turn-rate row; then the lifecycle and the motion discriminator."""
@@ -244,8 +258,7 @@ class RadarTracker:
         outline = self._outline(tr, cl)
         size = self._outline_size(outline if tr.shape else None, box_size)
         centre = self._centre(outline, cl, box_centre, out.sensor_ne)
-        shadow = self._shadow(tr, casters, out.sensor_ne)
-        hidden = tr.shadowed = 0.0 if shadow is None else float(shadow.mean())
+        hidden = tr.shadowed = 0.0 if shadow is None else np.count_nonzero(shadow) / shadow.size
         if cfg.occlusion_lit_edge:
             centre = occlusion.lit_edge_centre(
                 centre, cl.points, tr.kf.x[kalman.POS, 0], tr.kf.x[kalman.SIZE, 0], shadow, out.sensor_ne
@@ -266,23 +279,29 @@ class RadarTracker:
         if cfg.motion_discriminator_enabled:
             tr.motion.observe(t, cl.points, self._doppler_moving(cl), self._filter_moving(tr))
 
+    def _ashore(self, lost: list[int]) -> np.ndarray:
+        """(len(lost),) bool: the lost track's centre now lies on the shore (map or shore lines), with
+        ``drop_tracks_on_shore``; one query for all of them."""
+        cfg = self.cfg
+        if not (lost and cfg.shore_filter_enabled and cfg.drop_tracks_on_shore):
+            return np.zeros(len(lost), bool)
+        centres = np.array([self.tracks[ti].kf.x[kalman.POS, 0] for ti in lost])
+        return self.detector.static_map.on_shore(centres) | self.detector.shore_lines.near(centres, cfg.shore_margin_m)
+
     def _miss_track(
-        self, tr: RadarTrackState, t: float, frame_dt: float, out: DetectorOutput, casters: ShadowCasters
+        self, tr: RadarTrackState, t: float, frame_dt: float, ashore: bool, shadow: np.ndarray | None
     ) -> None:
         """No cluster this frame. A confirmed track at least ``occluded_min_share`` in a nearer object's shadow may
-        coast ``max_unseen_time_occluded_s``, its velocity and turn rate relaxing toward zero meanwhile."""
+        coast ``max_unseen_time_occluded_s``, its velocity and turn rate relaxing toward zero meanwhile. One whose
+        centre now lies on the shore (``ashore``) is deleted."""
         cfg = self.cfg
-        if cfg.shore_filter_enabled and cfg.drop_tracks_on_shore:
-            centre = tr.kf.x[kalman.POS, 0].reshape(1, 2)
-            on_map = self.detector.static_map.on_shore(centre)[0]
-            if on_map or self.detector.shore_lines.near(centre, cfg.shore_margin_m)[0]:
-                # Its returns now count as shore (a quay piece tracked before the wall was known): it is no object.
-                tr.life.status = TrackStatus.DELETED
-                return
+        if ashore:
+            # Its returns now count as shore (a quay piece tracked before the wall was known): it is no object.
+            tr.life.status = TrackStatus.DELETED
+            return
         hidden = False
-        if tr.life.confirmed and cfg.max_unseen_time_occluded_s > cfg.max_unseen_time_s:
-            shadow = self._shadow(tr, casters, out.sensor_ne)
-            tr.shadowed = 0.0 if shadow is None else float(shadow.mean())
+        if self._coasts_in_shadow(tr):
+            tr.shadowed = 0.0 if shadow is None else np.count_nonzero(shadow) / shadow.size
             hidden = tr.shadowed >= cfg.occluded_min_share
         if hidden and cfg.occluded_velocity_decay_s > 0:
             decay = math.exp(-frame_dt / cfg.occluded_velocity_decay_s)
@@ -311,6 +330,15 @@ class RadarTracker:
             tr.motion.observe(t, cl.points, self._doppler_moving(cl))
         return tr
 
+    def _predicted_boxes(self) -> np.ndarray:
+        """(tracks, 4) kalman.box_of of every track, from one stacked state array: association, loose returns,
+        pooled births and shadows all read the predicted boxes, before any update moves them."""
+        if not self.tracks:
+            return np.empty((0, 4))
+        x = np.array([tr.kf.x[:, 0] for tr in self.tracks])
+        half = x[:, kalman.SIZE] / 2
+        return np.concatenate([x[:, kalman.POS] - half, x[:, kalman.POS] + half], axis=1)
+
     def _associate(self, clusters: list[RadarCluster]) -> tuple[dict[int, list[int]], list[int]]:
         """Clusters per track, and the clusters that start tracks.
 
@@ -323,7 +351,7 @@ class RadarTracker:
             return {}, []
         if not self.tracks:
             return {}, list(range(len(clusters)))
-        track_boxes = np.array([kalman.box_of(tr.kf) for tr in self.tracks])
+        track_boxes = self._boxes
         det_boxes = np.array([c.box() for c in clusters])
         a = gated_assignment(association_cost(track_boxes, det_boxes, cfg), _GATE)
         claims: dict[int, list[int]] = {int(ti): [int(di)] for ti, di in a.matches}
@@ -350,7 +378,7 @@ class RadarTracker:
         lost = [ti for ti, tr in enumerate(self.tracks) if ti not in claims and tr.life.confirmed]
         if not lost:
             return spawn
-        centres = np.array([kalman.box_of(self.tracks[ti].kf) for ti in lost])
+        centres = self._boxes[lost]
         centres = (centres[:, :2] + centres[:, 2:]) / 2
         cand = np.array(spawn)
         det_c = (det_boxes[cand, :2] + det_boxes[cand, 2:]) / 2
@@ -404,12 +432,26 @@ class RadarTracker:
         parts += [cl.points for cl in out.clusters if cl.shore != SHORE_KEEP]
         return ShadowCasters.of(parts, out.sensor_ne)
 
-    def _shadow(self, tr: RadarTrackState, casters: ShadowCasters, sensor_ne: np.ndarray) -> np.ndarray | None:
-        """The track's shadowed bearing bins this frame (occlusion.shadow), or None."""
+    def _shadows(
+        self, out: DetectorOutput, groups: dict[int, RadarCluster], lost: list[int]
+    ) -> dict[int, np.ndarray | None]:
+        """Shadowed bearing bins (occlusion.shadow) of every track updated this frame and of every lost one that may
+        coast in a shadow, by track index; all in one pass, before any update (an update moves only its own track's
+        box, and a track's shadow is read from its predicted box)."""
         cfg = self.cfg
-        return occlusion.shadow(
-            kalman.box_of(tr.kf), casters, sensor_ne, cfg.occlusion_margin_m, cfg.merge_gap_m, cfg.hull_point_pad_m
+        need = list(groups) + [ti for ti in lost if self._coasts_in_shadow(self.tracks[ti])]
+        if not need:
+            return {}
+        casters = self._shadow_casters(out, groups)
+        boxes = self._boxes[need]
+        found = occlusion.shadows(
+            boxes, casters, out.sensor_ne, cfg.occlusion_margin_m, cfg.merge_gap_m, cfg.hull_point_pad_m
         )
+        return dict(zip(need, found, strict=True))
+
+    def _coasts_in_shadow(self, tr: RadarTrackState) -> bool:
+        """A lost track's shadow matters: it is confirmed and a hidden track may coast longer."""
+        return tr.life.confirmed and self.cfg.max_unseen_time_occluded_s > self.cfg.max_unseen_time_s
 
     def _turn_gain(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray | None:
         """(2,) how the cluster's fitted Doppler velocity moves per rad/s of the hull's turn rate, or None.
@@ -463,7 +505,7 @@ class RadarTracker:
     def _near_clutter(self, cl: RadarCluster) -> bool:
         """Too few returns, too near the radar, to start a track (``near_birth_min_points``)."""
         cfg = self.cfg
-        return cl.n_points < cfg.near_birth_min_points and float(np.median(cl.range_m)) < cfg.near_birth_range_m
+        return cl.n_points < cfg.near_birth_min_points and small_median(cl.range_m) < cfg.near_birth_range_m
 
     def _pooled_births(self, out: DetectorOutput, groups: dict[int, RadarCluster]) -> list[RadarCluster]:
         """New tracks from the loose returns of the last ``birth_window_frames`` frames clustered together (not in the
@@ -489,39 +531,61 @@ class RadarTracker:
         dop = np.concatenate([o.doppler_world[m] for o, m in self._pool])
         spatial = dbscan(pts, cfg.cluster_radius_m, cfg.cluster_min_points)
         labels = self.detector.split_by_doppler(spatial, dop)
-        now = len(self._pool) - 1
-        boxes = np.array([kalman.box_of(tr.kf) for tr in self.tracks]).reshape(-1, 4)
-        births: list[RadarCluster] = []
-        for lab in np.unique(labels[labels >= 0]):  # a handful of pooled clusters
-            mine = labels == lab
-            frames = np.unique(frame[mine])
-            if frames[-1] != now or frames.size < 2:
-                continue
-            p = pts[mine]
-            box = np.concatenate([p.min(axis=0), p.max(axis=0)])[None, :]
-            if len(boxes):
-                # Sparse returns this close to a track are that track's (a far boat's track may sit a couple of
-                # metres off its returns); a second track there would be a duplicate.
-                centre = (box[0, :2] + box[0, 2:]) / 2
-                near = np.linalg.norm((boxes[:, :2] + boxes[:, 2:]) / 2 - centre, axis=1).min()
-                if box_gap_matrix(boxes, box).min() <= cfg.merge_gap_m or near <= cfg.recovery_gate_m:
-                    continue
-            parts = []
-            for k in frames:
-                o, m = self._pool[int(k)]
-                sel = rows[mine & (frame == k)]
-                parts.append(self.detector.cluster_of(o, sel))
-                m[sel] = False
-            births.append(self.detector.merge_clusters(parts))
-        if births and cfg.shore_filter_enabled:
-            verdict = self.detector.static_map.shore_verdict(out.sensor_ne, [b.points for b in births])
-            near_line = self.detector.shore_lines.near(np.concatenate([b.points for b in births]), cfg.shore_margin_m)
-            owner = np.repeat(np.arange(len(births)), [b.n_points for b in births])
-            on_line = np.bincount(owner, near_line, len(births)) / np.array([b.n_points for b in births])
-            births = [
-                b for b, v, f in zip(births, verdict, on_line, strict=True) if v == 0 and f < cfg.shore_on_fraction
-            ]
-        return births
+        members = [np.flatnonzero(labels == lab) for lab in self._pooled_candidates(pts, labels, frame)]
+        if members:  # a candidate's returns are spent, whether it starts a track or lies on the shore
+            spent = np.concatenate(members)
+            for k, (_, m) in enumerate(self._pool):
+                m[rows[spent[frame[spent] == k]]] = False
+        if members and cfg.shore_filter_enabled:
+            # Judged on the pooled points, which are the birth's returns in its own order (frame, then row), before
+            # any cluster is built: most candidates near a quay are shore.
+            clear = self._clear_of_shore(out, [pts[idx] for idx in members])
+            members = [idx for idx, ok in zip(members, clear, strict=True) if ok]
+        return [self._pooled_cluster(idx, rows, frame) for idx in members]
+
+    def _clear_of_shore(self, out: DetectorOutput, groups: list[np.ndarray]) -> list[bool]:
+        """Per group of (k, 2) world returns: neither on or behind the mapped shore nor mostly on a shore line."""
+        cfg = self.cfg
+        verdict = self.detector.static_map.shore_verdict(out.sensor_ne, groups)
+        near_line = self.detector.shore_lines.near(np.concatenate(groups), cfg.shore_margin_m)
+        sizes = np.array([len(g) for g in groups])
+        owner = np.repeat(np.arange(len(groups)), sizes)
+        on_line = np.bincount(owner, near_line, len(groups)) / sizes
+        return [bool(v == 0 and f < cfg.shore_on_fraction) for v, f in zip(verdict, on_line, strict=True)]
+
+    def _pooled_cluster(self, idx: np.ndarray, rows: np.ndarray, frame: np.ndarray) -> RadarCluster:
+        """The cluster of pooled returns ``idx``: one piece per frame it spans, merged."""
+        parts = []
+        for k in np.unique(frame[idx]):
+            o, _ = self._pool[int(k)]
+            parts.append(self.detector.cluster_of(o, rows[idx[frame[idx] == k]]))
+        return self.detector.merge_clusters(parts)
+
+    def _pooled_candidates(self, pts: np.ndarray, labels: np.ndarray, frame: np.ndarray) -> list[int]:
+        """Labels of the pooled clusters that may start a track, ascending: with returns of this frame (the pool's
+        last) and of an earlier one, clear of every track. All clusters judged at once (a dozen a frame)."""
+        cfg = self.cfg
+        valid = labels >= 0
+        if not valid.any():
+            return []
+        lab, p = labels[valid], pts[valid]
+        n_lab = int(lab.max()) + 1
+        seen = np.zeros((n_lab, len(self._pool)), bool)
+        seen[lab, frame[valid]] = True
+        ok = seen[:, -1] & (seen.sum(axis=1) >= 2)
+        lo = np.full((n_lab, 2), np.inf)
+        hi = np.full((n_lab, 2), -np.inf)
+        np.minimum.at(lo, lab, p)
+        np.maximum.at(hi, lab, p)
+        boxes = self._boxes
+        if len(boxes):
+            # Sparse returns this close to a track are that track's (a far boat's track may sit a couple of
+            # metres off its returns); a second track there would be a duplicate.
+            box = np.concatenate([lo, hi], axis=1)
+            centre = (box[:, :2] + box[:, 2:]) / 2
+            near = np.linalg.norm((boxes[:, None, :2] + boxes[:, None, 2:]) / 2 - centre[None], axis=2).min(axis=0)
+            ok &= ~((box_gap_matrix(boxes, box).min(axis=0) <= cfg.merge_gap_m) | (near <= cfg.recovery_gate_m))
+        return np.flatnonzero(ok).tolist()
 
     def _gather_loose(self, out: DetectorOutput, lost: list[int]) -> dict[int, RadarCluster]:
         """Confirmed tracks (and tentative ones born sparse) without a cluster this frame take the loose returns within ``merge_gap_m`` of their predicted box
@@ -534,7 +598,7 @@ class RadarTracker:
         idx = np.flatnonzero(out.loose)
         if cfg.update_min_points <= 0 or not cand or idx.size == 0:
             return {}
-        boxes = np.array([kalman.box_of(self.tracks[ti].kf) for ti in cand])
+        boxes = self._boxes[cand]
         pts = out.points[idx]
         gaps = box_gap_matrix(boxes, np.concatenate([pts, pts], axis=1))
         owner = np.argmin(gaps, axis=0)
@@ -576,7 +640,7 @@ class RadarTracker:
             best = float(g @ miss) / gg if gg > 1e-12 else w
             w = min(max(best, w - spread, -self.cfg.max_turn_rate), w + spread, self.cfg.max_turn_rate)
             miss = miss - w * g
-        return bool(abs(float(np.median(miss))) <= self.cfg.merge_doppler_tolerance_mps)
+        return bool(abs(small_median(miss)) <= self.cfg.merge_doppler_tolerance_mps)
 
     def _prune_duplicates(self) -> None:
         """Two tracks on one boat (born from pieces of one hull before either was established): the younger goes.
@@ -692,7 +756,7 @@ class RadarTracker:
         ok = np.isfinite(cl.doppler_world)
         if not ok.any():
             return True
-        miss = float(np.median(cl.doppler_world[ok] - cl.los[ok] @ tr.kf.x[kalman.VEL, 0]))
+        miss = small_median(cl.doppler_world[ok] - cl.los[ok] @ tr.kf.x[kalman.VEL, 0])
         return abs(miss) <= self.cfg.map_exclude_doppler_tolerance_mps
 
     def current_tracks(self) -> list[Track]:

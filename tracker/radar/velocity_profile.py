@@ -13,6 +13,7 @@ radial component with a covariance that is huge across the line of sight, never 
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from enum import Enum
@@ -143,8 +144,10 @@ def fit_velocity_profile(
         return _fit_radial(u, z, idx, n_all, settings, rng, "all sample pairs share one azimuth")
     inl = best
     v = np.zeros(2)
+    fitted = None  # the inlier mask v was fitted on
     for _ in range(2):  # refit, re-select inliers with the refined model, refit
         v = np.linalg.lstsq(u[inl], z[inl], rcond=None)[0]
+        fitted = inl
         inl_new = np.abs(u @ v - z) <= settings.inlier_threshold
         if inl_new.sum() < 2 or np.array_equal(inl_new, inl):
             break
@@ -153,13 +156,15 @@ def fit_velocity_profile(
     need = max(3, math.ceil(settings.min_inlier_fraction * n))
     if m < need:
         return undetermined(n_all, f"Doppler consensus {m} of {n} points, need {need}")
-    v = np.linalg.lstsq(u[inl], z[inl], rcond=None)[0]
-    res = u[inl] @ v - z[inl]
+    u_in, z_in = u[inl], z[inl]
+    if inl is not fitted:  # the inliers moved on the last refit: once more on the final ones
+        v = np.linalg.lstsq(u_in, z_in, rcond=None)[0]
+    res = u_in @ v - z_in
     var = max(float(res @ res) / (m - 2) if m > 2 else 0.0, settings.noise_std**2)
-    lam_small, lam_big, big = normal_eig(u[inl])
+    lam_small, lam_big, big = normal_eig(u_in)
     inliers = np.zeros(n_all, bool)
     inliers[idx[inl]] = True
-    along = _orient(big, u[inl])
+    along = _orient(big, u_in)
     across = np.array([-along[1], along[0]])
     if lam_small <= 1e-12 or math.sqrt(var / lam_small) > settings.max_tangential_std:
         s = float(along @ v)
@@ -194,7 +199,7 @@ def _ransac_2d(u: np.ndarray, z: np.ndarray, s: ProfileFitSettings, rng: np.rand
     k = ransac_iterations(s.outlier_rate, s.confidence, 2, s.max_iterations)
     n_pairs = n * (n - 1) // 2
     if n_pairs <= max(k, s.max_iterations):
-        i, j = np.triu_indices(n, 1)  # small cluster: try every pair, deterministic
+        i, j = _all_pairs(n)  # small cluster: try every pair, deterministic
     else:
         i = rng.integers(0, n, size=k)
         j = (i + rng.integers(1, n, size=k)) % n
@@ -208,6 +213,14 @@ def _ransac_2d(u: np.ndarray, z: np.ndarray, s: ProfileFitSettings, rng: np.rand
     res = np.abs(vx[:, None] * u[None, :, 0] + vy[:, None] * u[None, :, 1] - z[None, :])  # (hypotheses, points)
     inl = res <= s.inlier_threshold
     return inl[_best_hypothesis(inl, res, s.inlier_threshold)]
+
+
+@functools.lru_cache(maxsize=128)
+def _all_pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """np.triu_indices(n, 1), made once per cluster size (read-only: shared between calls)."""
+    i, j = np.triu_indices(n, 1)
+    i.flags.writeable = j.flags.writeable = False
+    return i, j
 
 
 def _best_hypothesis(inl: np.ndarray, res: np.ndarray, threshold: float) -> int:
