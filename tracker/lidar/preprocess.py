@@ -160,8 +160,12 @@ def preprocess(
     image = RangeImage.build(point_t, ring, horizontal) if ring is not None and point_t is not None else None
     vertical = alone = None
     if image is not None:
-        vertical = np.take(image.vertical(horizontal, cfg.vertical_abs_tol, cfg.vertical_rel_tol), idx)
-        neighbours_all = image.continuous(horizontal, cfg.continuity_abs_tol, cfg.continuity_rel_tol)
+        neighbours_all, vertical_all = image.continuous_and_vertical(
+            horizontal,
+            (cfg.continuity_abs_tol, cfg.continuity_rel_tol),
+            (cfg.vertical_abs_tol, cfg.vertical_rel_tol),
+        )
+        vertical = np.take(vertical_all, idx)
         alone = np.take(neighbours_all, idx) == 0
     estimate = (
         water.update(bx, by, height, t, rings, vertical, alone)
