@@ -55,10 +55,17 @@ class StructureMemory:
         self.cells = int(np.ceil(2 * self.cfg.half_size_m / self.cfg.cell_m))
         self.last_seen = np.full((self.cells, self.cells), -np.inf)
         self.origin: np.ndarray | None = None  # world (north, east) of cell (0, 0)'s corner
+        self.newest = -np.inf  # no cell was last seen later than this
 
     def reset(self) -> None:
         self.last_seen.fill(-np.inf)
         self.origin = None
+        self.newest = -np.inf
+
+    def _remembers_any(self, t: float) -> bool:
+        """Whether any cell may have been seen within ``memory_s`` of ``t``: in open water none ever was, and the
+        lookups need not run."""
+        return self.newest >= t - self.cfg.memory_s
 
     def follow(self, own_ne: np.ndarray) -> None:
         """Keep every point within ``range_m`` of the own boat on the grid: recentre (moving what it remembers
@@ -93,15 +100,17 @@ class StructureMemory:
             return
         i, j, inside = self._index(points_ne)
         self.last_seen[i[inside], j[inside]] = t
+        self.newest = max(self.newest, t)
 
     def known(self, t: float, points_ne: np.ndarray) -> np.ndarray:
         """(n,) bool: the point lies on, or next to, a cell seen under structure within ``memory_s`` of ``t``."""
-        if self.origin is None or len(points_ne) == 0:
+        if self.origin is None or len(points_ne) == 0 or not self._remembers_any(t):
             return np.zeros(len(points_ne), dtype=bool)
         i, j, _ = self._index(points_ne)
         ni, nj = i[:, None] + _NEIGHBOURS[None, :, 0], j[:, None] + _NEIGHBOURS[None, :, 1]
         on_grid = (ni >= 0) & (ni < self.cells) & (nj >= 0) & (nj < self.cells)
-        recent = self.last_seen[np.clip(ni, 0, self.cells - 1), np.clip(nj, 0, self.cells - 1)] >= t - self.cfg.memory_s
+        flat = np.clip(ni, 0, self.cells - 1) * self.cells + np.clip(nj, 0, self.cells - 1)  # a 2-D gather costs 3x
+        recent = np.take(self.last_seen.ravel(), flat) >= t - self.cfg.memory_s
         return np.any(recent & on_grid, axis=1)  # off the grid nothing is known
 
     def continues(self, t: float, footprints: list[np.ndarray]) -> np.ndarray:
@@ -115,7 +124,7 @@ class StructureMemory:
         cfg = self.cfg
         k = len(footprints)
         out = np.zeros(k, dtype=bool)
-        if self.origin is None or k == 0 or cfg.line_reach_m <= 0:
+        if self.origin is None or k == 0 or cfg.line_reach_m <= 0 or not self._remembers_any(t):
             return out
         sizes = np.array([len(f) for f in footprints])
         usable = sizes >= 3
