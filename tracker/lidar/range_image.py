@@ -33,50 +33,35 @@ VERTICAL_OFFSETS = [(ds, dr) for ds in (-1, 0, 1) for dr in (-2, -1, 1, 2)]
 _GATHER_BELOW = 8
 
 
-class _Differences:
-    """|range of a cell - range of its neighbour| over a padded image, each unordered pair of cells computed once.
+def _cell_counts(image: np.ndarray, rules: list[tuple[list[tuple[int, int]], float, float]]) -> list[np.ndarray]:
+    """Per rule (offsets, abs_tol, rel_tol): (cells,) int8, each cell of the flat padded image's neighbours at the
+    rule's offsets within abs_tol + rel_tol x its range (meaningful for the centre cells only).
 
     Everything runs on the flat image: a neighbour at (ds, dr) is ``ds * width + dr`` cells further on, so every
-    step is one pass over contiguous memory (2-D slices of a 20-column image cost three times as much). The
-    difference towards (-ds, -dr) is the one towards (ds, dr) read from the neighbour's cell: |a - b| == |b - a|
-    exactly in floating point. The padding keeps every centre cell's neighbours within its own row."""
-
-    def __init__(self, image: np.ndarray) -> None:
-        self.flat = image.ravel()
-        self.width = image.shape[1]
-        self._cache: dict[int, np.ndarray] = {}
-
-    def forward(self, shift: int) -> np.ndarray:
-        """(cells - shift,) |flat[p + shift] - flat[p]| for shift > 0."""
-        if shift not in self._cache:
-            d = np.subtract(self.flat[shift:], self.flat[:-shift])
-            self._cache[shift] = np.abs(d, out=d)
-        return self._cache[shift]
-
-    def add_near(self, counts: np.ndarray, tol: np.ndarray, offset: tuple[int, int], scratch: np.ndarray) -> None:
-        """counts[p] += |flat[p + offset] - flat[p]| <= tol[p], for every cell p whose neighbour is in the image."""
-        shift = offset[0] * self.width + offset[1]
-        d = self.forward(abs(shift))
-        n = d.size
-        near = scratch[:n]
-        if shift > 0:
-            np.less_equal(d, tol[:n], out=near)
-            counts[:n] += near.view(np.int8)
-        else:  # the neighbour's forward difference, read at the neighbour
-            np.less_equal(d, tol[-n:], out=near)
-            counts[-n:] += near.view(np.int8)
-
-
-def _cell_counts(diffs: _Differences, offsets: list[tuple[int, int]], abs_tol: float, rel_tol: float) -> np.ndarray:
-    """(cells,) int8: per cell of the flat image, its neighbours at ``offsets`` within abs_tol + rel_tol x its
-    range (meaningful for the centre cells only)."""
-    flat = diffs.flat
+    step is one pass over contiguous memory (2-D slices of a 20-column image cost three times as much). Each
+    unordered pair of cells is differenced once, for every rule and both directions: the difference towards
+    -shift is the one towards +shift read at the neighbour (|a - b| == |b - a| exactly in floating point); one
+    difference array at a time keeps the work in cache. The padding keeps every centre cell's neighbours within
+    its own row."""
+    flat = image.ravel()
+    width = image.shape[1]
     with np.errstate(invalid="ignore"):
-        tol = abs_tol + rel_tol * flat
-        counts = np.zeros(flat.size, dtype=np.int8)
+        tols = [abs_tol + rel_tol * flat for _, abs_tol, rel_tol in rules]
+        counts = [np.zeros(flat.size, dtype=np.int8) for _ in rules]
         scratch = np.empty(flat.size, dtype=bool)
-        for offset in offsets:
-            diffs.add_near(counts, tol, offset, scratch)
+        shifts = [[ds * width + dr for ds, dr in offsets] for offsets, _, _ in rules]
+        for shift in sorted({abs(k) for ks in shifts for k in ks}):
+            d = np.subtract(flat[shift:], flat[:-shift])
+            np.abs(d, out=d)
+            n = d.size
+            near = scratch[:n]
+            for ks, tol, count in zip(shifts, tols, counts, strict=True):
+                if shift in ks:  # towards +shift: the cell's own difference
+                    np.less_equal(d, tol[:n], out=near)
+                    count[:n] += near.view(np.int8)
+                if -shift in ks:  # towards -shift: the neighbour's difference
+                    np.less_equal(d, tol[-n:], out=near)
+                    count[-n:] += near.view(np.int8)
     return counts
 
 
@@ -127,12 +112,11 @@ class RangeImage:
         fewer cells)."""
         if self._sparse():
             return [self._count_gather(r, self.seq, self.ring, *rule) for rule in rules]
-        diffs = _Differences(self.image)
         cell = self._cell
-        shared = np.flatnonzero(np.take(diffs.flat, cell) != r)
+        shared = np.flatnonzero(np.take(self.image.ravel(), cell) != r)
         out = []
-        for offsets, abs_tol, rel_tol in rules:
-            counts = np.take(_cell_counts(diffs, offsets, abs_tol, rel_tol), cell).astype(np.int64)
+        for (offsets, abs_tol, rel_tol), per_cell in zip(rules, _cell_counts(self.image, rules), strict=True):
+            counts = np.take(per_cell, cell).astype(np.int64)
             if shared.size:
                 counts[shared] = self._count_gather(
                     r[shared], self.seq[shared], self.ring[shared], offsets, abs_tol, rel_tol
