@@ -91,8 +91,8 @@ class StructureMemory:
     def _index(self, points_ne: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         assert self.origin is not None
         ij = np.floor((np.asarray(points_ne, dtype=float)[:, :2] - self.origin) / self.cfg.cell_m).astype(np.int64)
-        inside = np.all((ij >= 0) & (ij < self.cells), axis=1)
-        return ij[:, 0], ij[:, 1], inside
+        i, j = ij[:, 0], ij[:, 1]
+        return i, j, (i >= 0) & (i < self.cells) & (j >= 0) & (j < self.cells)
 
     def remember(self, t: float, points_ne: np.ndarray) -> None:
         """Mark the cells under structure returns (or footprint cells) seen at time ``t``."""
@@ -133,15 +133,19 @@ class StructureMemory:
         idx = np.flatnonzero(usable)
         mean, axis, lo, hi, minor_std = principal_extents([footprints[i] for i in idx])
         thin = (minor_std <= cfg.line_max_thickness_m) & (hi - lo >= cfg.line_min_length_m)
+        if not thin.any():
+            return out
+        # Only a thin piece can continue a wall: the others' lines need not be looked up.
+        mean, axis, lo, hi = mean[thin], axis[thin], lo[thin], hi[thin]
         steps = np.arange(1, int(cfg.line_reach_m / cfg.cell_m) + 1) * cfg.cell_m + cfg.line_gap_m  # (S,)
         s_count = steps.size
         # (P, 2 sides, S, 2): samples beyond the low end and beyond the high end
         beyond_lo = mean[:, None, :] + (lo[:, None] - steps[None, :])[..., None] * axis[:, None, :]
         beyond_hi = mean[:, None, :] + (hi[:, None] + steps[None, :])[..., None] * axis[:, None, :]
         samples = np.stack([beyond_lo, beyond_hi], axis=1).reshape(-1, 2)
-        known = self.known(t, samples).reshape(len(idx), 2, s_count)
+        known = self.known(t, samples).reshape(mean.shape[0], 2, s_count)
         share = known.mean(axis=2).max(axis=1)
-        out[idx] = thin & (share >= cfg.line_min_share)
+        out[idx[thin]] = share >= cfg.line_min_share
         return out
 
     def known_fraction(self, t: float, points_ne: np.ndarray) -> float:
