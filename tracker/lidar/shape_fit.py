@@ -248,19 +248,35 @@ def _pad(xys: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     return pad, mask
 
 
-def fit_lshape_corners(clouds: list[np.ndarray], min_offset: float = 0.15) -> list[ShapeFit | DegenerateClusterError]:
+def prepare_all(clouds: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError]:
+    """Each cloud's centred points and centre as the fitters take them (or the error preparing it raises): a
+    scan's batch fitters can share them instead of preparing every cluster again."""
+    out: list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError] = []
+    for pts in clouds:
+        try:
+            out.append(_prepare(pts))
+        except DegenerateClusterError as exc:
+            out.append(exc)
+    return out
+
+
+def fit_lshape_corners(
+    clouds: list[np.ndarray],
+    min_offset: float = 0.15,
+    prepared: list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError] | None = None,
+) -> list[ShapeFit | DegenerateClusterError]:
     """:func:`fit_lshape_corner` for many clusters at once (the same steps on stacked, padded arrays).
 
     Each entry is the fit, or the :class:`DegenerateClusterError` :func:`fit_lshape_corner` would have raised.
+    ``prepared``: :func:`prepare_all` of ``clouds``, if already at hand.
     """
     out: list[ShapeFit | DegenerateClusterError] = [DegenerateClusterError("corner: not fitted")] * len(clouds)
     batch: list[tuple[int, np.ndarray, np.ndarray]] = []
-    for i, pts in enumerate(clouds):
-        try:
-            xy, origin = _prepare(pts)
-        except DegenerateClusterError as exc:
-            out[i] = exc
+    for i, ready in enumerate(prepared if prepared is not None else prepare_all(clouds)):
+        if isinstance(ready, DegenerateClusterError):
+            out[i] = ready
             continue
+        xy, origin = ready
         point = _point_fit(xy, origin)
         if point is not None:
             out[i] = point
@@ -452,20 +468,22 @@ def _sampson_mse(conic: np.ndarray, design: np.ndarray, scale: float) -> float:
     return float(np.mean(val * val / np.maximum(gx * gx + gy * gy, 1e-300))) * scale * scale
 
 
-def fit_ellipses(clouds: list[np.ndarray]) -> list[ShapeFit | DegenerateClusterError]:
+def fit_ellipses(
+    clouds: list[np.ndarray], prepared: list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError] | None = None
+) -> list[ShapeFit | DegenerateClusterError]:
     """:func:`fit_ellipse` for many clusters at once: the least-squares systems of all of them are built and
     solved as stacked arrays, so a scan's twenty boats cost about what a few cost one at a time.
 
     Each entry is the fit, or the :class:`DegenerateClusterError` :func:`fit_ellipse` would have raised.
+    ``prepared``: :func:`prepare_all` of ``clouds``, if already at hand.
     """
     out: list[ShapeFit | DegenerateClusterError] = [DegenerateClusterError("ellipse: not fitted")] * len(clouds)
     batch: list[tuple[int, np.ndarray, np.ndarray]] = []
-    for i, pts in enumerate(clouds):
-        try:
-            xy, origin = _prepare(pts)
-        except DegenerateClusterError as exc:
-            out[i] = exc
+    for i, ready in enumerate(prepared if prepared is not None else prepare_all(clouds)):
+        if isinstance(ready, DegenerateClusterError):
+            out[i] = ready
             continue
+        xy, origin = ready
         if xy.shape[1] < 5:
             out[i] = DegenerateClusterError(f"ellipse: needs 5 points, got {xy.shape[1]}")
             continue

@@ -41,6 +41,7 @@ from tracker.lidar.shape_fit import (
     fit_lshape_corners,
     fit_shape,
     guard_heading,
+    prepare_all,
 )
 from tracker.lidar.structure import StructureMemory
 from tracker.lifecycle import IdSource, Lifecycle, TrackLife
@@ -101,10 +102,11 @@ class LidarTracker:
         # The whole scan's fits as stacked arrays where the fitter has a batch form (same results, less overhead).
         ellipses: list[ShapeFit | DegenerateClusterError | None] = [None] * len(vessels)
         boxes: list[ShapeFit | DegenerateClusterError | None] = [None] * len(vessels)
+        prepared = prepare_all(footprints)
         if shape.mode in ("adaptive", "ellipse"):
-            ellipses = list(fit_ellipses(footprints))
+            ellipses = list(fit_ellipses(footprints, prepared))
         if shape.mode == "lshape-corner" or (shape.mode == "adaptive" and shape.lshape_method == "corner"):
-            boxes = list(fit_lshape_corners(footprints, shape.corner_min_offset))
+            boxes = list(fit_lshape_corners(footprints, shape.corner_min_offset, prepared))
         fits = self.fit_footprints(
             footprints, own, ellipses, [box if isinstance(box, ShapeFit) else None for box in boxes]
         )
