@@ -26,7 +26,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from tracker.grouping import expand_groups, group_keys
+from tracker.grouping import expand_groups, group_keys, stable_order
 from tracker.lidar.config import ClusterConfig
 
 
@@ -150,7 +150,7 @@ def _pair_graph(a: np.ndarray, c: np.ndarray, n: int) -> csr_matrix:
     """The (n, n) graph with an edge a[k] -> c[k] per pair, built as CSR directly: csr_matrix((data, (a, c)))
     goes through COO, sorts and sums duplicates (pairs are unique) and connected_components then converts its
     int8 data to float64, which cost more than finding the components."""
-    order = np.argsort(a, kind="stable")
+    order = stable_order(a)
     indptr = np.zeros(n + 1, dtype=np.int32)
     np.cumsum(np.bincount(a, minlength=n), out=indptr[1:])
     return csr_matrix((np.ones(a.size), c[order].astype(np.int32), indptr), shape=(n, n))
