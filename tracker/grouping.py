@@ -9,10 +9,24 @@ def group_keys(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     """Group equal integer keys: (order, starts, counts, inverse).
 
     ``keys[order]`` is sorted; group g is ``order[starts[g] : starts[g] + counts[g]]`` and groups come in key
-    order; ``inverse[i]`` is element i's group. The sort is numpy's stable one on purpose: a scan's cell keys come
+    order; ``inverse[i]`` is element i's group. The sort is a stable one on purpose: a scan's cell keys come
     in long runs (the sweep walks round the boat), which it exploits - 0.15 ms for a revolution's keys here
     against 1.1 ms for the default quicksort and 1.3 ms for ``np.unique``.
     """
+    order, starts, counts, new = _grouped(keys)
+    inverse = np.empty(order.shape[0], dtype=np.intp)
+    inverse[order] = np.cumsum(new) - 1
+    return order, starts, counts, inverse
+
+
+def group_order(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`group_keys` without the inverse, for callers that do not need it (a pass over the keys saved)."""
+    order, starts, counts, _ = _grouped(keys)
+    return order, starts, counts
+
+
+def _grouped(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(order, starts, counts, whether each sorted key starts a group)."""
     keys = np.asarray(keys).ravel()
     n = keys.shape[0]
     order = stable_order(keys)
@@ -21,9 +35,7 @@ def group_keys(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     new[1:] = sorted_keys[1:] != sorted_keys[:-1]
     starts = np.flatnonzero(new)
     counts = np.diff(np.append(starts, n))
-    inverse = np.empty(n, dtype=np.intp)
-    inverse[order] = np.cumsum(new) - 1
-    return order, starts, counts, inverse
+    return order, starts, counts, new
 
 
 def expand_groups(order: np.ndarray, starts: np.ndarray, counts: np.ndarray, groups: np.ndarray) -> np.ndarray:

@@ -26,7 +26,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from tracker.grouping import expand_groups, group_keys, stable_order
+from tracker.grouping import expand_groups, group_keys, group_order, stable_order
 from tracker.lidar.config import ClusterConfig
 
 
@@ -188,12 +188,12 @@ def cluster_points(
 
     i = np.floor((x - x.min()) * (1.0 / cfg.grid_cell)).astype(np.int64)
     j = np.floor((y - y.min()) * (1.0 / cfg.grid_cell)).astype(np.int64)
-    p_order, p_starts, cell_count, _ = group_keys(i * (int(j.max()) + 1) + j)
+    p_order, p_starts, cell_count = group_order(i * (int(j.max()) + 1) + j)
     cell_xy = np.column_stack([np.add.reduceat(np.take(v, p_order), p_starts) for v in (x, y)]) / cell_count[:, None]
     cell_label = link_cells(cell_xy, cell_count.astype(float), own, cfg)
 
     # Cells grouped by cluster, then their points: every per-cluster statistic is a reduceat over that order.
-    c_order, c_starts, c_cells, _ = group_keys(cell_label)
+    c_order, c_starts, c_cells = group_order(cell_label)
     sizes = np.add.reduceat(cell_count[c_order], c_starts)
     members_all = expand_groups(p_order, p_starts, cell_count, c_order)
     starts = np.cumsum(sizes) - sizes
