@@ -108,25 +108,25 @@ class PoseTable:
         if self.position.shape[0] == 1:
             r = rotation_matrices(self.roll, self.pitch, self.yaw)[0]
             return xyz_body @ r.T + self.position[0], np.full(m, self.position[0, 2])
-        world, pos_down = self.columns_to_world(xyz_body[:, 0], xyz_body[:, 1], xyz_body[:, 2], point_idx)
-        return np.column_stack(world), pos_down
+        north, east, down, pos_down = self.columns_to_world(xyz_body[:, 0], xyz_body[:, 1], xyz_body[:, 2], point_idx)
+        return np.column_stack([north, east, down]), pos_down
 
     def columns_to_world(
-        self, x: np.ndarray, y: np.ndarray, z: np.ndarray, point_idx: np.ndarray, rows: tuple[int, ...] = (0, 1, 2)
-    ) -> tuple[list[np.ndarray], np.ndarray]:
+        self, x: np.ndarray, y: np.ndarray, z: np.ndarray, point_idx: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`body_to_world` for body FRD columns, each point with its own pose (as K > 1 poses place them):
-        ([the world NED ``rows`` (0 north, 1 east, 2 down)], the body origin's down coordinate), m."""
+        (north, east, down, the body origin's down coordinate) columns, m."""
         sel = np.take(self.index, np.asarray(point_idx, dtype=np.intp))
         r = rotation_matrices(self.roll, self.pitch, self.yaw)
         # Column by column with 1-D gathers: several times faster than einsum over an (M, 3, 3) gather.
-        world = [
+        rows = [
             np.take(r[:, row, 0], sel) * x
             + np.take(r[:, row, 1], sel) * y
             + np.take(r[:, row, 2], sel) * z
             + np.take(self.position[:, row], sel)
-            for row in rows
+            for row in range(3)
         ]
-        return world, np.take(self.position[:, 2], sel)
+        return rows[0], rows[1], rows[2], np.take(self.position[:, 2], sel)
 
 
 class PoseSource(Protocol):

@@ -159,8 +159,7 @@ def preprocess(
         return a if everything else np.take(a, idx)
 
     bx, by = kept(x), kept(y)
-    world = _KeptInWorld(poses, xyz, bx, by, kept(z), idx)
-    down, pos_down = world.down, world.pos_down
+    north, east, down, pos_down = _to_world(poses, xyz, bx, by, kept(z), idx)
     # Height above the configured waterline at the body origin, in the level frame of each point's own attitude
     # (world z relative to the body origin: the autopilot's own altitude, GPS or baro, never enters).
     height = cfg.origin_height_above_water - (down - pos_down)
@@ -225,24 +224,16 @@ def preprocess(
     near = r2_kept < cfg.spray_near_range**2
     low_reach = r2_kept < cfg.continuity_near_range**2 if image is not None else True
     low = solid & (near | ((height < low_top) & low_reach))
-    # Within the sea margin yet above its floor, not alone and beyond the spray range: output for the hull gate.
-    undecided = in_band & ~solid & (height > cfg.water.margin_floor) & (r2_kept >= cfg.spray_near_range**2)
-    if image is not None:
-        undecided &= neighbours > 0
-    # Only these can leave as world points (the kept returns are a subset of the solid ones): the others need no
-    # north and east.
-    world.place(solid | undecided)
     spray = np.zeros(idx.size, dtype=bool)
-    low_idx = np.flatnonzero(low)
-    if low_idx.size:
+    if np.any(low):
         # Neighbours among the solid returns within reach of a suspect (a low return next to a hull is hull),
         # counted without itself.
         reach = solid & (
             (height < low_top + cfg.spray_radius) | (r2_kept < (cfg.spray_near_range + cfg.spray_radius) ** 2)
         )
         reach_idx = np.flatnonzero(reach)
-        reach_pts = world.points(reach_idx)
-        low_in_reach = np.searchsorted(reach_idx, low_idx)  # low is a subset of reach: each one's place among it
+        reach_pts = np.column_stack([np.take(north, reach_idx), np.take(east, reach_idx), np.take(down, reach_idx)])
+        low_in_reach = (np.cumsum(reach) - 1)[low]  # low is a subset of reach: each one's place among it
         # The cube block (about 1.5 x spray_radius either way) holds the ball of spray_radius, so its count is an
         # upper bound. Far out that generosity is right: rings are 2 deg apart, so a hull's low edge has few
         # neighbours within 0.5 m at 40 m. Near the boat, where hulls are dense and spray comes in bursts of a few
@@ -253,19 +244,19 @@ def preprocess(
         unsure = ~verdict & (upper < _EXACT_BELOW * max(cfg.spray_min_neighbours, 1)) & near[low]
         if np.any(unsure):
             verdict[unsure] = grid.exact_counts(low_in_reach[unsure]) < cfg.spray_min_neighbours
-        spray[low_idx] = verdict
+        spray[np.flatnonzero(low)] = verdict
     n_spray = int(np.count_nonzero(spray))
 
     good = solid & ~spray
-    if everything:
-        keep = good.copy()
-    else:
-        keep[idx[~good]] = False
+    keep[idx[~good]] = False
+    undecided = in_band & ~solid & (height > cfg.water.margin_floor) & (r2_kept >= cfg.spray_near_range**2)
+    if image is not None:
+        undecided &= neighbours > 0
     n_nonfinite = n - n_finite
     if n_nonfinite:
         log.debug("preprocess: %d non-finite returns skipped", n_nonfinite)
     return PreprocessResult(
-        points_world=world.where(good),
+        points_world=_stack_where(good, north, east, down),
         keep=keep,
         n_nonfinite=n_nonfinite,
         n_range=n_range,
@@ -276,7 +267,7 @@ def preprocess(
         n_isolated=n_isolated,
         n_grazing=n_grazing,
         water=estimate,
-        within_margin_world=world.where(undecided),
+        within_margin_world=_stack_where(undecided, north, east, down),
     )
 
 
@@ -296,45 +287,17 @@ def _in_own_box(
     return own
 
 
-class _KeptInWorld:
-    """World NED of the kept returns: the down coordinate of each (its height needs it), north and east only of
-    those :meth:`place` names (solid or undecided: the others never leave preprocess), each with the same
-    arithmetic as for all of them. In a rough sea most returns are water and rain."""
+def _to_world(
+    poses: PoseTable, xyz: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray, idx: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """World (north, east, down) columns of the kept returns ``idx`` (body columns ``x``, ``y``, ``z``) and the
+    body origin's down coordinate at each."""
+    if poses.position.shape[0] == 1:  # one pose for all: the rotation as one matrix product, as body_to_world does
+        world, pos_down = poses.body_to_world(np.take(xyz, idx, axis=0), idx)
+        return world[:, 0], world[:, 1], world[:, 2], pos_down
+    return poses.columns_to_world(x, y, z, idx)
 
-    def __init__(
-        self, poses: PoseTable, xyz: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray, idx: np.ndarray
-    ) -> None:
-        self.poses, self.x, self.y, self.z, self.idx = poses, x, y, z, idx
-        self._whole: np.ndarray | None = None
-        if poses.position.shape[0] == 1:  # one pose for all: one matrix product, as body_to_world does
-            self._whole, self.pos_down = poses.body_to_world(np.take(xyz, idx, axis=0), idx)
-            self.down = self._whole[:, 2]
-        else:
-            (self.down,), self.pos_down = poses.columns_to_world(x, y, z, idx, rows=(2,))
-        self.placed = np.zeros(0, dtype=bool)
-        self.north = self.east = np.zeros(0)
-        self._slot = np.zeros(0, dtype=np.intp)
 
-    def place(self, wanted: np.ndarray) -> None:
-        """Compute north and east of the returns where ``wanted`` (bool over the kept returns)."""
-        self.placed = wanted
-        self._slot = np.cumsum(wanted) - 1  # each wanted return's place among them
-        if self._whole is not None:
-            self.north, self.east = np.compress(wanted, self._whole[:, 0]), np.compress(wanted, self._whole[:, 1])
-            return
-        pick = np.flatnonzero(wanted)
-        (self.north, self.east), _ = self.poses.columns_to_world(
-            np.take(self.x, pick), np.take(self.y, pick), np.take(self.z, pick), np.take(self.idx, pick), rows=(0, 1)
-        )
-
-    def points(self, which: np.ndarray) -> np.ndarray:
-        """(M, 3) world NED of the placed returns ``which`` (indices over the kept returns)."""
-        slot = np.take(self._slot, which)
-        return np.column_stack([np.take(self.north, slot), np.take(self.east, slot), np.take(self.down, which)])
-
-    def where(self, mask: np.ndarray) -> np.ndarray:
-        """(M, 3) world NED of the placed returns where ``mask`` (bool over the kept returns)."""
-        among = np.compress(self.placed, mask)
-        return np.column_stack(
-            [np.compress(among, self.north), np.compress(among, self.east), np.compress(mask, self.down)]
-        )
+def _stack_where(mask: np.ndarray, north: np.ndarray, east: np.ndarray, down: np.ndarray) -> np.ndarray:
+    """(M, 3) world NED of the returns where ``mask``."""
+    return np.column_stack([np.compress(mask, north), np.compress(mask, east), np.compress(mask, down)])
