@@ -225,7 +225,8 @@ def preprocess(
     low_reach = r2_kept < cfg.continuity_near_range**2 if image is not None else True
     low = solid & (near | ((height < low_top) & low_reach))
     spray = np.zeros(idx.size, dtype=bool)
-    if np.any(low):
+    low_idx = np.flatnonzero(low)
+    if low_idx.size:
         # Neighbours among the solid returns within reach of a suspect (a low return next to a hull is hull),
         # counted without itself.
         reach = solid & (
@@ -233,7 +234,7 @@ def preprocess(
         )
         reach_idx = np.flatnonzero(reach)
         reach_pts = np.column_stack([np.take(north, reach_idx), np.take(east, reach_idx), np.take(down, reach_idx)])
-        low_in_reach = (np.cumsum(reach) - 1)[low]  # low is a subset of reach: each one's place among it
+        low_in_reach = np.searchsorted(reach_idx, low_idx)  # low is a subset of reach: each one's place among it
         # The cube block (about 1.5 x spray_radius either way) holds the ball of spray_radius, so its count is an
         # upper bound. Far out that generosity is right: rings are 2 deg apart, so a hull's low edge has few
         # neighbours within 0.5 m at 40 m. Near the boat, where hulls are dense and spray comes in bursts of a few
@@ -244,11 +245,14 @@ def preprocess(
         unsure = ~verdict & (upper < _EXACT_BELOW * max(cfg.spray_min_neighbours, 1)) & near[low]
         if np.any(unsure):
             verdict[unsure] = grid.exact_counts(low_in_reach[unsure]) < cfg.spray_min_neighbours
-        spray[np.flatnonzero(low)] = verdict
+        spray[low_idx] = verdict
     n_spray = int(np.count_nonzero(spray))
 
     good = solid & ~spray
-    keep[idx[~good]] = False
+    if everything:
+        keep = good.copy()
+    else:
+        keep[idx[~good]] = False
     undecided = in_band & ~solid & (height > cfg.water.margin_floor) & (r2_kept >= cfg.spray_near_range**2)
     if image is not None:
         undecided &= neighbours > 0
