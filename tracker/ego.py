@@ -88,6 +88,10 @@ class PoseTable:
             raise ValueError(f"pose index: need {n} entries within [0, {k}), got shape {index.shape}")
         return cls(pos, att[0], att[1], att[2], index)
 
+    def all_finite(self) -> bool:
+        """Every pose of the table is known (then so is every point's)."""
+        return bool(np.isfinite(self.position).all() and np.isfinite(self.roll + self.pitch + self.yaw).all())
+
     def finite_per_point(self) -> np.ndarray:
         """(N,) bool: the point's pose is known."""
         ok = np.isfinite(self.position[:, 0] + self.position[:, 1] + self.position[:, 2])
@@ -104,18 +108,25 @@ class PoseTable:
         if self.position.shape[0] == 1:
             r = rotation_matrices(self.roll, self.pitch, self.yaw)[0]
             return xyz_body @ r.T + self.position[0], np.full(m, self.position[0, 2])
+        north, east, down, pos_down = self.columns_to_world(xyz_body[:, 0], xyz_body[:, 1], xyz_body[:, 2], point_idx)
+        return np.column_stack([north, east, down]), pos_down
+
+    def columns_to_world(
+        self, x: np.ndarray, y: np.ndarray, z: np.ndarray, point_idx: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`body_to_world` for body FRD columns, each point with its own pose (as K > 1 poses place them):
+        (north, east, down, the body origin's down coordinate) columns, m."""
+        sel = np.take(self.index, np.asarray(point_idx, dtype=np.intp))
         r = rotation_matrices(self.roll, self.pitch, self.yaw)
-        x, y, z = xyz_body[:, 0], xyz_body[:, 1], xyz_body[:, 2]
-        world = np.empty((m, 3))
         # Column by column with 1-D gathers: several times faster than einsum over an (M, 3, 3) gather.
-        for row in range(3):
-            world[:, row] = (
-                np.take(r[:, row, 0], sel) * x
-                + np.take(r[:, row, 1], sel) * y
-                + np.take(r[:, row, 2], sel) * z
-                + np.take(self.position[:, row], sel)
-            )
-        return world, np.take(self.position[:, 2], sel)
+        rows = [
+            np.take(r[:, row, 0], sel) * x
+            + np.take(r[:, row, 1], sel) * y
+            + np.take(r[:, row, 2], sel) * z
+            + np.take(self.position[:, row], sel)
+            for row in range(3)
+        ]
+        return rows[0], rows[1], rows[2], np.take(self.position[:, 2], sel)
 
 
 class PoseSource(Protocol):

@@ -9,21 +9,33 @@ def group_keys(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     """Group equal integer keys: (order, starts, counts, inverse).
 
     ``keys[order]`` is sorted; group g is ``order[starts[g] : starts[g] + counts[g]]`` and groups come in key
-    order; ``inverse[i]`` is element i's group. The sort is numpy's stable one on purpose: a scan's cell keys come
+    order; ``inverse[i]`` is element i's group. The sort is a stable one on purpose: a scan's cell keys come
     in long runs (the sweep walks round the boat), which it exploits - 0.15 ms for a revolution's keys here
     against 1.1 ms for the default quicksort and 1.3 ms for ``np.unique``.
     """
+    order, starts, counts, new = _grouped(keys)
+    inverse = np.empty(order.shape[0], dtype=np.intp)
+    inverse[order] = np.cumsum(new) - 1
+    return order, starts, counts, inverse
+
+
+def group_order(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`group_keys` without the inverse, for callers that do not need it (a pass over the keys saved)."""
+    order, starts, counts, _ = _grouped(keys)
+    return order, starts, counts
+
+
+def _grouped(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(order, starts, counts, whether each sorted key starts a group)."""
     keys = np.asarray(keys).ravel()
     n = keys.shape[0]
-    order = np.argsort(keys, kind="stable")
+    order = stable_order(keys)
     sorted_keys = keys[order]
     new = np.ones(n, dtype=bool)
     new[1:] = sorted_keys[1:] != sorted_keys[:-1]
     starts = np.flatnonzero(new)
     counts = np.diff(np.append(starts, n))
-    inverse = np.empty(n, dtype=np.intp)
-    inverse[order] = np.cumsum(new) - 1
-    return order, starts, counts, inverse
+    return order, starts, counts, new
 
 
 def expand_groups(order: np.ndarray, starts: np.ndarray, counts: np.ndarray, groups: np.ndarray) -> np.ndarray:
@@ -35,3 +47,20 @@ def expand_groups(order: np.ndarray, starts: np.ndarray, counts: np.ndarray, gro
     # Position p of the output belongs to group g = groups[k]: its element is order[starts[g] + (p - first_p(k))].
     first = np.cumsum(cnt) - cnt
     return order[np.repeat(starts[groups] - first, cnt) + np.arange(total)]
+
+
+_RADIX_FROM = 2048  # below this many keys the two passes' overhead outweighs what they save
+
+
+def stable_order(keys: np.ndarray) -> np.ndarray:
+    """np.argsort(keys, kind="stable"), the same permutation. Non-negative integer keys below 2**32 are sorted by
+    two 16-bit passes, low half then high half (a stable sort by each half in turn is the stable sort by the
+    whole key): numpy radix-sorts 16-bit integers, 1.5x (a scan's cell keys) to 6x (random keys) faster than its
+    merge sort of 64-bit ones."""
+    keys = np.asarray(keys)
+    if keys.dtype.kind not in "iu" or keys.size < _RADIX_FROM or keys.min() < 0 or keys.max() >= 1 << 32:
+        return np.argsort(keys, kind="stable")
+    order = np.argsort((keys & 0xFFFF).astype(np.uint16), kind="stable")
+    if keys.max() < 1 << 16:
+        return order
+    return order[np.argsort((keys[order] >> 16).astype(np.uint16), kind="stable")]

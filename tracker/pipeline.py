@@ -247,12 +247,18 @@ class PerceptionPipeline:
             # coasting prediction elsewhere (a quay piece taken for a vessel, a lost track) put false obstacles
             # round the boat in waves.
             swept = self._lidar_coverage.bins() if lidar_fresh else np.zeros(72, dtype=bool)
+            lidar_confirmed = [tr for tr in tracks if tr.confirmed and tr.source != "radar"]
+            unswept = {
+                id(tr)
+                for tr, hit in zip(lidar_confirmed, _swept_many(lidar_confirmed, own, swept), strict=True)
+                if not hit
+            }
             outlines = [
                 outline_points(tr.footprint())
                 for tr in tracks
                 if tr.confirmed
                 and (
-                    (tr.source != "radar" and not _swept(tr, own, swept))
+                    (tr.source != "radar" and id(tr) in unswept)
                     or tr.source == "radar"  # the radar sees a hull sparsely; its track's outline stands for it
                 )
             ]
@@ -472,10 +478,13 @@ def lidar_coverage(scan: LidarScan, s: PipelineSettings) -> SensorCoverage:
     return SensorCoverage(float(np.arctan2(direction[1], direction[0])), scan.sweep_extent, s.lidar_max_range_m)
 
 
-def _swept(tr: Track, own: tuple[np.ndarray, float, float, float], swept: np.ndarray) -> bool:
-    """Whether the newest LiDAR sweep covered the track's bearing (a partial sweep may not have)."""
-    body = world_to_body_2d(tr.position[None, :], own[0][:2], own[3])
-    return bool(swept[bearing_bins(body)[0]])
+def _swept_many(tracks: list[Track], own: tuple[np.ndarray, float, float, float], swept: np.ndarray) -> np.ndarray:
+    """(T,) bool: whether the newest LiDAR sweep covered each track's bearing (a partial sweep may not have). One
+    transform for all tracks, not one per track (numpy's arctan2 gives each element the same bits either way)."""
+    if not tracks:
+        return np.zeros(0, dtype=bool)
+    body = world_to_body_2d(np.array([tr.position for tr in tracks]), own[0][:2], own[3])
+    return swept[bearing_bins(body)]
 
 
 def _beyond(points_fwd_stbd: np.ndarray, range_m: float) -> np.ndarray:

@@ -8,6 +8,7 @@ cannot say whether it is a crest or a hull; a confirmed track can: returns insid
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -21,19 +22,22 @@ def on_tracked_hulls(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: flo
     Work is (points x confirmed tracks) array operations; a track without a finite size or heading counts as
     none."""
     pts = np.asarray(points_ne, dtype=float).reshape(-1, 2)
-    hull = [
-        t
-        for t in tracks
-        if t.confirmed and np.all(np.isfinite(t.position)) and np.isfinite([t.heading, t.length, t.width]).all()
-    ]
+    hull = [t for t in tracks if t.confirmed and _finite_box(t)]
     if pts.shape[0] == 0 or not hull:
         return np.zeros(pts.shape[0], dtype=bool)
     centre = np.array([t.position[:2] for t in hull])  # (T, 2)
     heading = np.array([t.heading for t in hull])
     half_len = np.array([t.length for t in hull]) / 2 + grow_m
     half_wid = np.array([t.width for t in hull]) / 2 + grow_m
-    d = pts[:, None, :] - centre[None, :, :]  # (L, T, 2)
+    # (L, T) per coordinate: an (L, T, 2) difference array cost as much as all the rest
+    dn = pts[:, 0, None] - centre[None, :, 0]
+    de = pts[:, 1, None] - centre[None, :, 1]
     c, s = np.cos(heading), np.sin(heading)
-    along = d[..., 0] * c + d[..., 1] * s
-    across = d[..., 1] * c - d[..., 0] * s
+    along = dn * c + de * s
+    across = de * c - dn * s
     return np.any((np.abs(along) <= half_len) & (np.abs(across) <= half_wid), axis=1)
+
+
+def _finite_box(track: Track) -> bool:
+    """The track has a finite position, heading and size (scalar checks: a few tracks, no arrays needed)."""
+    return all(math.isfinite(v) for v in (*track.position, track.heading, track.length, track.width))

@@ -148,36 +148,50 @@ def preprocess(
     xyz = np.asarray(xyz_body, dtype=float).reshape(-1, 3)
     n = xyz.shape[0]
     poses = PoseTable.of(position_ned, roll, pitch, yaw, n, pose_index)
-    x, y, z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+    # The columns copied once: every pass below reads them contiguously (a strided column costs 2.5x a pass).
+    x, y, z = np.ascontiguousarray(xyz.T)
 
-    finite = np.isfinite(x + y + z) & poses.finite_per_point()
-    keep = finite.copy()
+    finite = np.isfinite(x + y + z)
+    if not poses.all_finite():
+        finite &= poses.finite_per_point()
 
     # Range is horizontal from the body origin: the sensor sits a metre or so from it, well inside the tolerance.
     r2 = x * x + y * y
-    in_range = (r2 >= cfg.min_range**2) & (r2 <= cfg.max_range**2)
-    n_range = int(np.count_nonzero(keep & ~in_range))
-    keep &= in_range
+    keep = finite & (r2 >= cfg.min_range**2) & (r2 <= cfg.max_range**2)
+    n_finite = int(np.count_nonzero(finite))
+    n_range = n_finite - int(np.count_nonzero(keep))
 
-    x0, x1, y0, y1, z0, z1 = cfg.own_box
-    own = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1) & (z >= z0) & (z <= z1)
+    own = _in_own_box(x, y, z, r2, cfg.own_box)
     n_own = int(np.count_nonzero(keep & own))
-    keep &= ~own
+    if n_own:
+        keep &= ~own
 
-    idx = np.flatnonzero(keep)
-    world, pos_down = poses.body_to_world(np.take(xyz, idx, axis=0), idx)
+    # Usually every return survives the masks above: then the kept returns are the arrays themselves, no copies.
+    everything = n_range == 0 and n_own == 0 and n_finite == n
+    idx = np.arange(n) if everything else np.flatnonzero(keep)
+
+    def kept(a: np.ndarray) -> np.ndarray:
+        return a if everything else np.take(a, idx)
+
+    bx, by = kept(x), kept(y)
+    north, east, down, pos_down = _to_world(poses, xyz, bx, by, kept(z), idx)
     # Height above the configured waterline at the body origin, in the level frame of each point's own attitude
     # (world z relative to the body origin: the autopilot's own altitude, GPS or baro, never enters).
-    height = cfg.origin_height_above_water - (world[:, 2] - pos_down)
-    bx, by = np.take(x, idx), np.take(y, idx)
-    rings = np.take(ring, idx) if ring is not None else None
+    height = cfg.origin_height_above_water - (down - pos_down)
+    rings = kept(ring) if ring is not None else None
     horizontal = np.sqrt(r2)
     image = RangeImage.build(point_t, ring, horizontal) if ring is not None and point_t is not None else None
     vertical = alone = None
     if image is not None:
-        vertical = np.take(image.vertical(horizontal, cfg.vertical_abs_tol, cfg.vertical_rel_tol), idx)
-        neighbours_all = image.continuous(horizontal, cfg.continuity_abs_tol, cfg.continuity_rel_tol)
-        alone = np.take(neighbours_all, idx) == 0
+        neighbours_all, vertical_all = image.continuous_and_vertical(
+            horizontal,
+            (cfg.continuity_abs_tol, cfg.continuity_rel_tol),
+            (cfg.vertical_abs_tol, cfg.vertical_rel_tol),
+        )
+        vertical = kept(vertical_all)
+        neighbours = kept(neighbours_all)
+        alone = neighbours == 0
+    r2_kept = kept(r2)
     estimate = (
         water.update(bx, by, height, t, rings, vertical, alone)
         if water is not None
@@ -196,8 +210,7 @@ def preprocess(
     n_isolated = n_grazing = 0
     isolated = None
     if image is not None and cfg.continuity_min_neighbours > 0:
-        neighbours = np.take(neighbours_all, idx)
-        need = cfg.continuity_min_neighbours + (np.take(r2, idx) < cfg.continuity_near_range**2)
+        need = cfg.continuity_min_neighbours + (r2_kept < cfg.continuity_near_range**2)
         alone = solid & (neighbours < need)
         n_isolated = int(np.count_nonzero(alone))
         solid &= ~alone
@@ -211,8 +224,7 @@ def preprocess(
         # solids' feet are few: returns within the sea margin within calm_near_range that are not on a vertical
         # face. Rain drops and spray above the margin (dropped as alone just above) are not the water: counted as
         # such, 1,000 drops a revolution made a glassy sea look rough and no foot was kept in rain.
-        r2_idx = np.take(r2, idx)
-        near_low = in_band & (height <= margin) & (r2_idx < cfg.calm_near_range**2)
+        near_low = in_band & (height <= margin) & (r2_kept < cfg.calm_near_range**2)
         if vertical is not None:
             near_low &= ~vertical
         calm = not estimate.measured and int(np.count_nonzero(near_low)) < cfg.calm_max_near_returns
@@ -228,20 +240,20 @@ def preprocess(
     # Farther out a low return in a line of returns is kept: a quay 54 m off met by one beam gives two or three
     # returns 0.4 m up, which this 3-neighbour ball test dropped.
     low_top = cfg.spray_max_height + margin - cfg.water.margin_floor
-    r2_kept = r2[idx]
     near = r2_kept < cfg.spray_near_range**2
     low_reach = r2_kept < cfg.continuity_near_range**2 if image is not None else True
     low = solid & (near | ((height < low_top) & low_reach))
     spray = np.zeros(idx.size, dtype=bool)
-    if np.any(low):
+    low_idx = np.flatnonzero(low)
+    if low_idx.size:
         # Neighbours among the solid returns within reach of a suspect (a low return next to a hull is hull),
         # counted without itself.
         reach = solid & (
             (height < low_top + cfg.spray_radius) | (r2_kept < (cfg.spray_near_range + cfg.spray_radius) ** 2)
         )
         reach_idx = np.flatnonzero(reach)
-        reach_pts = np.take(world, reach_idx, axis=0)
-        low_in_reach = (np.cumsum(reach) - 1)[low]  # low is a subset of reach: each one's place among it
+        reach_pts = np.column_stack([np.take(north, reach_idx), np.take(east, reach_idx), np.take(down, reach_idx)])
+        low_in_reach = np.searchsorted(reach_idx, low_idx)  # low is a subset of reach: each one's place among it
         # The cube block (about 1.5 x spray_radius either way) holds the ball of spray_radius, so its count is an
         # upper bound. Far out that generosity is right: rings are 2 deg apart, so a hull's low edge has few
         # neighbours within 0.5 m at 40 m. Near the boat, where hulls are dense and spray comes in bursts of a few
@@ -252,20 +264,26 @@ def preprocess(
         unsure = ~verdict & (upper < _EXACT_BELOW * max(cfg.spray_min_neighbours, 1)) & near[low]
         if np.any(unsure):
             verdict[unsure] = grid.exact_counts(low_in_reach[unsure]) < cfg.spray_min_neighbours
-        spray[np.flatnonzero(low)] = verdict
+        spray[low_idx] = verdict
     n_spray = int(np.count_nonzero(spray))
 
     good = solid & ~spray
-    keep[idx[~good]] = False
-    undecided = in_band & ~solid & (height > cfg.water.margin_floor) & (r2[idx] >= cfg.spray_near_range**2)
+    if everything:
+        keep = good.copy()
+    else:
+        keep[idx[~good]] = False
+    undecided = in_band & ~solid & (height > cfg.water.margin_floor) & (r2_kept >= cfg.spray_near_range**2)
     if image is not None:
-        undecided &= np.take(neighbours_all, idx) > 0
-    n_nonfinite = n - int(np.count_nonzero(finite))
-    reason = _reasons(n, finite, in_range, idx, in_band, isolated, spray, good) if reasons else None
+        undecided &= neighbours > 0
+    n_nonfinite = n - n_finite
+    reason = None
+    if reasons:  # only for a live view: the range mask again, rather than keeping it on the hot path
+        in_range = (r2 >= cfg.min_range**2) & (r2 <= cfg.max_range**2)
+        reason = _reasons(n, finite, in_range, idx, in_band, isolated, spray, good)
     if n_nonfinite:
         log.debug("preprocess: %d non-finite returns skipped", n_nonfinite)
     return PreprocessResult(
-        points_world=np.compress(good, world, axis=0),
+        points_world=_stack_where(good, north, east, down),
         keep=keep,
         n_nonfinite=n_nonfinite,
         n_range=n_range,
@@ -276,9 +294,41 @@ def preprocess(
         n_isolated=n_isolated,
         n_grazing=n_grazing,
         water=estimate,
-        within_margin_world=np.compress(undecided, world, axis=0),
+        within_margin_world=_stack_where(undecided, north, east, down),
         reason=reason,
     )
+
+
+def _in_own_box(
+    x: np.ndarray, y: np.ndarray, z: np.ndarray, r2: np.ndarray, box: tuple[float, float, float, float, float, float]
+) -> np.ndarray:
+    """(N,) bool: the return lies in the own boat's box. Only returns within the box's corner radius can (squares
+    and sums round monotonically, so r2 <= the corner's r2 for every point inside), and those are a few: the six
+    comparisons run on them, not on the revolution."""
+    x0, x1, y0, y1, z0, z1 = box
+    mx, my = max(abs(x0), abs(x1)), max(abs(y0), abs(y1))
+    own = np.zeros(x.shape[0], dtype=bool)
+    near = np.flatnonzero(r2 <= mx * mx + my * my)
+    if near.size:
+        nx, ny, nz = x[near], y[near], z[near]
+        own[near] = (nx >= x0) & (nx <= x1) & (ny >= y0) & (ny <= y1) & (nz >= z0) & (nz <= z1)
+    return own
+
+
+def _to_world(
+    poses: PoseTable, xyz: np.ndarray, x: np.ndarray, y: np.ndarray, z: np.ndarray, idx: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """World (north, east, down) columns of the kept returns ``idx`` (body columns ``x``, ``y``, ``z``) and the
+    body origin's down coordinate at each."""
+    if poses.position.shape[0] == 1:  # one pose for all: the rotation as one matrix product, as body_to_world does
+        world, pos_down = poses.body_to_world(np.take(xyz, idx, axis=0), idx)
+        return world[:, 0], world[:, 1], world[:, 2], pos_down
+    return poses.columns_to_world(x, y, z, idx)
+
+
+def _stack_where(mask: np.ndarray, north: np.ndarray, east: np.ndarray, down: np.ndarray) -> np.ndarray:
+    """(M, 3) world NED of the returns where ``mask``."""
+    return np.column_stack([np.compress(mask, north), np.compress(mask, east), np.compress(mask, down)])
 
 
 def _reasons(

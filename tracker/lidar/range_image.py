@@ -16,6 +16,7 @@ comparisons of a (sequences x 16) array, about 29k cells a revolution, whatever 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -25,6 +26,43 @@ RINGS = 16
 # VLP-16 laser id of each ring (ring 0 = lowest beam, -15 deg): lasers alternate -15, +1, -13, +3, ...
 LASER_OF_RING = np.array([0, 2, 4, 6, 8, 10, 12, 14, 1, 3, 5, 7, 9, 11, 13, 15], dtype=np.int64)
 MAX_SEQUENCES = 40_000  # 2.2 s of firings: a revolution with a wilder time spread gets no image
+CONTINUITY_OFFSETS = [(ds, dr) for ds in (-1, 0, 1) for dr in (-1, 0, 1) if (ds, dr) != (0, 0)]
+VERTICAL_OFFSETS = [(ds, dr) for ds in (-1, 0, 1) for dr in (-2, -1, 1, 2)]
+# A per-return gather of its ~20 neighbour cells costs about what comparing 8 cells of the whole image does (measured:
+# equal at ~4.5k returns a revolution); with fewer returns (calm water returns almost nothing) it is the cheaper.
+_GATHER_BELOW = 8
+
+
+def _cell_counts(image: np.ndarray, rules: list[tuple[list[tuple[int, int]], float, float]]) -> list[np.ndarray]:
+    """Per rule (offsets, abs_tol, rel_tol): (cells,) int8, each cell of the flat padded image's neighbours at the
+    rule's offsets within abs_tol + rel_tol x its range (meaningful for the centre cells only).
+
+    Everything runs on the flat image: a neighbour at (ds, dr) is ``ds * width + dr`` cells further on, so every
+    step is one pass over contiguous memory (2-D slices of a 20-column image cost three times as much). Each
+    unordered pair of cells is differenced once, for every rule and both directions: the difference towards
+    -shift is the one towards +shift read at the neighbour (|a - b| == |b - a| exactly in floating point); one
+    difference array at a time keeps the work in cache. The padding keeps every centre cell's neighbours within
+    its own row."""
+    flat = image.ravel()
+    width = image.shape[1]
+    with np.errstate(invalid="ignore"):
+        tols = [abs_tol + rel_tol * flat for _, abs_tol, rel_tol in rules]
+        counts = [np.zeros(flat.size, dtype=np.int8) for _ in rules]
+        scratch = np.empty(flat.size, dtype=bool)
+        shifts = [[ds * width + dr for ds, dr in offsets] for offsets, _, _ in rules]
+        for shift in sorted({abs(k) for ks in shifts for k in ks}):
+            d = np.subtract(flat[shift:], flat[:-shift])
+            np.abs(d, out=d)
+            n = d.size
+            near = scratch[:n]
+            for ks, tol, count in zip(shifts, tols, counts, strict=True):
+                if shift in ks:  # towards +shift: the cell's own difference
+                    np.less_equal(d, tol[:n], out=near)
+                    count[:n] += near.view(np.int8)
+                if -shift in ks:  # towards -shift: the neighbour's difference
+                    np.less_equal(d, tol[-n:], out=near)
+                    count[-n:] += near.view(np.int8)
+    return counts
 
 
 @dataclass(frozen=True)
@@ -41,35 +79,49 @@ class RangeImage:
         ring_i = np.asarray(ring, dtype=np.int64)
         if t.size == 0 or not np.isfinite(t).all() or ring_i.min() < 0 or ring_i.max() >= RINGS:
             return None
-        start = t - LASER_OF_RING[ring_i] * FIRING_S
+        start = t - np.take(LASER_OF_RING, ring_i) * FIRING_S
         seq = np.rint((start - start.min()) * (1.0 / SEQUENCE_S)).astype(np.int64)
         n_seq = int(seq.max()) + 1
         if n_seq > MAX_SEQUENCES:
             return None
         image = np.full((n_seq + 2, RINGS + 4), np.nan)
-        image[seq + 1, ring_i + 2] = horizontal_range
-        return cls(seq, ring_i, image)
+        out = cls(seq, ring_i, image)
+        image.ravel()[out._cell] = horizontal_range
+        return out
+
+    @cached_property
+    def _cell(self) -> np.ndarray:
+        """(N,) each return's cell in the flat image (a flat index costs a fraction of a 2-D one)."""
+        return (self.seq + 1) * self.image.shape[1] + (self.ring + 2)
+
+    def _sparse(self) -> bool:
+        return self.seq.size * _GATHER_BELOW < self.image.size
 
     def _count(self, r: np.ndarray, offsets: list[tuple[int, int]], abs_tol: float, rel_tol: float) -> np.ndarray:
         """For each return: how many cells at (sequence, ring) ``offsets`` hold a range within abs_tol + rel_tol x
-        its own. The comparison runs once per offset over the whole image as shifted slices (about 36k cells, no
-        index arrays), then each return reads its own cell: a per-return gather of (N, offsets) cells cost 4 ms a
-        revolution at 25k returns. The padding (one row, two columns each side) keeps every offset of at most one
-        sequence and two rings inside the image. A return that shares its cell with another (dual returns, or two
-        firings rounded into one sequence) is not the cell's range and is counted on its own."""
-        image = self.image
-        n_seq = image.shape[0] - 2
-        centre = image[1 : n_seq + 1, 2 : RINGS + 2]
-        with np.errstate(invalid="ignore"):
-            tol = abs_tol + rel_tol * centre
-            counts = np.zeros(centre.shape, dtype=np.int8)
-            for ds, dr in offsets:
-                other = image[1 + ds : n_seq + 1 + ds, 2 + dr : RINGS + 2 + dr]
-                counts += np.abs(other - centre) <= tol
-        out = counts[self.seq, self.ring].astype(np.int64)
-        shared = centre[self.seq, self.ring] != r
-        if shared.any():
-            out[shared] = self._count_gather(r[shared], self.seq[shared], self.ring[shared], offsets, abs_tol, rel_tol)
+        its own."""
+        return self._counts(r, [(offsets, abs_tol, rel_tol)])[0]
+
+    def _counts(self, r: np.ndarray, rules: list[tuple[list[tuple[int, int]], float, float]]) -> list[np.ndarray]:
+        """:meth:`_count` for each (offsets, abs_tol, rel_tol) of ``rules``. The comparison runs once per offset
+        over the whole image (about 36k cells, no index arrays), then each return reads its own cell: a per-return
+        gather of (N, offsets) cells cost 4 ms a revolution at 25k returns. The padding (one row, two columns each
+        side) keeps every offset of at most one sequence and two rings inside the image. A return that shares its
+        cell with another (dual returns, or two firings rounded into one sequence) is not the cell's range and is
+        counted on its own. A sparse revolution gathers each return's neighbours instead (the same comparisons,
+        fewer cells)."""
+        if self._sparse():
+            return [self._count_gather(r, self.seq, self.ring, *rule) for rule in rules]
+        cell = self._cell
+        shared = np.flatnonzero(np.take(self.image.ravel(), cell) != r)
+        out = []
+        for (offsets, abs_tol, rel_tol), per_cell in zip(rules, _cell_counts(self.image, rules), strict=True):
+            counts = np.take(per_cell, cell).astype(np.int64)
+            if shared.size:
+                counts[shared] = self._count_gather(
+                    r[shared], self.seq[shared], self.ring[shared], offsets, abs_tol, rel_tol
+                )
+            out.append(counts)
         return out
 
     def _count_gather(
@@ -93,11 +145,19 @@ class RangeImage:
     def continuous(self, r: np.ndarray, abs_tol: float, rel_tol: float) -> np.ndarray:
         """(N,) neighbours among the 8 around each return (the firings beside it on its ring, and the lasers above
         and below within one sequence) at a range within abs_tol + rel_tol * r of its own."""
-        offsets = [(ds, dr) for ds in (-1, 0, 1) for dr in (-1, 0, 1) if (ds, dr) != (0, 0)]
-        return self._count(r, offsets, abs_tol, rel_tol)
+        return self._count(r, CONTINUITY_OFFSETS, abs_tol, rel_tol)
 
     def vertical(self, r: np.ndarray, abs_tol: float, rel_tol: float) -> np.ndarray:
         """(N,) bool: a laser one or two rings above or below, within one sequence, returned at the same horizontal
         range (within abs_tol + rel_tol * r): the return lies on a vertical face."""
-        offsets = [(ds, dr) for ds in (-1, 0, 1) for dr in (-2, -1, 1, 2)]
-        return self._count(r, offsets, abs_tol, rel_tol) > 0
+        return self._count(r, VERTICAL_OFFSETS, abs_tol, rel_tol) > 0
+
+    def continuous_and_vertical(
+        self, r: np.ndarray, continuity_tol: tuple[float, float], vertical_tol: tuple[float, float]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`continuous` and :meth:`vertical` (each with its (abs, rel) tolerance) in one go: the two share
+        six of their offsets, and each difference between neighbouring cells is taken once for both."""
+        neighbours, vertical = self._counts(
+            r, [(CONTINUITY_OFFSETS, *continuity_tol), (VERTICAL_OFFSETS, *vertical_tol)]
+        )
+        return neighbours, vertical > 0

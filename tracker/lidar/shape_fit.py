@@ -248,19 +248,35 @@ def _pad(xys: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     return pad, mask
 
 
-def fit_lshape_corners(clouds: list[np.ndarray], min_offset: float = 0.15) -> list[ShapeFit | DegenerateClusterError]:
+def prepare_all(clouds: list[np.ndarray]) -> list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError]:
+    """Each cloud's centred points and centre as the fitters take them (or the error preparing it raises): a
+    scan's batch fitters can share them instead of preparing every cluster again."""
+    out: list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError] = []
+    for pts in clouds:
+        try:
+            out.append(_prepare(pts))
+        except DegenerateClusterError as exc:
+            out.append(exc)
+    return out
+
+
+def fit_lshape_corners(
+    clouds: list[np.ndarray],
+    min_offset: float = 0.15,
+    prepared: list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError] | None = None,
+) -> list[ShapeFit | DegenerateClusterError]:
     """:func:`fit_lshape_corner` for many clusters at once (the same steps on stacked, padded arrays).
 
     Each entry is the fit, or the :class:`DegenerateClusterError` :func:`fit_lshape_corner` would have raised.
+    ``prepared``: :func:`prepare_all` of ``clouds``, if already at hand.
     """
     out: list[ShapeFit | DegenerateClusterError] = [DegenerateClusterError("corner: not fitted")] * len(clouds)
     batch: list[tuple[int, np.ndarray, np.ndarray]] = []
-    for i, pts in enumerate(clouds):
-        try:
-            xy, origin = _prepare(pts)
-        except DegenerateClusterError as exc:
-            out[i] = exc
+    for i, ready in enumerate(prepared if prepared is not None else prepare_all(clouds)):
+        if isinstance(ready, DegenerateClusterError):
+            out[i] = ready
             continue
+        xy, origin = ready
         point = _point_fit(xy, origin)
         if point is not None:
             out[i] = point
@@ -452,20 +468,22 @@ def _sampson_mse(conic: np.ndarray, design: np.ndarray, scale: float) -> float:
     return float(np.mean(val * val / np.maximum(gx * gx + gy * gy, 1e-300))) * scale * scale
 
 
-def fit_ellipses(clouds: list[np.ndarray]) -> list[ShapeFit | DegenerateClusterError]:
+def fit_ellipses(
+    clouds: list[np.ndarray], prepared: list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError] | None = None
+) -> list[ShapeFit | DegenerateClusterError]:
     """:func:`fit_ellipse` for many clusters at once: the least-squares systems of all of them are built and
     solved as stacked arrays, so a scan's twenty boats cost about what a few cost one at a time.
 
     Each entry is the fit, or the :class:`DegenerateClusterError` :func:`fit_ellipse` would have raised.
+    ``prepared``: :func:`prepare_all` of ``clouds``, if already at hand.
     """
     out: list[ShapeFit | DegenerateClusterError] = [DegenerateClusterError("ellipse: not fitted")] * len(clouds)
     batch: list[tuple[int, np.ndarray, np.ndarray]] = []
-    for i, pts in enumerate(clouds):
-        try:
-            xy, origin = _prepare(pts)
-        except DegenerateClusterError as exc:
-            out[i] = exc
+    for i, ready in enumerate(prepared if prepared is not None else prepare_all(clouds)):
+        if isinstance(ready, DegenerateClusterError):
+            out[i] = ready
             continue
+        xy, origin = ready
         if xy.shape[1] < 5:
             out[i] = DegenerateClusterError(f"ellipse: needs 5 points, got {xy.shape[1]}")
             continue
@@ -681,6 +699,94 @@ def complete_symmetric_hull(
     # The centreline is tip_depth behind the near side; the beam is twice that.
     width = 2.0 * tip_depth
     shift = near * (half_w - tip_depth)  # new centre's v in the old box frame
+    center = fit.center + shift * np.array([-s, c])
+    length, heading = fit.length, fit.heading
+    if width > length:
+        length, width, heading = width, length, _axis_angle(heading + HALF_PI)
+    return ShapeFit(center, heading, length, width, fit.mse, fit.kind, fit.n_points, fit.method, completed=True)
+
+
+def complete_symmetric_hulls(
+    fits: list[ShapeFit], clouds: list[np.ndarray], sensor_position: np.ndarray, config: ShapeConfig | None = None
+) -> list[ShapeFit]:
+    """:func:`complete_symmetric_hull` for many fits at once (each with its cluster's points): the per-point steps
+    run on stacked, padded arrays, the few per-fit decisions in Python, each with the same arithmetic as the
+    one-fit function, so the results are the same."""
+    cfg = config or ShapeConfig()
+    out = list(fits)
+    if cfg.taper_min_depth <= 0.0:  # a zero tip can leave an end's deeper half empty: only the one-fit form copes
+        return [complete_symmetric_hull(f, c, sensor_position, cfg) for f, c in zip(fits, clouds, strict=True)]
+    sensor = np.asarray(sensor_position, dtype=float)[:2]
+    batch: list[tuple[int, float, float, float]] = []  # (index, cos, sin, which side the sensor is on)
+    for i, fit in enumerate(fits):
+        if fit.kind is not ShapeKind.BOX or fit.n_points < 6 or fit.length <= 0.0:
+            continue
+        c, s = math.cos(fit.heading), math.sin(fit.heading)
+        rel = sensor - fit.center
+        sv = float(rel[1] * c - rel[0] * s)
+        if abs(sv) <= 0.5 * fit.width:  # the sensor is not beside the box: no one-sided view across the width
+            continue
+        batch.append((i, c, s, 1.0 if sv > 0.0 else -1.0))
+    if not batch:
+        return out
+    sizes = [len(clouds[i]) for i, _, _, _ in batch]
+    k, nmax = len(batch), max(sizes)
+    pn, pe = np.zeros((k, nmax)), np.zeros((k, nmax))
+    mask = np.zeros((k, nmax), dtype=bool)
+    for j, (i, _, _, _) in enumerate(batch):
+        pts = np.asarray(clouds[i], dtype=float)
+        pn[j, : sizes[j]], pe[j, : sizes[j]] = pts[:, 0], pts[:, 1]
+        mask[j, : sizes[j]] = True
+    with np.errstate(invalid="ignore"):
+        mask &= np.isfinite(pn) & np.isfinite(pe)
+    c = np.array([b[1] for b in batch])[:, None]
+    s = np.array([b[2] for b in batch])[:, None]
+    near = np.array([b[3] for b in batch])[:, None]
+    center = np.array([fits[i].center for i, _, _, _ in batch])
+    half_w = np.array([0.5 * fits[i].width for i, _, _, _ in batch])[:, None]
+    half_l = np.array([0.5 * fits[i].length for i, _, _, _ in batch])[:, None]
+    zone = np.array([0.5 * fits[i].length - cfg.taper_end_zone * fits[i].length for i, _, _, _ in batch])[:, None]
+    dn, de = pn - center[:, :1], pe - center[:, 1:]
+    u = dn * c + de * s
+    v = de * c - dn * s
+    depth = half_w - near * v  # 0 on the near side, fit.width on the far edge
+    ends = []
+    for end in (1.0, -1.0):
+        at_end = mask & (u * end >= zone)
+        tip = np.where(at_end, depth, -np.inf).max(axis=1)
+        deeper = at_end & (depth > 0.5 * tip[:, None])
+        band = np.where(deeper, half_l - end * u, -np.inf).max(axis=1)  # how far back the deeper half reaches
+        ends.append((np.count_nonzero(at_end, axis=1), tip, band))
+    for j, (i, cj, sj, nearj) in enumerate(batch):
+        tips = [(int(n[j]), float(tip[j]), float(band[j])) for n, tip, band in ends]
+        tip_depth = _taper_depth(tips, fits[i].width, cfg)
+        if tip_depth is not None:
+            out[i] = _completed(fits[i], tip_depth, cj, sj, nearj)
+    return out
+
+
+def _taper_depth(ends: list[tuple[int, float, float]], width: float, cfg: ShapeConfig) -> float | None:
+    """complete_symmetric_hull's decision from each end's (points at it, tip depth, band): the centreline's depth
+    behind the near side, or None to keep the fit."""
+    tip_depth = 0.0
+    for count, tip, band in ends:
+        if count < 3 or tip < cfg.taper_min_depth:
+            continue
+        if band > cfg.taper_band_max_ratio * tip:
+            continue  # too gentle for a stem: a straight side the box is slightly turned against
+        if band > max(cfg.taper_min_band, cfg.taper_band_ratio * tip):
+            tip_depth = max(tip_depth, tip)
+        elif tip >= 0.9 * width:
+            return None  # a square end across the whole box: the width is seen
+    if tip_depth <= 0.0 or 2.0 * tip_depth < width:
+        return None  # no taper, or one too shallow to hold what was seen beyond it
+    return tip_depth
+
+
+def _completed(fit: ShapeFit, tip_depth: float, c: float, s: float, near: float) -> ShapeFit:
+    """``fit`` widened to twice ``tip_depth`` about the centreline (see complete_symmetric_hull)."""
+    width = 2.0 * tip_depth
+    shift = near * (0.5 * fit.width - tip_depth)  # new centre's v in the old box frame
     center = fit.center + shift * np.array([-s, c])
     length, heading = fit.length, fit.heading
     if width > length:

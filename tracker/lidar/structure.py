@@ -55,10 +55,17 @@ class StructureMemory:
         self.cells = int(np.ceil(2 * self.cfg.half_size_m / self.cfg.cell_m))
         self.last_seen = np.full((self.cells, self.cells), -np.inf)
         self.origin: np.ndarray | None = None  # world (north, east) of cell (0, 0)'s corner
+        self.newest = -np.inf  # no cell was last seen later than this
 
     def reset(self) -> None:
         self.last_seen.fill(-np.inf)
         self.origin = None
+        self.newest = -np.inf
+
+    def _remembers_any(self, t: float) -> bool:
+        """Whether any cell may have been seen within ``memory_s`` of ``t``: in open water none ever was, and the
+        lookups need not run."""
+        return self.newest >= t - self.cfg.memory_s
 
     def follow(self, own_ne: np.ndarray) -> None:
         """Keep every point within ``range_m`` of the own boat on the grid: recentre (moving what it remembers
@@ -84,8 +91,8 @@ class StructureMemory:
     def _index(self, points_ne: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         assert self.origin is not None
         ij = np.floor((np.asarray(points_ne, dtype=float)[:, :2] - self.origin) / self.cfg.cell_m).astype(np.int64)
-        inside = np.all((ij >= 0) & (ij < self.cells), axis=1)
-        return ij[:, 0], ij[:, 1], inside
+        i, j = ij[:, 0], ij[:, 1]
+        return i, j, (i >= 0) & (i < self.cells) & (j >= 0) & (j < self.cells)
 
     def remember(self, t: float, points_ne: np.ndarray) -> None:
         """Mark the cells under structure returns (or footprint cells) seen at time ``t``."""
@@ -93,15 +100,17 @@ class StructureMemory:
             return
         i, j, inside = self._index(points_ne)
         self.last_seen[i[inside], j[inside]] = t
+        self.newest = max(self.newest, t)
 
     def known(self, t: float, points_ne: np.ndarray) -> np.ndarray:
         """(n,) bool: the point lies on, or next to, a cell seen under structure within ``memory_s`` of ``t``."""
-        if self.origin is None or len(points_ne) == 0:
+        if self.origin is None or len(points_ne) == 0 or not self._remembers_any(t):
             return np.zeros(len(points_ne), dtype=bool)
         i, j, _ = self._index(points_ne)
         ni, nj = i[:, None] + _NEIGHBOURS[None, :, 0], j[:, None] + _NEIGHBOURS[None, :, 1]
         on_grid = (ni >= 0) & (ni < self.cells) & (nj >= 0) & (nj < self.cells)
-        recent = self.last_seen[np.clip(ni, 0, self.cells - 1), np.clip(nj, 0, self.cells - 1)] >= t - self.cfg.memory_s
+        flat = np.clip(ni, 0, self.cells - 1) * self.cells + np.clip(nj, 0, self.cells - 1)  # a 2-D gather costs 3x
+        recent = np.take(self.last_seen.ravel(), flat) >= t - self.cfg.memory_s
         return np.any(recent & on_grid, axis=1)  # off the grid nothing is known
 
     def continues(self, t: float, footprints: list[np.ndarray]) -> np.ndarray:
@@ -115,7 +124,7 @@ class StructureMemory:
         cfg = self.cfg
         k = len(footprints)
         out = np.zeros(k, dtype=bool)
-        if self.origin is None or k == 0 or cfg.line_reach_m <= 0:
+        if self.origin is None or k == 0 or cfg.line_reach_m <= 0 or not self._remembers_any(t):
             return out
         sizes = np.array([len(f) for f in footprints])
         usable = sizes >= 3
@@ -124,15 +133,19 @@ class StructureMemory:
         idx = np.flatnonzero(usable)
         mean, axis, lo, hi, minor_std = principal_extents([footprints[i] for i in idx])
         thin = (minor_std <= cfg.line_max_thickness_m) & (hi - lo >= cfg.line_min_length_m)
+        if not thin.any():
+            return out
+        # Only a thin piece can continue a wall: the others' lines need not be looked up.
+        mean, axis, lo, hi = mean[thin], axis[thin], lo[thin], hi[thin]
         steps = np.arange(1, int(cfg.line_reach_m / cfg.cell_m) + 1) * cfg.cell_m + cfg.line_gap_m  # (S,)
         s_count = steps.size
         # (P, 2 sides, S, 2): samples beyond the low end and beyond the high end
         beyond_lo = mean[:, None, :] + (lo[:, None] - steps[None, :])[..., None] * axis[:, None, :]
         beyond_hi = mean[:, None, :] + (hi[:, None] + steps[None, :])[..., None] * axis[:, None, :]
         samples = np.stack([beyond_lo, beyond_hi], axis=1).reshape(-1, 2)
-        known = self.known(t, samples).reshape(len(idx), 2, s_count)
+        known = self.known(t, samples).reshape(mean.shape[0], 2, s_count)
         share = known.mean(axis=2).max(axis=1)
-        out[idx] = thin & (share >= cfg.line_min_share)
+        out[idx[thin]] = share >= cfg.line_min_share
         return out
 
     def known_fraction(self, t: float, points_ne: np.ndarray) -> float:

@@ -36,10 +36,12 @@ from tracker.lidar.shape_fit import (
     ShapeFit,
     cluster_height,
     complete_symmetric_hull,
+    complete_symmetric_hulls,
     fit_ellipses,
     fit_lshape_corners,
     fit_shape,
     guard_heading,
+    prepare_all,
 )
 from tracker.lidar.structure import StructureMemory
 from tracker.lifecycle import IdSource, Lifecycle, TrackLife
@@ -100,14 +102,17 @@ class LidarTracker:
         # The whole scan's fits as stacked arrays where the fitter has a batch form (same results, less overhead).
         ellipses: list[ShapeFit | DegenerateClusterError | None] = [None] * len(vessels)
         boxes: list[ShapeFit | DegenerateClusterError | None] = [None] * len(vessels)
+        prepared = prepare_all(footprints)
         if shape.mode in ("adaptive", "ellipse"):
-            ellipses = list(fit_ellipses(footprints))
+            ellipses = list(fit_ellipses(footprints, prepared))
         if shape.mode == "lshape-corner" or (shape.mode == "adaptive" and shape.lshape_method == "corner"):
-            boxes = list(fit_lshape_corners(footprints, shape.corner_min_offset))
+            boxes = list(fit_lshape_corners(footprints, shape.corner_min_offset, prepared))
+        fits = self.fit_footprints(
+            footprints, own, ellipses, [box if isinstance(box, ShapeFit) else None for box in boxes]
+        )
         detections = []
         for j, k in enumerate(vessels):
-            box = boxes[j] if isinstance(boxes[j], ShapeFit) else None
-            det = self._fit_cluster(result.clusters[k], footprints[j], float(swept[k]), own, int(k), ellipses[j], box)
+            det = self._detection(result.clusters[k], footprints[j], fits[j], float(swept[k]), own, int(k))
             if det is not None:
                 detections.append(det)
                 self._detection_clusters.append([k])
@@ -164,10 +169,24 @@ class LidarTracker:
         box: ShapeFit | None = None,
     ) -> Detection | None:
         try:
-            fit = self.fit_footprint(footprint, own, ellipse, box)
+            fit: ShapeFit | DegenerateClusterError = self.fit_footprint(footprint, own, ellipse, box)
         except DegenerateClusterError as exc:
+            fit = exc
+        return self._detection(cluster, footprint, fit, t, own, k)
+
+    def _detection(
+        self,
+        cluster: np.ndarray,
+        footprint: np.ndarray,
+        fit: ShapeFit | DegenerateClusterError,
+        t: float,
+        own: np.ndarray,
+        k: int,
+    ) -> Detection | None:
+        """The detection of cluster ``k`` from its ``fit`` (None, counted, for a degenerate one)."""
+        if isinstance(fit, DegenerateClusterError):
             self.stats["degenerate_clusters"] += 1
-            log.debug("cluster %d skipped: %s", k, exc)
+            log.debug("cluster %d skipped: %s", k, fit)
             return None
         return LidarDetection(
             t=t,
@@ -197,13 +216,52 @@ class LidarTracker:
         The configured fit (paper sec. 2.2-2.3), then, as configured, the heading guard and (mode "adaptive") the
         hull symmetry completion. Raises :class:`DegenerateClusterError` for a footprint without finite points.
         """
+        fit = self._guarded_fit(footprint, own, ellipse, box)
+        if self._completes_hulls():
+            fit = complete_symmetric_hull(fit, footprint, own, self.config.shape)
+        return fit
+
+    def fit_footprints(
+        self,
+        footprints: list[np.ndarray],
+        own: np.ndarray,
+        ellipses: list[ShapeFit | DegenerateClusterError | None],
+        boxes: list[ShapeFit | None],
+    ) -> list[ShapeFit | DegenerateClusterError]:
+        """:meth:`fit_footprint` for each footprint (the error it would raise in place of a fit), the hull
+        symmetry completion for all of them at once."""
+        fits: list[ShapeFit | DegenerateClusterError] = []
+        for footprint, ellipse, box in zip(footprints, ellipses, boxes, strict=True):
+            try:
+                fits.append(self._guarded_fit(footprint, own, ellipse, box))
+            except DegenerateClusterError as exc:
+                fits.append(exc)
+        if self._completes_hulls():
+            ok = [(j, fit) for j, fit in enumerate(fits) if isinstance(fit, ShapeFit)]
+            done = complete_symmetric_hulls(
+                [fit for _, fit in ok], [footprints[j] for j, _ in ok], own, self.config.shape
+            )
+            for (j, _), fit in zip(ok, done, strict=True):
+                fits[j] = fit
+        return fits
+
+    def _guarded_fit(
+        self,
+        footprint: np.ndarray,
+        own: np.ndarray,
+        ellipse: ShapeFit | DegenerateClusterError | None,
+        box: ShapeFit | None,
+    ) -> ShapeFit:
+        """The configured fit, then the heading guard if configured."""
         cfg = self.config.shape
         fit = fit_shape(footprint, cfg, sensor_position=own, ellipse=ellipse, box=box)
         if cfg.heading_guard and fit.mse > cfg.guard_min_mse:
             fit = guard_heading(fit, footprint)
-        if cfg.symmetric_hull and cfg.mode == "adaptive":  # the hull-shape decision belongs to the adaptive mode
-            fit = complete_symmetric_hull(fit, footprint, own, cfg)
         return fit
+
+    def _completes_hulls(self) -> bool:
+        cfg = self.config.shape
+        return cfg.symmetric_hull and cfg.mode == "adaptive"  # the hull-shape decision belongs to the adaptive mode
 
     def _merge_split_detections(self, detections: list[Detection], t: float, own: np.ndarray) -> list[Detection]:
         """Refit as one the detections that lie inside one confirmed track's predicted footprint and no other's.
