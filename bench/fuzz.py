@@ -236,7 +236,7 @@ def replay(path: Path) -> int:
 
 def markdown(rows: list[dict[str, Any]], command: str) -> str:
     lines = [
-        f"`{command}` (under `nice -n 10`): each parser in its own process, one after the other, on a 2-core "
+        f"`{command}` (niceness {os.nice(0)}): each parser in its own process, one after the other, on a 2-core "
         f"machine shared with other jobs. Inputs: {RANDOM_SHARE:.0%} random bytes, the rest mutations of real "
         "inputs (seeds: the project's fixtures + the public captures). Goal for the slowest input: under "
         f"{SLOW_GOAL_MS:.0f} ms. The default run is {DEFAULT_INPUTS:,} inputs per parser.",
