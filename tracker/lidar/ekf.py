@@ -135,6 +135,20 @@ def measurement_noise(p_vis: np.ndarray | None, config: EkfConfig) -> np.ndarray
     return r_full + config.r_inflation * np.diag(miss * miss)
 
 
+def measurement_noises(p_vis: np.ndarray, config: EkfConfig) -> np.ndarray:
+    """:func:`measurement_noise` for (k, 6) visibilities at once: (k, 6, 6), the same elementwise formulas."""
+    p_vis = np.asarray(p_vis, dtype=float).reshape(-1, DIM_Z)
+    r_full = np.diag(np.square(np.asarray(config.r_full_std, dtype=float)))
+    if not config.adaptive_r:
+        return np.broadcast_to(r_full, (p_vis.shape[0], DIM_Z, DIM_Z)).copy()
+    miss = 1.0 - np.clip(p_vis, 0.0, 1.0)
+    if config.inflation_form == "outer":
+        return r_full + config.r_inflation * (miss[:, :, None] * miss[:, None, :])
+    squares = np.zeros((p_vis.shape[0], DIM_Z, DIM_Z))
+    squares[:, np.arange(DIM_Z), np.arange(DIM_Z)] = miss * miss
+    return r_full + config.r_inflation * squares
+
+
 @dataclass
 class Measurement:
     """One LiDAR detection as the filter sees it."""

@@ -29,6 +29,7 @@ from tracker.lidar.ekf import (
     EkfBank,
     Measurement,
     measurement_noise,
+    measurement_noises,
     visibility,
 )
 from tracker.lidar.shape_fit import (
@@ -322,6 +323,37 @@ class LidarTracker:
         completed = det.shape is ShapeKind.BOX and getattr(det, "completed", False)
         return Measurement(det.center, det.heading, det.length, det.width, det.height, det.shape, r, sensor, completed)
 
+    def measurements(
+        self, detections: list[Detection], own_position: np.ndarray, own_yaw: float, occluded: list[bool]
+    ) -> list[Measurement]:
+        """:meth:`measurement` for every detection, the eq. 11 covariances computed as one stack."""
+        cfg = self.config.ekf
+        own = np.asarray(own_position, dtype=float)[:2]
+        p_vis = []
+        for det, occ in zip(detections, occluded, strict=True):
+            if cfg.aspect_reference == "sensor_heading":
+                reference = own_yaw
+            else:
+                d = det.center - own
+                reference = math.atan2(d[1], d[0])
+            aspect = det.heading - reference
+            p_vis.append(visibility(det.range_m, det.mse, aspect, cfg, occ, use_aspect=not cfg.view_aware))
+        r = measurement_noises(np.array(p_vis), cfg) if detections else np.zeros((0, 6, 6))
+        return [
+            Measurement(
+                det.center,
+                det.heading,
+                det.length,
+                det.width,
+                det.height,
+                det.shape,
+                r[j],
+                own.copy(),
+                det.shape is ShapeKind.BOX and getattr(det, "completed", False),
+            )
+            for j, det in enumerate(detections)
+        ]
+
     # -- the cycle ---------------------------------------------------------------------------------------------
 
     def step(
@@ -362,7 +394,7 @@ class LidarTracker:
             bool(single[m[0]]) if len(m) == 1 else occluded_by_nearer(m, result, margin, min_points=min_points)
             for m in self._detection_clusters
         ]
-        measurements = [self.measurement(d, own, own_yaw, occ) for d, occ in zip(detections, occluded, strict=True)]
+        measurements = self.measurements(detections, own, own_yaw, occluded)
         assignment = self._associate(measurements)
 
         self.bank.update_many(
