@@ -109,7 +109,7 @@ class LidarTracker:
         if shape.mode == "lshape-corner" or (shape.mode == "adaptive" and shape.lshape_method == "corner"):
             boxes = list(fit_lshape_corners(footprints, shape.corner_min_offset, prepared))
         fits = self.fit_footprints(
-            footprints, own, ellipses, [box if isinstance(box, ShapeFit) else None for box in boxes]
+            footprints, own, ellipses, [box if isinstance(box, ShapeFit) else None for box in boxes], prepared
         )
         detections = []
         for j, k in enumerate(vessels):
@@ -228,13 +228,16 @@ class LidarTracker:
         own: np.ndarray,
         ellipses: list[ShapeFit | DegenerateClusterError | None],
         boxes: list[ShapeFit | None],
+        prepared: list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError] | None = None,
     ) -> list[ShapeFit | DegenerateClusterError]:
         """:meth:`fit_footprint` for each footprint (the error it would raise in place of a fit), the hull
-        symmetry completion for all of them at once."""
+        symmetry completion for all of them at once. ``prepared``: :func:`prepare_all` of the footprints."""
         fits: list[ShapeFit | DegenerateClusterError] = []
-        for footprint, ellipse, box in zip(footprints, ellipses, boxes, strict=True):
+        ready = prepared if prepared is not None else [None] * len(footprints)
+        for footprint, ellipse, box, prep in zip(footprints, ellipses, boxes, ready, strict=True):
+            centred = prep if isinstance(prep, tuple) else None
             try:
-                fits.append(self._guarded_fit(footprint, own, ellipse, box))
+                fits.append(self._guarded_fit(footprint, own, ellipse, box, centred))
             except DegenerateClusterError as exc:
                 fits.append(exc)
         if self._completes_hulls():
@@ -252,12 +255,13 @@ class LidarTracker:
         own: np.ndarray,
         ellipse: ShapeFit | DegenerateClusterError | None,
         box: ShapeFit | None,
+        prepared: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> ShapeFit:
-        """The configured fit, then the heading guard if configured."""
+        """The configured fit, then the heading guard if configured (on ``prepared`` points if given)."""
         cfg = self.config.shape
         fit = fit_shape(footprint, cfg, sensor_position=own, ellipse=ellipse, box=box)
         if cfg.heading_guard and fit.mse > cfg.guard_min_mse:
-            fit = guard_heading(fit, footprint)
+            fit = guard_heading(fit, footprint, prepared=prepared)
         return fit
 
     def _completes_hulls(self) -> bool:
