@@ -359,9 +359,11 @@ class EkfBank:
             x, f = ctrv_predict(x, h)
             p = f @ p @ f.transpose(0, 2, 1) + q
         p = 0.5 * (p + p.transpose(0, 2, 1))
-        for ekf, xi, pi, fi in zip(self.filters, x, p, f, strict=True):
-            ekf.x, ekf.P, ekf.F = xi, pi, fi
-            ekf.x_prior, ekf.P_prior = xi.copy(), pi.copy()
+        # The priors are copies (the updates replace x and P); one copy of the stack, not two per track.
+        x_prior, p_prior = x.copy(), p.copy()
+        for j, ekf in enumerate(self.filters):
+            ekf.x, ekf.P, ekf.F = x[j], p[j], f[j]
+            ekf.x_prior, ekf.P_prior = x_prior[j], p_prior[j]
 
     def choose_alias(self, i: int, m: Measurement, seen: tuple[bool, bool] = (True, True)) -> Measurement:
         """The alias of ``m`` closest (Mahalanobis in heading, length, width) to track ``i``'s prediction.

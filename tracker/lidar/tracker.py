@@ -477,9 +477,8 @@ class LidarTracker:
             across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin
         )
         velocity = x[:, [VN, VE]]
-        known = np.array(
-            [max(f.P[VN, VN], f.P[VE, VE]) <= self.config.ekf.velocity_valid_std**2 for f in self.bank.filters]
-        )
+        p = self.bank.covariances()
+        known = np.maximum(p[:, VN, VN], p[:, VE, VE]) <= self.config.ekf.velocity_valid_std**2
         dv = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
         same_motion = (dv <= cfg.duplicate_max_speed_diff) | ~(known[:, None] & known[None, :])
         # the guest loses to a confirmed host with more hits (ties: the younger, later-born guest loses)
@@ -523,31 +522,34 @@ class LidarTracker:
     # -- output ------------------------------------------------------------------------------------------------
 
     def tracks(self) -> list[Track]:
-        out = []
-        vel_limit = self.config.ekf.velocity_valid_std**2
-        for ekf, life, kind in zip(self.bank.filters, self._lives, self._kinds, strict=True):
-            x, p = ekf.x, ekf.P
-            velocity = x[[VN, VE]].copy()
-            if max(p[VN, VN], p[VE, VE]) > vel_limit:
-                velocity[:] = np.nan
-            out.append(
-                Track(
-                    id=life.id,
-                    t=life.t_now,
-                    position=x[[PN, PE]].copy(),
-                    velocity=velocity,
-                    heading=float(x[PSI] % (2.0 * math.pi)),
-                    yaw_rate=float(x[OMEGA]),
-                    length=float(x[LEN]),
-                    width=float(x[WID]),
-                    height=float(x[HGT]),
-                    shape=kind,
-                    confirmed=life.confirmed,
-                    source="lidar",
-                    position_cov=p[:2, :2].copy(),
-                    hits=life.hits,
-                    age=life.age,
-                    time_since_update=life.time_since_update,
-                )
+        """Every live track, from the bank's states and covariances stacked once (not read filter by filter)."""
+        if not self._lives:
+            return []
+        x, p = self.bank.states(), self.bank.covariances()
+        positions = x[:, [PN, PE]]
+        velocities = x[:, [VN, VE]]
+        velocities[np.maximum(p[:, VN, VN], p[:, VE, VE]) > self.config.ekf.velocity_valid_std**2] = np.nan
+        headings = (x[:, PSI] % (2.0 * math.pi)).tolist()
+        rates, lengths, widths, heights = (x[:, k].tolist() for k in (OMEGA, LEN, WID, HGT))
+        position_covs = p[:, :2, :2].copy()
+        return [
+            Track(
+                id=life.id,
+                t=life.t_now,
+                position=positions[j],
+                velocity=velocities[j],
+                heading=headings[j],
+                yaw_rate=rates[j],
+                length=lengths[j],
+                width=widths[j],
+                height=heights[j],
+                shape=kind,
+                confirmed=life.confirmed,
+                source="lidar",
+                position_cov=position_covs[j],
+                hits=life.hits,
+                age=life.age,
+                time_since_update=life.time_since_update,
             )
-        return out
+            for j, (life, kind) in enumerate(zip(self._lives, self._kinds, strict=True))
+        ]
