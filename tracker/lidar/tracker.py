@@ -111,14 +111,67 @@ class LidarTracker:
         fits = self.fit_footprints(
             footprints, own, ellipses, [box if isinstance(box, ShapeFit) else None for box in boxes], prepared
         )
+        heights = self._cluster_heights([result.clusters[k] for k in vessels])
+        ranges = self._fit_ranges(fits, own)
         detections = []
         for j, k in enumerate(vessels):
-            det = self._detection(result.clusters[k], footprints[j], fits[j], float(swept[k]), own, int(k))
-            if det is not None:
-                detections.append(det)
-                self._detection_clusters.append([k])
+            fit = fits[j]
+            if isinstance(fit, DegenerateClusterError):
+                self._degenerate(fit, int(k))
+                continue
+            cluster = result.clusters[k]
+            detections.append(
+                self._detection_of(fit, footprints[j], float(swept[k]), heights[j], ranges[j], len(cluster))
+            )
+            self._detection_clusters.append([k])
         self.last_detections = detections
         return detections
+
+    @staticmethod
+    def _cluster_heights(clusters: list[np.ndarray]) -> list[float]:
+        """:func:`cluster_height` of each cluster, as one reduceat over their stacked heights (cluster_points keeps
+        only finite points; anything else goes cluster by cluster)."""
+        sizes = np.array([len(c) for c in clusters], dtype=np.int64)
+        if sizes.size == 0 or not sizes.all():
+            return [cluster_height(c[:, 2]) for c in clusters]
+        z = np.concatenate([c[:, 2] for c in clusters])
+        if not np.isfinite(z).all():
+            return [cluster_height(c[:, 2]) for c in clusters]
+        starts = np.cumsum(sizes) - sizes
+        return (np.maximum.reduceat(z, starts) - np.minimum.reduceat(z, starts)).tolist()
+
+    @staticmethod
+    def _fit_ranges(fits: list[ShapeFit | DegenerateClusterError], own: np.ndarray) -> list[float]:
+        """Each fit's centre's horizontal distance from ``own`` (NaN for a degenerate one), in one np.hypot."""
+        centers = np.array([fit.center if isinstance(fit, ShapeFit) else (np.nan, np.nan) for fit in fits])
+        if centers.size == 0:
+            return []
+        d = centers.reshape(-1, 2) - own
+        return np.hypot(d[:, 0], d[:, 1]).tolist()
+
+    def _degenerate(self, fit: DegenerateClusterError, k: int) -> None:
+        self.stats["degenerate_clusters"] += 1
+        log.debug("cluster %d skipped: %s", k, fit)
+
+    @staticmethod
+    def _detection_of(
+        fit: ShapeFit, footprint: np.ndarray, t: float, height: float, range_m: float, n_points: int
+    ) -> LidarDetection:
+        return LidarDetection(
+            t=t,
+            center=fit.center,
+            heading=fit.heading,
+            length=fit.length,
+            width=fit.width,
+            height=height,
+            shape=fit.kind,
+            mse=fit.mse,
+            n_points=n_points,
+            range_m=range_m,
+            points=footprint,
+            source="lidar",
+            completed=fit.completed,
+        )
 
     def _structure(self, result: ClusterResult, t: float, own: np.ndarray) -> np.ndarray:
         """(k,) bool: clusters that are structure - too big for a vessel, or lying mostly where structure was seen
@@ -186,24 +239,10 @@ class LidarTracker:
     ) -> Detection | None:
         """The detection of cluster ``k`` from its ``fit`` (None, counted, for a degenerate one)."""
         if isinstance(fit, DegenerateClusterError):
-            self.stats["degenerate_clusters"] += 1
-            log.debug("cluster %d skipped: %s", k, fit)
+            self._degenerate(fit, k)
             return None
-        return LidarDetection(
-            t=t,
-            center=fit.center,
-            heading=fit.heading,
-            length=fit.length,
-            width=fit.width,
-            height=cluster_height(cluster[:, 2]),
-            shape=fit.kind,
-            mse=fit.mse,
-            n_points=len(cluster),
-            range_m=float(np.hypot(*(fit.center - own))),
-            points=footprint,
-            source="lidar",
-            completed=fit.completed,
-        )
+        range_m = float(np.hypot(*(fit.center - own)))
+        return self._detection_of(fit, footprint, t, cluster_height(cluster[:, 2]), range_m, len(cluster))
 
     def fit_footprint(
         self,
