@@ -406,9 +406,9 @@ class EkfBank:
         """:meth:`choose_alias` for many (track, measurement) pairs at once (box or ellipse kinds only)."""
         k = len(pairs)
         x = np.array([self.filters[i].x for i, _ in pairs])
-        s = np.array(
-            [self.filters[i].P[_ALIAS_STATE, _ALIAS_STATE.T] + m.r[_ALIAS_MEAS, _ALIAS_MEAS.T] for i, m in pairs]
-        )
+        p = np.array([self.filters[i].P for i, _ in pairs])
+        r = np.array([m.r for _, m in pairs])
+        s = p[:, _ALIAS_STATE, _ALIAS_STATE.T] + r[:, _ALIAS_MEAS, _ALIAS_MEAS.T]
         meas = np.array([(m.heading, m.length, m.width) for _, m in pairs])
         heading = meas[:, :1] + _QUARTERS  # (k, 4)
         length = np.where(_ODD, meas[:, 2:3], meas[:, 1:2])
