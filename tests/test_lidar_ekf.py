@@ -19,6 +19,7 @@ from tracker.lidar.ekf import (
     Measurement,
     ctrv_predict,
     measurement_noise,
+    measurement_noises,
     visibility,
     wrap_angle,
 )
@@ -66,6 +67,16 @@ def test_eq12_full_visibility_noise_and_eq11_inflation() -> None:
     outer = measurement_noise(p, EkfConfig(inflation_form="outer"))
     assert outer - R_FULL == pytest.approx(CFG.r_inflation * np.outer(1 - p, 1 - p))
     assert measurement_noise(p, EkfConfig(adaptive_r=False)) == pytest.approx(R_FULL)
+
+
+@pytest.mark.parametrize(
+    "config", [CFG, EkfConfig(inflation_form="outer"), EkfConfig(adaptive_r=False)], ids=["diag", "outer", "fixed"]
+)
+def test_stacked_noise_is_bit_identical_to_one_at_a_time(config: EkfConfig) -> None:
+    p = np.random.default_rng(0).uniform(-0.2, 1.2, (50, 6))
+    stacked = measurement_noises(p, config)
+    for row, r in zip(p, stacked, strict=True):
+        assert r.tobytes() == measurement_noise(row, config).tobytes()
 
 
 def test_eq10_visibility_falls_with_range_mse_and_end_on_views() -> None:

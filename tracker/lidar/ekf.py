@@ -135,6 +135,20 @@ def measurement_noise(p_vis: np.ndarray | None, config: EkfConfig) -> np.ndarray
     return r_full + config.r_inflation * np.diag(miss * miss)
 
 
+def measurement_noises(p_vis: np.ndarray, config: EkfConfig) -> np.ndarray:
+    """:func:`measurement_noise` for (k, 6) visibilities at once: (k, 6, 6), the same elementwise formulas."""
+    p_vis = np.asarray(p_vis, dtype=float).reshape(-1, DIM_Z)
+    r_full = np.diag(np.square(np.asarray(config.r_full_std, dtype=float)))
+    if not config.adaptive_r:
+        return np.broadcast_to(r_full, (p_vis.shape[0], DIM_Z, DIM_Z)).copy()
+    miss = 1.0 - np.clip(p_vis, 0.0, 1.0)
+    if config.inflation_form == "outer":
+        return r_full + config.r_inflation * (miss[:, :, None] * miss[:, None, :])
+    squares = np.zeros((p_vis.shape[0], DIM_Z, DIM_Z))
+    squares[:, np.arange(DIM_Z), np.arange(DIM_Z)] = miss * miss
+    return r_full + config.r_inflation * squares
+
+
 @dataclass
 class Measurement:
     """One LiDAR detection as the filter sees it."""
@@ -233,6 +247,36 @@ def _kalman_update(ekf: ExtendedKalmanFilter, z: np.ndarray, h: np.ndarray, r: n
     ekf.y, ekf.S, ekf.K = y, s, k
 
 
+def _kalman_update_many(
+    filters: list[ExtendedKalmanFilter], rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+) -> None:
+    """:func:`_kalman_update` (heading in row 2) for many tracks, one (z, H, R) each, stacked by row count.
+
+    A stacked matmul or solve runs the same BLAS / LAPACK call on each slice as the single one, so the results are
+    bit-identical to one call per track; only the per-call overhead goes.
+    """
+    by_size: dict[int, list[int]] = {}
+    for j, (z, _, _) in enumerate(rows):
+        by_size.setdefault(z.shape[0], []).append(j)
+    for group in by_size.values():
+        x = np.array([filters[j].x for j in group])
+        p = np.array([filters[j].P for j in group])
+        z = np.array([rows[j][0] for j in group])
+        h = np.array([rows[j][1] for j in group])
+        r = np.array([rows[j][2] for j in group])
+        y = z - (h @ x[:, :, None])[:, :, 0]
+        y[:, 2] = (y[:, 2] + math.pi) % (2.0 * math.pi) - math.pi
+        pht = p @ h.transpose(0, 2, 1)
+        s = h @ pht + r
+        k = np.linalg.solve(s, pht.transpose(0, 2, 1)).transpose(0, 2, 1)
+        i_kh = np.eye(DIM_X) - k @ h
+        x = x + (k @ y[:, :, None])[:, :, 0]
+        p = i_kh @ p @ i_kh.transpose(0, 2, 1) + k @ r @ k.transpose(0, 2, 1)
+        for n, j in enumerate(group):
+            f = filters[j]
+            f.x, f.P, f.y, f.S, f.K = x[n], p[n], y[n], s[n], k[n]
+
+
 class EkfBank:
     """One ExtendedKalmanFilter per track, in a list; the bank predicts all of them in one batch."""
 
@@ -315,9 +359,11 @@ class EkfBank:
             x, f = ctrv_predict(x, h)
             p = f @ p @ f.transpose(0, 2, 1) + q
         p = 0.5 * (p + p.transpose(0, 2, 1))
-        for ekf, xi, pi, fi in zip(self.filters, x, p, f, strict=True):
-            ekf.x, ekf.P, ekf.F = xi, pi, fi
-            ekf.x_prior, ekf.P_prior = xi.copy(), pi.copy()
+        # The priors are copies (the updates replace x and P); one copy of the stack, not two per track.
+        x_prior, p_prior = x.copy(), p.copy()
+        for j, ekf in enumerate(self.filters):
+            ekf.x, ekf.P, ekf.F = x[j], p[j], f[j]
+            ekf.x_prior, ekf.P_prior = x_prior[j], p_prior[j]
 
     def choose_alias(self, i: int, m: Measurement, seen: tuple[bool, bool] = (True, True)) -> Measurement:
         """The alias of ``m`` closest (Mahalanobis in heading, length, width) to track ``i``'s prediction.
@@ -360,9 +406,9 @@ class EkfBank:
         """:meth:`choose_alias` for many (track, measurement) pairs at once (box or ellipse kinds only)."""
         k = len(pairs)
         x = np.array([self.filters[i].x for i, _ in pairs])
-        s = np.array(
-            [self.filters[i].P[_ALIAS_STATE, _ALIAS_STATE.T] + m.r[_ALIAS_MEAS, _ALIAS_MEAS.T] for i, m in pairs]
-        )
+        p = np.array([self.filters[i].P for i, _ in pairs])
+        r = np.array([m.r for _, m in pairs])
+        s = p[:, _ALIAS_STATE, _ALIAS_STATE.T] + r[:, _ALIAS_MEAS, _ALIAS_MEAS.T]
         meas = np.array([(m.heading, m.length, m.width) for _, m in pairs])
         heading = meas[:, :1] + _QUARTERS  # (k, 4)
         length = np.where(_ODD, meas[:, 2:3], meas[:, 1:2])
@@ -412,12 +458,17 @@ class EkfBank:
                 full.append((i, self.choose_alias(i, m)))
         if aware:
             seen = [self._seen(i, m) for i, m in aware]
+            partial: list[int] = []
+            partial_rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
             for (i, m), aliased, s in zip(aware, self.choose_aliases(aware, seen), seen, strict=True):
                 aliased, rows = self._view_aware_plan(i, m, aliased, s)
                 if rows is None:
                     full.append((i, aliased))
                 else:
-                    _kalman_update(self.filters[i], *rows, 2)
+                    partial.append(i)
+                    partial_rows.append(rows)
+            if partial:
+                _kalman_update_many([self.filters[i] for i in partial], partial_rows)
         if len(full) == 1:
             _kalman_update_full(self.filters[full[0][0]], full[0][1])
         elif full:
@@ -478,9 +529,9 @@ class EkfBank:
                 side = 1.0 if rel[a] > 0.0 else -1.0
                 j = LEN + a
                 ekf.P[j, j] += d * d
-                ekf.P[np.ix_([PN, PE], [PN, PE])] += 0.25 * d * d * np.outer(axes[a], axes[a])
-                ekf.P[[PN, PE], j] -= 0.5 * side * d * d * axes[a]
-                ekf.P[j, [PN, PE]] -= 0.5 * side * d * d * axes[a]
+                ekf.P[PN : PE + 1, PN : PE + 1] += 0.25 * d * d * np.outer(axes[a], axes[a])
+                ekf.P[PN : PE + 1, j] -= 0.5 * side * d * d * axes[a]
+                ekf.P[j, PN : PE + 1] -= 0.5 * side * d * d * axes[a]
                 measured[a] = True
             # Only a sensor clearly beyond one end of the axis (that end's face in view at less than ~80 deg
             # incidence) knows which edge is the near one; from abeam, a short extent may have lost either end
@@ -489,24 +540,35 @@ class EkfBank:
             edge[a] = beyond and (not seen[a] or d < -cfg.partial_tolerance)
         if measured[0] and measured[1] and not (edge[0] or edge[1]):
             return m, None
-        rows = np.zeros((6, DIM_X))
-        z = np.zeros(6)
-        r = np.zeros((6, 6))
+        return m, self._partial_rows(m, axes, rel, edge, measured)
+
+    @staticmethod
+    def _partial_rows(
+        m: Measurement, axes: np.ndarray, rel: np.ndarray, edge: list[bool], measured: list[bool]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(z, H, R) of the view-aware update: the centre (or near edge) along and across the track's axes, the
+        heading, the measured sizes and the height; built at their final size (no 6-row table cut down)."""
+        others = [(PSI, m.heading, Z_PSI)]
+        others += [(LEN + a, (m.length, m.width)[a], Z_LEN + a) for a in (0, 1) if measured[a]]
+        others.append((HGT, m.height, Z_HGT))
+        n = 2 + len(others)
+        rows = np.zeros((n, DIM_X))
+        z = np.empty(n)
+        r = np.zeros((n, n))
         r[:2, :2] = axes @ m.r[:2, :2] @ axes.T
+        rows[:2, PN : PE + 1] = axes
+        sizes = (m.length, m.width)
         for a in (0, 1):
-            rows[a, [PN, PE]] = axes[a]
             z[a] = float(axes[a] @ m.center)
             if edge[a]:
                 side = 1.0 if rel[a] > 0.0 else -1.0
                 rows[a, LEN + a] = 0.5 * side
                 z[a] += 0.5 * side * sizes[a]
-        vec = m.vector()
-        for j, (comp, state) in enumerate(((Z_PSI, PSI), (Z_LEN, LEN), (Z_WID, WID), (Z_HGT, HGT)), start=2):
+        for j, (state, value, comp) in enumerate(others, start=2):
             rows[j, state] = 1.0
-            z[j] = vec[comp]
+            z[j] = value
             r[j, j] = m.r[comp, comp]
-        keep = [0, 1, 2] + [3 + a for a in (0, 1) if measured[a]] + [5]
-        return m, (z[keep], rows[keep], r[np.ix_(keep, keep)])
+        return z, rows, r
 
     def _canonical(self, i: int) -> None:
         """Keep length >= width: a track whose width has outgrown its length is the same box turned 90 deg.

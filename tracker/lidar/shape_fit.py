@@ -605,13 +605,17 @@ def outline_edge_headings(xy: np.ndarray, min_fraction: float = 0.25) -> np.ndar
     ``min_fraction`` of the longest are left out.
     """
     proj = _EXTREME_DIRS @ xy
-    idx = np.unique(np.concatenate((proj.argmin(axis=1), proj.argmax(axis=1))))
+    # The sorted distinct extreme points, by marking them (np.unique sorts and has more overhead for 32 indices).
+    extreme = np.zeros(xy.shape[1], dtype=bool)
+    extreme[proj.argmin(axis=1)] = True
+    extreme[proj.argmax(axis=1)] = True
+    idx = np.flatnonzero(extreme)
     ext = xy[:, idx]
     if idx.size < 2:
         return np.zeros(0)
     mid = ext.mean(axis=1, keepdims=True)
     ext = ext[:, np.argsort(np.arctan2(ext[1] - mid[1], ext[0] - mid[0]))]
-    edge = np.roll(ext, -1, axis=1) - ext
+    edge = np.concatenate((ext[:, 1:], ext[:, :1]), axis=1) - ext  # each point to the next, around the outline
     size = np.hypot(edge[0], edge[1])
     edge = edge[:, size >= min_fraction * size.max()]  # a hull's sides, not the short chords of a rounded end
     return np.arctan2(edge[1], edge[0]) % HALF_PI
@@ -627,17 +631,23 @@ def closeness_scores(xy: np.ndarray, thetas: np.ndarray, min_distance: float) ->
     return (1.0 / np.maximum(np.minimum(du, dv), min_distance)).sum(axis=1)
 
 
-def guard_heading(fit: ShapeFit, points: np.ndarray, min_distance: float = 0.1) -> ShapeFit:
+def guard_heading(
+    fit: ShapeFit,
+    points: np.ndarray,
+    min_distance: float = 0.1,
+    prepared: tuple[np.ndarray, np.ndarray] | None = None,
+) -> ShapeFit:
     """The box along the outline edge that most points hug, instead of ``fit``'s when it scores higher.
 
     Algorithms 1-3 assume the outline is an L; a boat's cabin adds faces inside it (the paper's "more than 2 lines"),
     and the corner method then takes a cabin corner for the hull's and turns the box by tens of degrees. A hull's
     real sides are edges of its convex outline, so the outline's edge directions are the candidates, scored by
     Algorithm 2's closeness criterion (with ``min_distance`` about the footprint's grid cell) against the fit's own.
+    ``prepared``: these points' :func:`_prepare` result when already computed (:func:`prepare_all`).
     """
     if fit.kind is not ShapeKind.BOX:
         return fit
-    xy, origin = _prepare(points)
+    xy, origin = prepared if prepared is not None else _prepare(points)
     if xy.shape[1] < 3:
         return fit
     thetas = np.concatenate(([fit.heading % HALF_PI], outline_edge_headings(xy)))

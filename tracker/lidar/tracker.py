@@ -29,6 +29,7 @@ from tracker.lidar.ekf import (
     EkfBank,
     Measurement,
     measurement_noise,
+    measurement_noises,
     visibility,
 )
 from tracker.lidar.shape_fit import (
@@ -108,16 +109,69 @@ class LidarTracker:
         if shape.mode == "lshape-corner" or (shape.mode == "adaptive" and shape.lshape_method == "corner"):
             boxes = list(fit_lshape_corners(footprints, shape.corner_min_offset, prepared))
         fits = self.fit_footprints(
-            footprints, own, ellipses, [box if isinstance(box, ShapeFit) else None for box in boxes]
+            footprints, own, ellipses, [box if isinstance(box, ShapeFit) else None for box in boxes], prepared
         )
+        heights = self._cluster_heights([result.clusters[k] for k in vessels])
+        ranges = self._fit_ranges(fits, own)
         detections = []
         for j, k in enumerate(vessels):
-            det = self._detection(result.clusters[k], footprints[j], fits[j], float(swept[k]), own, int(k))
-            if det is not None:
-                detections.append(det)
-                self._detection_clusters.append([k])
+            fit = fits[j]
+            if isinstance(fit, DegenerateClusterError):
+                self._degenerate(fit, int(k))
+                continue
+            cluster = result.clusters[k]
+            detections.append(
+                self._detection_of(fit, footprints[j], float(swept[k]), heights[j], ranges[j], len(cluster))
+            )
+            self._detection_clusters.append([k])
         self.last_detections = detections
         return detections
+
+    @staticmethod
+    def _cluster_heights(clusters: list[np.ndarray]) -> list[float]:
+        """:func:`cluster_height` of each cluster, as one reduceat over their stacked heights (cluster_points keeps
+        only finite points; anything else goes cluster by cluster)."""
+        sizes = np.array([len(c) for c in clusters], dtype=np.int64)
+        if sizes.size == 0 or not sizes.all():
+            return [cluster_height(c[:, 2]) for c in clusters]
+        z = np.concatenate([c[:, 2] for c in clusters])
+        if not np.isfinite(z).all():
+            return [cluster_height(c[:, 2]) for c in clusters]
+        starts = np.cumsum(sizes) - sizes
+        return (np.maximum.reduceat(z, starts) - np.minimum.reduceat(z, starts)).tolist()
+
+    @staticmethod
+    def _fit_ranges(fits: list[ShapeFit | DegenerateClusterError], own: np.ndarray) -> list[float]:
+        """Each fit's centre's horizontal distance from ``own`` (NaN for a degenerate one), in one np.hypot."""
+        centers = np.array([fit.center if isinstance(fit, ShapeFit) else (np.nan, np.nan) for fit in fits])
+        if centers.size == 0:
+            return []
+        d = centers.reshape(-1, 2) - own
+        return np.hypot(d[:, 0], d[:, 1]).tolist()
+
+    def _degenerate(self, fit: DegenerateClusterError, k: int) -> None:
+        self.stats["degenerate_clusters"] += 1
+        log.debug("cluster %d skipped: %s", k, fit)
+
+    @staticmethod
+    def _detection_of(
+        fit: ShapeFit, footprint: np.ndarray, t: float, height: float, range_m: float, n_points: int
+    ) -> LidarDetection:
+        return LidarDetection(
+            t=t,
+            center=fit.center,
+            heading=fit.heading,
+            length=fit.length,
+            width=fit.width,
+            height=height,
+            shape=fit.kind,
+            mse=fit.mse,
+            n_points=n_points,
+            range_m=range_m,
+            points=footprint,
+            source="lidar",
+            completed=fit.completed,
+        )
 
     def _structure(self, result: ClusterResult, t: float, own: np.ndarray) -> np.ndarray:
         """(k,) bool: clusters that are structure - too big for a vessel, or lying mostly where structure was seen
@@ -185,24 +239,10 @@ class LidarTracker:
     ) -> Detection | None:
         """The detection of cluster ``k`` from its ``fit`` (None, counted, for a degenerate one)."""
         if isinstance(fit, DegenerateClusterError):
-            self.stats["degenerate_clusters"] += 1
-            log.debug("cluster %d skipped: %s", k, fit)
+            self._degenerate(fit, k)
             return None
-        return LidarDetection(
-            t=t,
-            center=fit.center,
-            heading=fit.heading,
-            length=fit.length,
-            width=fit.width,
-            height=cluster_height(cluster[:, 2]),
-            shape=fit.kind,
-            mse=fit.mse,
-            n_points=len(cluster),
-            range_m=float(np.hypot(*(fit.center - own))),
-            points=footprint,
-            source="lidar",
-            completed=fit.completed,
-        )
+        range_m = float(np.hypot(*(fit.center - own)))
+        return self._detection_of(fit, footprint, t, cluster_height(cluster[:, 2]), range_m, len(cluster))
 
     def fit_footprint(
         self,
@@ -227,13 +267,16 @@ class LidarTracker:
         own: np.ndarray,
         ellipses: list[ShapeFit | DegenerateClusterError | None],
         boxes: list[ShapeFit | None],
+        prepared: list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError] | None = None,
     ) -> list[ShapeFit | DegenerateClusterError]:
         """:meth:`fit_footprint` for each footprint (the error it would raise in place of a fit), the hull
-        symmetry completion for all of them at once."""
+        symmetry completion for all of them at once. ``prepared``: :func:`prepare_all` of the footprints."""
         fits: list[ShapeFit | DegenerateClusterError] = []
-        for footprint, ellipse, box in zip(footprints, ellipses, boxes, strict=True):
+        ready = prepared if prepared is not None else [None] * len(footprints)
+        for footprint, ellipse, box, prep in zip(footprints, ellipses, boxes, ready, strict=True):
+            centred = prep if isinstance(prep, tuple) else None
             try:
-                fits.append(self._guarded_fit(footprint, own, ellipse, box))
+                fits.append(self._guarded_fit(footprint, own, ellipse, box, centred))
             except DegenerateClusterError as exc:
                 fits.append(exc)
         if self._completes_hulls():
@@ -251,12 +294,13 @@ class LidarTracker:
         own: np.ndarray,
         ellipse: ShapeFit | DegenerateClusterError | None,
         box: ShapeFit | None,
+        prepared: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> ShapeFit:
-        """The configured fit, then the heading guard if configured."""
+        """The configured fit, then the heading guard if configured (on ``prepared`` points if given)."""
         cfg = self.config.shape
         fit = fit_shape(footprint, cfg, sensor_position=own, ellipse=ellipse, box=box)
         if cfg.heading_guard and fit.mse > cfg.guard_min_mse:
-            fit = guard_heading(fit, footprint)
+            fit = guard_heading(fit, footprint, prepared=prepared)
         return fit
 
     def _completes_hulls(self) -> bool:
@@ -322,6 +366,37 @@ class LidarTracker:
         completed = det.shape is ShapeKind.BOX and getattr(det, "completed", False)
         return Measurement(det.center, det.heading, det.length, det.width, det.height, det.shape, r, sensor, completed)
 
+    def measurements(
+        self, detections: list[Detection], own_position: np.ndarray, own_yaw: float, occluded: list[bool]
+    ) -> list[Measurement]:
+        """:meth:`measurement` for every detection, the eq. 11 covariances computed as one stack."""
+        cfg = self.config.ekf
+        own = np.asarray(own_position, dtype=float)[:2]
+        p_vis = []
+        for det, occ in zip(detections, occluded, strict=True):
+            if cfg.aspect_reference == "sensor_heading":
+                reference = own_yaw
+            else:
+                d = det.center - own
+                reference = math.atan2(d[1], d[0])
+            aspect = det.heading - reference
+            p_vis.append(visibility(det.range_m, det.mse, aspect, cfg, occ, use_aspect=not cfg.view_aware))
+        r = measurement_noises(np.array(p_vis), cfg) if detections else np.zeros((0, 6, 6))
+        return [
+            Measurement(
+                det.center,
+                det.heading,
+                det.length,
+                det.width,
+                det.height,
+                det.shape,
+                r[j],
+                own.copy(),
+                det.shape is ShapeKind.BOX and getattr(det, "completed", False),
+            )
+            for j, det in enumerate(detections)
+        ]
+
     # -- the cycle ---------------------------------------------------------------------------------------------
 
     def step(
@@ -362,7 +437,7 @@ class LidarTracker:
             bool(single[m[0]]) if len(m) == 1 else occluded_by_nearer(m, result, margin, min_points=min_points)
             for m in self._detection_clusters
         ]
-        measurements = [self.measurement(d, own, own_yaw, occ) for d, occ in zip(detections, occluded, strict=True)]
+        measurements = self.measurements(detections, own, own_yaw, occluded)
         assignment = self._associate(measurements)
 
         self.bank.update_many(
@@ -441,9 +516,8 @@ class LidarTracker:
             across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin
         )
         velocity = x[:, [VN, VE]]
-        known = np.array(
-            [max(f.P[VN, VN], f.P[VE, VE]) <= self.config.ekf.velocity_valid_std**2 for f in self.bank.filters]
-        )
+        p = self.bank.covariances()
+        known = np.maximum(p[:, VN, VN], p[:, VE, VE]) <= self.config.ekf.velocity_valid_std**2
         dv = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
         same_motion = (dv <= cfg.duplicate_max_speed_diff) | ~(known[:, None] & known[None, :])
         # the guest loses to a confirmed host with more hits (ties: the younger, later-born guest loses)
@@ -487,31 +561,34 @@ class LidarTracker:
     # -- output ------------------------------------------------------------------------------------------------
 
     def tracks(self) -> list[Track]:
-        out = []
-        vel_limit = self.config.ekf.velocity_valid_std**2
-        for ekf, life, kind in zip(self.bank.filters, self._lives, self._kinds, strict=True):
-            x, p = ekf.x, ekf.P
-            velocity = x[[VN, VE]].copy()
-            if max(p[VN, VN], p[VE, VE]) > vel_limit:
-                velocity[:] = np.nan
-            out.append(
-                Track(
-                    id=life.id,
-                    t=life.t_now,
-                    position=x[[PN, PE]].copy(),
-                    velocity=velocity,
-                    heading=float(x[PSI] % (2.0 * math.pi)),
-                    yaw_rate=float(x[OMEGA]),
-                    length=float(x[LEN]),
-                    width=float(x[WID]),
-                    height=float(x[HGT]),
-                    shape=kind,
-                    confirmed=life.confirmed,
-                    source="lidar",
-                    position_cov=p[:2, :2].copy(),
-                    hits=life.hits,
-                    age=life.age,
-                    time_since_update=life.time_since_update,
-                )
+        """Every live track, from the bank's states and covariances stacked once (not read filter by filter)."""
+        if not self._lives:
+            return []
+        x, p = self.bank.states(), self.bank.covariances()
+        positions = x[:, [PN, PE]]
+        velocities = x[:, [VN, VE]]
+        velocities[np.maximum(p[:, VN, VN], p[:, VE, VE]) > self.config.ekf.velocity_valid_std**2] = np.nan
+        headings = (x[:, PSI] % (2.0 * math.pi)).tolist()
+        rates, lengths, widths, heights = (x[:, k].tolist() for k in (OMEGA, LEN, WID, HGT))
+        position_covs = p[:, :2, :2].copy()
+        return [
+            Track(
+                id=life.id,
+                t=life.t_now,
+                position=positions[j],
+                velocity=velocities[j],
+                heading=headings[j],
+                yaw_rate=rates[j],
+                length=lengths[j],
+                width=widths[j],
+                height=heights[j],
+                shape=kind,
+                confirmed=life.confirmed,
+                source="lidar",
+                position_cov=position_covs[j],
+                hits=life.hits,
+                age=life.age,
+                time_since_update=life.time_since_update,
             )
-        return out
+            for j, (life, kind) in enumerate(zip(self._lives, self._kinds, strict=True))
+        ]
