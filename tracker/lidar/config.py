@@ -128,6 +128,13 @@ class PreprocessConfig:
     # the sea margin off any vertical face: a rough sea gives hundreds there, solids' feet a few dozen.
     calm_near_range: float = 15.0
     calm_max_near_returns: int = 100
+    # In a returning sea, a return within the sea margin but above its calm floor, beyond grazing_line_min_range (m),
+    # in a run of at least grazing_line_min_run firings of its laser at one range, is a solid's face - while that
+    # laser's far margin returns are sporadic: the median bearing bin holding any has them on at most
+    # grazing_line_max_fill of its firings (preprocess._grazing_lines; ours). 0 runs = off.
+    grazing_line_min_range: float = 20.0
+    grazing_line_min_run: int = 5
+    grazing_line_max_fill: float = 0.3
     water: WaterConfig = field(default_factory=WaterConfig)
 
     def __post_init__(self) -> None:
@@ -142,7 +149,16 @@ class PreprocessConfig:
             allow_zero=True,
         )
         _positive(self, "vertical_abs_tol", "vertical_rel_tol", allow_zero=True)
-        _positive(self, "foot_min_neighbours", "calm_near_range", "calm_max_near_returns", allow_zero=True)
+        _positive(
+            self,
+            "foot_min_neighbours",
+            "calm_near_range",
+            "calm_max_near_returns",
+            "grazing_line_min_range",
+            "grazing_line_min_run",
+            "grazing_line_max_fill",
+            allow_zero=True,
+        )
         if self.min_range >= self.max_range:
             raise ConfigError(f"PreprocessConfig.min_range: {self.min_range} is not below max_range {self.max_range}")
         if self.min_height >= self.max_height:

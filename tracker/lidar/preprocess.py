@@ -17,7 +17,7 @@ import numpy as np
 from tracker.ego import PoseTable
 from tracker.grouping import expand_groups, group_keys
 from tracker.lidar.config import PreprocessConfig
-from tracker.lidar.range_image import RangeImage
+from tracker.lidar.range_image import RINGS, RangeImage
 from tracker.lidar.water import WaterEstimate, WaterSurface
 
 log = logging.getLogger(__name__)
@@ -233,6 +233,12 @@ def preprocess(
             n_grazing = int(np.count_nonzero(rescued))
             solid |= rescued
             n_water -= n_grazing
+        elif cfg.grazing_line_min_run > 0:
+            line = _grazing_lines(image, idx, horizontal, height, in_band, margin, r2_kept, bx, by, rings, cfg)
+            n_line = int(np.count_nonzero(line))
+            n_grazing += n_line
+            n_water -= n_line
+            solid |= line
 
     # Spray suspects: any return near the boat, where a real hull gives dense returns (0.2 deg steps are
     # centimetres apart at a few metres) but bow spray gives lone points in mid-air; and low returns, out to where
@@ -297,6 +303,50 @@ def preprocess(
         within_margin_world=_stack_where(undecided, north, east, down),
         reason=reason,
     )
+
+
+def _grazing_lines(
+    image: RangeImage,
+    idx: np.ndarray,
+    horizontal: np.ndarray,
+    height: np.ndarray,
+    in_band: np.ndarray,
+    margin: float,
+    r2_kept: np.ndarray,
+    bx: np.ndarray,
+    by: np.ndarray,
+    rings: np.ndarray,
+    cfg: PreprocessConfig,
+) -> np.ndarray:
+    """(K,) over the kept returns: those within the sea margin that are a solid's face met at grazing incidence.
+
+    A returning sea still draws no lines far out: beyond grazing_line_min_range its returns come a firing or two at
+    a time along a ring, while the strakes of a low hull at 20-60 m under the crests' margin, met by one beam,
+    return a run of firings at one range. Only above the calm margin (margin_floor), in the part the measured waves
+    added: a flat sea whose every firing returns draws exact lines at the surface itself. And only on a laser whose
+    far returns in the margin are sporadic: in the bearing bins where it returned any, the median bin saw them on
+    at most grazing_line_max_fill of its firings. A sea that returns the grazing beams firing after firing fills
+    every such bin and draws lines along its crests, and then no line of that laser is trusted.
+    """
+    far = in_band & (height <= margin) & (r2_kept >= cfg.grazing_line_min_range**2)
+    line = far & (height > cfg.water.margin_floor)
+    members = np.flatnonzero(line)
+    if members.size == 0:
+        return line
+    n_seq = image.image.shape[0] - 2
+    far_idx = np.flatnonzero(far)
+    cell = rings[far_idx].astype(np.int64) * 72 + _bins72(bx[far_idx], by[far_idx])
+    per_cell = np.bincount(cell, minlength=RINGS * 72).reshape(RINGS, 72) / (n_seq / 72.0)
+    fill = np.array([np.median(row[row > 0]) if np.any(row > 0) else 0.0 for row in per_cell])  # 16 rings
+    runs = image.ring_runs(idx[members], horizontal[idx[members]], cfg.continuity_abs_tol, cfg.continuity_rel_tol)
+    sporadic_sea = fill[rings[members]] <= cfg.grazing_line_max_fill
+    line[members[(runs < cfg.grazing_line_min_run) | ~sporadic_sea]] = False
+    return line
+
+
+def _bins72(fwd: np.ndarray, stbd: np.ndarray) -> np.ndarray:
+    """5-degree bearing bins clockwise from the bow, 0-71."""
+    return (np.floor(np.degrees(np.arctan2(stbd, fwd)) / 5.0 + 0.5).astype(np.int64)) % 72
 
 
 def _in_own_box(

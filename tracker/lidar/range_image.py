@@ -152,6 +152,25 @@ class RangeImage:
         range (within abs_tol + rel_tol * r): the return lies on a vertical face."""
         return self._count(r, VERTICAL_OFFSETS, abs_tol, rel_tol) > 0
 
+    def ring_runs(self, members: np.ndarray, r: np.ndarray, abs_tol: float, rel_tol: float) -> np.ndarray:
+        """(M,) for each of the returns ``members`` (indices of this image's returns, ranges ``r``): the length of
+        the run it belongs to among the members: consecutive firings of its laser each within abs_tol + rel_tol * r
+        of the one before (1: alone on its ring). A few (ring x sequence) array passes, whatever M is."""
+        seq, ring = self.seq[members], self.ring[members]
+        n_seq = self.image.shape[0] - 2
+        runs = np.full((RINGS, n_seq), np.nan)  # ring-major: a ring's firings are contiguous once flattened
+        runs[ring, seq] = r
+        flat = runs.ravel()
+        present = np.isfinite(flat)
+        linked = np.zeros(flat.size, dtype=bool)
+        with np.errstate(invalid="ignore"):
+            linked[1:] = np.abs(flat[1:] - flat[:-1]) <= abs_tol + rel_tol * flat[1:]
+        linked[::n_seq] = False  # a ring's first firing does not continue the ring below's last one
+        starts = present & ~linked
+        run_id = np.cumsum(starts) - 1
+        length = np.bincount(run_id[present], minlength=int(starts.sum()))
+        return length[run_id[ring * n_seq + seq]]
+
     def continuous_and_vertical(
         self, r: np.ndarray, continuity_tol: tuple[float, float], vertical_tol: tuple[float, float]
     ) -> tuple[np.ndarray, np.ndarray]:
