@@ -51,6 +51,7 @@ def revolution_over_water(
     walls: tuple[tuple[tuple[float, float], tuple[float, float], float], ...] = (),
     water_returns: bool = True,
     rain: tuple[int, float, int] | None = None,
+    water_share: tuple[float, int] | None = None,
 ) -> WaterReturns:
     """Every firing of one 10 Hz revolution that meets the water within ``max_range`` returns, where it meets it.
 
@@ -60,7 +61,9 @@ def revolution_over_water(
     firing that meets one before the water returns from the wall. ``water_returns=False`` is calm water: a firing
     that meets the water returns nothing. ``rain`` = (drops, reach m, seed): that many firings, drawn at random,
     meet a drop in mid-air out to ``reach`` (horizontal range 1 + (reach - 1) u^2, u uniform: denser close in) and
-    return from it when it lies before what they would otherwise meet.
+    return from it when it lies before what they would otherwise meet. ``water_share`` = (share, seed): only that
+    share of the firings meeting the water return from it, drawn at random (a real sea returns grazing beams
+    sporadically).
     """
     az = np.radians(np.arange(0.0, 360.0, step_deg))
     n_az = az.size
@@ -105,8 +108,11 @@ def revolution_over_water(
         first = lam_drop < lam[pick]
         lam[pick[first]] = lam_drop[first]
         wall[pick[first]] = RAIN
+    water_hit = down & water_returns
+    if water_share is not None:
+        water_hit &= np.random.default_rng(water_share[1]).random(t.size) < water_share[0]
     hit = (
-        ((down & water_returns) | (wall >= 0) | (wall == RAIN))
+        (water_hit | (wall >= 0) | (wall == RAIN))
         & (lam > 0.5)
         & (lam * np.hypot(d_body[:, 0], d_body[:, 1]) <= max_range)
     )

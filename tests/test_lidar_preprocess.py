@@ -145,3 +145,21 @@ def test_reasons_name_each_points_rule_and_add_up_to_the_counts() -> None:
     assert res.reason.tolist() == [KEPT, HEIGHT, RANGE, OWN_BOAT, NONFINITE, SPRAY]
     assert np.bincount(res.reason, minlength=8).tolist() == list(res.counts().values())
     assert preprocess(body, POS, 0.0, 0.0, math.pi / 2, CFG).reason is None  # not asked for: not built
+
+
+def test_ring_runs_count_consecutive_firings_at_one_range() -> None:
+    from tracker.lidar.range_image import FIRING_S, LASER_OF_RING, SEQUENCE_S, RangeImage
+
+    # ring 6: firings 0-4 at 25 m (a run of 5), firing 5 silent, 6-7 at 25 m (2); firing 8 at 30 m (1, a jump);
+    # ring 7: firing 0 at 25 m alone
+    seq = np.array([0, 1, 2, 3, 4, 6, 7, 8, 0])
+    ring = np.array([6, 6, 6, 6, 6, 6, 6, 6, 7])
+    r = np.array([25.0, 25.05, 25.1, 25.1, 25.2, 25.0, 25.0, 30.0, 25.0])
+    t = seq * SEQUENCE_S + LASER_OF_RING[ring] * FIRING_S
+    image = RangeImage.build(t, ring, r)
+    assert image is not None
+    members = np.arange(seq.size)
+    assert image.ring_runs(members, r, 0.1, 0.02).tolist() == [5, 5, 5, 5, 5, 2, 2, 1, 1]
+    # only the members count: without firing 2 the first run splits in two
+    some = np.array([0, 1, 3, 4])
+    assert image.ring_runs(some, r[some], 0.1, 0.02).tolist() == [2, 2, 2, 2]

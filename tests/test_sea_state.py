@@ -120,3 +120,38 @@ def test_a_tracked_hulls_returns_within_the_sea_margin_are_obstacles_and_the_cre
     assert on_face == on_face_plain and on_face >= 10  # the face's foot, met by the low beams
     assert off_face > 100  # crests in the band everywhere else
     assert gated == plain + on_face
+
+
+def _low_hull_in_chop(water_share: tuple[float, int] | None) -> tuple[np.ndarray, object]:
+    """Four revolutions from a level boat of a hull 0.5 m high and 3 m wide, 25 m dead ahead, in the chop above; the
+    sea returns ``water_share`` of the firings meeting it (None: every one). The -3 deg beam meets the hull 0.29 m
+    above the mean water, under the crests' margin; the -1 deg beam passes 1.16 m up, over it."""
+
+    def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(np.shape(t)), np.zeros(np.shape(t))
+
+    pipeline = lidar_pipeline(MOUNT)
+    ego = SteadyEgo(level, 0.0)
+    hull = (((25.0, -1.5), (25.0, 1.5), 0.5),)
+    for k in range(4):
+        share = None if water_share is None else (water_share[0], water_share[1] + k)
+        ret = revolution_over_water(MOUNT, level, yaw=0.0, elevation=chop, t0=0.1 * k, walls=hull, water_share=share)
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+    return out.distances_cm, pipeline.last_preprocess
+
+
+def test_a_low_hull_under_the_crests_margin_is_an_obstacle_where_the_sea_returns_sporadically() -> None:
+    d, pre = _low_hull_in_chop((0.05, 7))
+    assert pre.water.measured and pre.water.margin > 0.29  # the hull's line lies inside the sea margin
+    assert pre.n_grazing >= 20  # its run of firings along the -3 deg ring
+    obstacle = np.flatnonzero(d <= 10000)
+    assert 0 in obstacle.tolist() and set(obstacle.tolist()) <= {71, 0, 1}  # the hull spans -3.4..3.4 deg
+    assert abs(int(d[0]) - 2500) <= 30
+
+
+def test_the_same_hull_in_a_sea_returning_every_firing_is_not_told_from_a_crest() -> None:
+    # every grazing firing returns: the crests draw lines too, the -3 deg ring's far margin returns fill every bin,
+    # and no line on it is trusted - the hull's bins stay unknown rather than the crests becoming obstacles
+    d, pre = _low_hull_in_chop(None)
+    assert pre.n_grazing == 0
+    assert np.all(d[d <= 10000] >= 2400)  # nothing nearer than the hull: no crest became an obstacle
