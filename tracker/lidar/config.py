@@ -131,7 +131,10 @@ class PreprocessConfig:
     # In a returning sea, a return within the sea margin but above its calm floor, beyond grazing_line_min_range (m),
     # in a run of at least grazing_line_min_run firings of its laser at one range, is a solid's face - while that
     # laser's far margin returns are sporadic: the median bearing bin holding any has them on at most
-    # grazing_line_max_fill of its firings (preprocess._grazing_lines; ours). 0 runs = off.
+    # grazing_line_max_fill of its firings (preprocess._grazing_lines; ours). 0 runs = off. Chosen on tuning seeds 3
+    # and 13 (margin returns beyond 20 m: 19 of 16,105 water returns in runs of 4 or more, 97 % of hulls' in runs of
+    # 5 or more). Held out (random:1001-1050, fused), against off: MOTA 0.730 -> 0.769, false-clear bins 11.5 ->
+    # 9.5 % of bins with a returned solid (sea state 3: 14.2 -> 9.6 %), false-obstacle bins 0.11 -> 0.10 %.
     grazing_line_min_range: float = 20.0
     grazing_line_min_run: int = 5
     grazing_line_max_fill: float = 0.3
