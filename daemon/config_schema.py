@@ -14,10 +14,12 @@ import types
 import typing
 from typing import Any, TypeVar
 
+from tracker.config_error import ConfigError as TrackerConfigError
+
 T = TypeVar("T")
 
 
-class ConfigError(ValueError):
+class ConfigError(TrackerConfigError):
     """One or more problems in a configuration; ``problems`` lists them as 'key: why'."""
 
     def __init__(self, problems: list[str], source: str = "") -> None:

@@ -15,10 +15,15 @@ class FixedRadarTracks:
 
     def __init__(self, tracks: list[Track]) -> None:
         self.tracks = tracks
-        self.last = None
 
     def step_frame(self, frame: RadarFrame, pose: object) -> list[Track]:
         return self.tracks
+
+    def shore_points(self) -> np.ndarray:
+        return np.empty((0, 2))
+
+    def shore_returns_body(self) -> np.ndarray:
+        return np.empty((0, 2))
 
 
 def radar_track(north: float, east: float) -> Track:

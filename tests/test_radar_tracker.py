@@ -274,3 +274,18 @@ def test_small_median_is_numpys_median() -> None:
         values = rng.normal(0.0, 3.0, n)
         assert small_median(values) == float(np.median(values))
     assert math.isnan(small_median(np.empty(0)))
+
+
+def test_both_trackers_configs_raise_the_one_tracker_config_error() -> None:
+    import pytest
+
+    from daemon.config_schema import ConfigError as DaemonConfigError
+    from tracker.config_error import ConfigError
+    from tracker.lidar.config import EkfConfig
+    from tracker.radar.config import RadarTrackerConfig
+
+    with pytest.raises(ConfigError, match="RadarTrackerConfig: roi_min_range_m must be below roi_max_range_m"):
+        RadarTrackerConfig(roi_min_range_m=60.0, roi_max_range_m=50.0)
+    with pytest.raises(ConfigError, match="EkfConfig"):
+        EkfConfig(inflation_form="sideways")  # type: ignore[arg-type]
+    assert issubclass(DaemonConfigError, ConfigError) and issubclass(ConfigError, ValueError)

@@ -33,7 +33,6 @@ from tracker.lidar.coverage import (
 from tracker.lidar.hull_gate import on_tracked_hulls
 from tracker.lidar.water import WaterEstimate, WaterSurface
 from tracker.obstacle_map import SensorCoverage, bearing_bins, build_obstacle_distances, outline_points
-from tracker.radar.detector import SHORE_KEEP
 from tracker.types import Track
 
 log = logging.getLogger(__name__)
@@ -54,6 +53,33 @@ class EgoSource(Protocol):
     def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]: ...
 
     def at(self, t: float) -> EgoPose | None: ...
+
+
+class LidarTrackerRole(Protocol):
+    """What the pipeline asks of a LiDAR tracker (tracker/lidar/tracker.py's LidarTracker)."""
+
+    def step(
+        self,
+        points_world: np.ndarray,
+        t: float,
+        own_position: np.ndarray,
+        own_yaw: float = 0.0,
+        point_times: np.ndarray | None = None,
+    ) -> list[Track]: ...
+
+
+class RadarTrackerRole(Protocol):
+    """What the pipeline asks of a radar tracker (tracker/radar/tracker.py's RadarTracker)."""
+
+    def step_frame(self, frame: RadarFrame, pose: EgoPose | None) -> list[Track]: ...
+
+    def shore_points(self) -> np.ndarray:
+        """(k, 2) world N/E of the shore contour the tracker keeps."""
+        ...
+
+    def shore_returns_body(self) -> np.ndarray:
+        """(m, 2) body fwd/stbd of the last frame's returns judged shore."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -137,8 +163,8 @@ IDENTITY = (np.zeros(3), 0.0, 0.0, 0.0)
 @dataclass
 class PerceptionPipeline:
     settings: PipelineSettings = field(default_factory=PipelineSettings)
-    lidar_tracker_factory: Callable[[], Any] | None = None
-    radar_tracker_factory: Callable[[], Any] | None = None
+    lidar_tracker_factory: Callable[[], LidarTrackerRole] | None = None
+    radar_tracker_factory: Callable[[], RadarTrackerRole] | None = None
     lidar_preprocess_config: Any = None
     freshness_s: float = 0.5
 
@@ -262,7 +288,7 @@ class PerceptionPipeline:
                     or tr.source == "radar"  # the radar sees a hull sparsely; its track's outline stands for it
                 )
             ]
-            if self.radar_tracker is not None and hasattr(self.radar_tracker, "shore_points"):
+            if self.radar_tracker is not None:
                 shore = self.radar_tracker.shore_points()
                 outlines.append(shore[np.hypot(*(shore - own[0][:2]).T) > radar_alone] if len(shore) else shore)
             outlines = [o for o in outlines if len(o)]
@@ -418,9 +444,7 @@ class PerceptionPipeline:
         # where they are shore. A raw cluster is not enough: with the AWR1843's 3-10 returns per boat, clusters of
         # 3 returns are needed for tracking, and sea clutter near the boat forms such clusters every few frames.
         # A false obstacle stops the boat, so a radar vessel must first earn a confirmed track (0.3 s).
-        last = getattr(self.radar_tracker, "last", None)
-        shore = [c.points_body[:, :2] for c in (last.clusters if last is not None else []) if c.shore != SHORE_KEEP]
-        return np.concatenate(shore) if shore else np.empty((0, 2))
+        return self.radar_tracker.shore_returns_body()
 
 
 def _no_bands() -> tuple[np.ndarray, np.ndarray]:

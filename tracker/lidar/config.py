@@ -13,16 +13,13 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal
 
+from tracker.config_error import ConfigError
 from tracker.lifecycle import LifecycleConfig
 
 ShapeMode = Literal["adaptive", "lshape-bruteforce", "lshape-rotation", "lshape-corner", "ellipse"]
 LShapeMethod = Literal["bruteforce", "rotation", "corner"]
 VisibilityInflation = Literal["diagonal", "outer"]
 AspectReference = Literal["line_of_sight", "sensor_heading"]
-
-
-class ConfigError(ValueError):
-    """A configuration value that cannot work; the message names the key."""
 
 
 def _choice(owner: object, name: str, allowed: tuple[str, ...]) -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+from tracker.config_error import ConfigError
 from tracker.lifecycle import LifecycleConfig
 from tracker.radar.velocity_profile import ProfileFitSettings
 
@@ -274,7 +275,7 @@ class RadarTrackerConfig:
         for f in fields(self):
             v = getattr(self, f.name)
             if isinstance(v, float) and math.isnan(v):
-                raise ValueError(f"RadarTrackerConfig.{f.name} is NaN")
+                raise ConfigError(f"RadarTrackerConfig.{f.name} is NaN")
         positive = (
             "roi_max_range_m",
             "cluster_radius_m",
@@ -302,7 +303,7 @@ class RadarTrackerConfig:
         )
         for name in positive:
             if not getattr(self, name) > 0:
-                raise ValueError(f"RadarTrackerConfig.{name} must be > 0, got {getattr(self, name)!r}")
+                raise ConfigError(f"RadarTrackerConfig.{name} must be > 0, got {getattr(self, name)!r}")
         nonneg = (
             "roi_min_range_m",
             "shore_link_radius_m",
@@ -357,7 +358,7 @@ class RadarTrackerConfig:
         )
         for name in nonneg:
             if not getattr(self, name) >= 0:
-                raise ValueError(f"RadarTrackerConfig.{name} must be >= 0, got {getattr(self, name)!r}")
+                raise ConfigError(f"RadarTrackerConfig.{name} must be >= 0, got {getattr(self, name)!r}")
         for name in (
             "cluster_min_points",
             "velocity_cluster_min_points",
@@ -366,18 +367,18 @@ class RadarTrackerConfig:
             "birth_window_frames",
         ):
             if int(getattr(self, name)) < 1:
-                raise ValueError(f"RadarTrackerConfig.{name} must be >= 1")
+                raise ConfigError(f"RadarTrackerConfig.{name} must be >= 1")
         if self.static_submaps_across < 1 or self.static_submaps_across % 2 == 0:
-            raise ValueError("RadarTrackerConfig.static_submaps_across must be odd (the boat's sub-map in the middle)")
+            raise ConfigError("RadarTrackerConfig.static_submaps_across must be odd (the boat's sub-map in the middle)")
         if self.motion_model not in ("ca", "cv", "ct"):
-            raise ValueError(f"RadarTrackerConfig.motion_model must be 'ca', 'cv' or 'ct', not {self.motion_model!r}")
+            raise ConfigError(f"RadarTrackerConfig.motion_model must be 'ca', 'cv' or 'ct', not {self.motion_model!r}")
         if self.roi_min_range_m >= self.roi_max_range_m:
-            raise ValueError("RadarTrackerConfig: roi_min_range_m must be below roi_max_range_m")
+            raise ConfigError("RadarTrackerConfig: roi_min_range_m must be below roi_max_range_m")
         if self.roi_min_z_m >= self.roi_max_z_m:
-            raise ValueError("RadarTrackerConfig: roi_min_z_m must be below roi_max_z_m")
+            raise ConfigError("RadarTrackerConfig: roi_min_z_m must be below roi_max_z_m")
         for name in ("ransac_outlier_rate", "ego_outlier_rate"):
             if not 0.0 <= getattr(self, name) < 1.0:
-                raise ValueError(f"RadarTrackerConfig.{name} must be in [0, 1)")
+                raise ConfigError(f"RadarTrackerConfig.{name} must be in [0, 1)")
         for name in (
             "ransac_confidence",
             "min_inlier_fraction",
@@ -388,24 +389,24 @@ class RadarTrackerConfig:
             "duplicate_iou",
         ):
             if not 0.0 < getattr(self, name) <= 1.0:
-                raise ValueError(f"RadarTrackerConfig.{name} must be in (0, 1]")
+                raise ConfigError(f"RadarTrackerConfig.{name} must be in (0, 1]")
         if not 0.0 <= self.outline_size_quantile < 0.5:
-            raise ValueError("RadarTrackerConfig.outline_size_quantile must be in [0, 0.5)")
+            raise ConfigError("RadarTrackerConfig.outline_size_quantile must be in [0, 0.5)")
         if not 0.0 <= self.fusion_gamma <= 1.0:
-            raise ValueError("RadarTrackerConfig.fusion_gamma must be in [0, 1]")
+            raise ConfigError("RadarTrackerConfig.fusion_gamma must be in [0, 1]")
         if not (
             self.motion_absolutely_static_max
             < self.motion_static_max
             < self.motion_dynamic_min
             < self.motion_absolutely_dynamic_min
         ):
-            raise ValueError("RadarTrackerConfig: motion thresholds must increase (Table 1)")
+            raise ConfigError("RadarTrackerConfig: motion thresholds must increase (Table 1)")
         if self.motion_counter_limit < max(-self.motion_absolutely_static_max, self.motion_absolutely_dynamic_min):
-            raise ValueError("RadarTrackerConfig.motion_counter_limit must reach both 'absolute' levels")
+            raise ConfigError("RadarTrackerConfig.motion_counter_limit must reach both 'absolute' levels")
         if any(int(k) < 2 for k in self.multipath_range_orders):
-            raise ValueError("RadarTrackerConfig.multipath_range_orders must all be >= 2")
+            raise ConfigError("RadarTrackerConfig.multipath_range_orders must all be >= 2")
         if len(self.sensor_position_body) != 2:
-            raise ValueError("RadarTrackerConfig.sensor_position_body must be (x, y)")
+            raise ConfigError("RadarTrackerConfig.sensor_position_body must be (x, y)")
         self.lifecycle()  # its own checks, raised now rather than at the first track
 
     def lifecycle(self) -> LifecycleConfig:

@@ -147,6 +147,11 @@ class RadarTracker:
         """(k, 2) world N/E of the shore contour, to keep quays in the obstacle map."""
         return self.detector.static_map.shore_points()
 
+    def shore_returns_body(self) -> np.ndarray:
+        """(m, 2) body fwd/stbd of the last frame's returns in clusters judged shore (on it or behind it)."""
+        shore = [c.points_body[:, :2] for c in self.last_clusters if c.shore != SHORE_KEEP]
+        return np.concatenate(shore) if shore else np.empty((0, 2))
+
     def reset(self) -> None:
         """Forget tracks and the map (ids keep counting up)."""
         self.tracks = []
