@@ -12,11 +12,12 @@ import time
 import numpy as np
 import pytest
 
+from bench.cycle import SceneEgo  # the scene's analytic own-boat pose, as the cycle bench uses it
 from daemon.config import Config
 from daemon.loop import DaemonLoop, LoopSettings, SensorInputs
 from daemon.runner import pipeline_for
 from drivers.awr1843.parser import RadarFrameParser, encode_frame
-from drivers.frames import EgoPose, LidarScan, RadarFrame
+from drivers.frames import LidarScan, RadarFrame
 from drivers.vlp16.decoder import ScanAssembler
 from drivers.vlp16.packet import encode_data_packet
 from simulator.lidar_model import Vlp16Model
@@ -29,21 +30,6 @@ from tracker.pipeline import PerceptionPipeline, TrackingCost
 WARM_UP = 20  # revolutions before the skipped one: the harbour's vessels are confirmed by then
 PAST = -1.0  # s: a deadline already gone when the cycle starts
 FAR = 3600.0  # s: one no cycle can reach
-
-
-class SceneEgo:
-    epoch = 0
-    available = True
-
-    def __init__(self, scene: Scene) -> None:
-        self.scene = scene
-
-    def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        p = self.scene.own.poses(np.asarray(times, float))
-        return p.position_ned, p.roll, p.pitch, p.yaw
-
-    def at(self, t: float) -> EgoPose:
-        return self.scene.own.pose(t)
 
 
 @pytest.fixture(scope="module")
