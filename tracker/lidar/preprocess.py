@@ -19,6 +19,7 @@ from tracker.grouping import expand_groups, group_keys
 from tracker.lidar.config import PreprocessConfig
 from tracker.lidar.range_image import RINGS, RangeImage
 from tracker.lidar.water import WaterEstimate, WaterSurface
+from tracker.obstacle_map import bearing_bins
 
 log = logging.getLogger(__name__)
 
@@ -335,18 +336,13 @@ def _grazing_lines(
         return line
     n_seq = image.image.shape[0] - 2
     far_idx = np.flatnonzero(far)
-    cell = rings[far_idx].astype(np.int64) * 72 + _bins72(bx[far_idx], by[far_idx])
+    cell = rings[far_idx].astype(np.int64) * 72 + bearing_bins(np.column_stack([bx[far_idx], by[far_idx]]))
     per_cell = np.bincount(cell, minlength=RINGS * 72).reshape(RINGS, 72) / (n_seq / 72.0)
     fill = np.array([np.median(row[row > 0]) if np.any(row > 0) else 0.0 for row in per_cell])  # 16 rings
     runs = image.ring_runs(idx[members], horizontal[idx[members]], cfg.continuity_abs_tol, cfg.continuity_rel_tol)
     sporadic_sea = fill[rings[members]] <= cfg.grazing_line_max_fill
     line[members[(runs < cfg.grazing_line_min_run) | ~sporadic_sea]] = False
     return line
-
-
-def _bins72(fwd: np.ndarray, stbd: np.ndarray) -> np.ndarray:
-    """5-degree bearing bins clockwise from the bow, 0-71."""
-    return (np.floor(np.degrees(np.arctan2(stbd, fwd)) / 5.0 + 0.5).astype(np.int64)) % 72
 
 
 def _in_own_box(
