@@ -51,7 +51,7 @@ def revolution_over_water(
     walls: tuple[tuple[tuple[float, float], tuple[float, float], float], ...] = (),
     water_returns: bool = True,
     rain: tuple[int, float, int] | None = None,
-    water_share: tuple[float, int] | None = None,
+    water_share: tuple[float, int] | tuple[float, int, float, float] | None = None,
 ) -> WaterReturns:
     """Every firing of one 10 Hz revolution that meets the water within ``max_range`` returns, where it meets it.
 
@@ -63,7 +63,8 @@ def revolution_over_water(
     meet a drop in mid-air out to ``reach`` (horizontal range 1 + (reach - 1) u^2, u uniform: denser close in) and
     return from it when it lies before what they would otherwise meet. ``water_share`` = (share, seed): only that
     share of the firings meeting the water return from it, drawn at random (a real sea returns grazing beams
-    sporadically).
+    sporadically); (share, seed, beyond, far_share): far_share of those meeting it beyond ``beyond`` m horizontal
+    (the far water is met at grazing incidence and returns less).
     """
     az = np.radians(np.arange(0.0, 360.0, step_deg))
     n_az = az.size
@@ -110,7 +111,10 @@ def revolution_over_water(
         wall[pick[first]] = RAIN
     water_hit = down & water_returns
     if water_share is not None:
-        water_hit &= np.random.default_rng(water_share[1]).random(t.size) < water_share[0]
+        share = np.full(t.size, float(water_share[0]))
+        if len(water_share) == 4:
+            share[lam * np.hypot(d_body[:, 0], d_body[:, 1]) > water_share[2]] = water_share[3]
+        water_hit &= np.random.default_rng(water_share[1]).random(t.size) < share
     hit = (
         (water_hit | (wall >= 0) | (wall == RAIN))
         & (lam > 0.5)

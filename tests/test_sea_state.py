@@ -155,3 +155,34 @@ def test_the_same_hull_in_a_sea_returning_every_firing_is_not_told_from_a_crest(
     d, pre = _low_hull_in_chop(None)
     assert pre.n_grazing == 0
     assert np.all(d[d <= 10000] >= 2400)  # nothing nearer than the hull: no crest became an obstacle
+
+
+def test_low_hulls_filling_most_of_a_grazing_beams_margin_returns_are_obstacles_where_its_sea_is_sparse() -> None:
+    """Two boats 12 m long and 0.5 m high lie broadside 25 m ahead and astern in the chop above. The -3 deg beam
+    meets each 0.29 m up, under the crests' margin, across 27 deg; the sea returns 80 % of the firings meeting it
+    close in (the steep beams) but 0.1 % of the grazing ones beyond 20 m. So the boats fill most of the bins in
+    which that beam returned anything in the margin: judged by those bins alone its water looked full, none of its
+    lines was trusted, and both boats were unknown. Judged by all its firings that met the water (every bin), its
+    sea is sparse: the boats are obstacles at their ranges, and no crest is."""
+
+    def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(np.shape(t)), np.zeros(np.shape(t))
+
+    pipeline = lidar_pipeline(MOUNT)
+    ego = SteadyEgo(level, 0.0)
+    boats = (((25.0, -6.0), (25.0, 6.0), 0.5), ((-25.0, -6.0), (-25.0, 6.0), 0.5))
+    for k in range(3):
+        ret = revolution_over_water(
+            MOUNT, level, yaw=0.0, elevation=chop, t0=0.1 * k, walls=boats, water_share=(0.8, 20 + k, 20.0, 0.001)
+        )
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+        pre = pipeline.last_preprocess
+        assert pre.water.measured and pre.water.margin > 0.29  # the boats' lines lie inside the sea margin
+        # each boat spans -13.5..13.5 deg about its beam: bins -3..3 of it; a bin's nearest return is at the bearing
+        # nearest the beam, 25 m / cos(that bearing)
+        offsets = np.arange(-3, 4)
+        expected = 25.0 / np.cos(np.radians(np.maximum(np.abs(offsets) * 5.0 - 2.5, 0.0)))
+        d = out.distances_cm
+        for beam in (0, 36):
+            np.testing.assert_allclose(d[(beam + offsets) % 72] / 100.0, expected, atol=0.05)
+        assert np.count_nonzero(d <= 10000) == 2 * offsets.size  # and no crest anywhere else

@@ -24,8 +24,8 @@ from tracker.ego import sample_poses, world_to_body_2d
 from tracker.fusion import fuse_tracks
 from tracker.lidar.coverage import (
     SUB_BEARINGS,
+    BeamGeometry,
     band_intervals,
-    beam_elevations_level,
     bin_bearings,
     reach_from,
     swept_bins,
@@ -358,6 +358,16 @@ class PerceptionPipeline:
             (pos, roll, pitch, yaw), index = IDENTITY, None
             known = np.ones(scan.n_points, dtype=bool)
         cfg = self.lidar_preprocess_config
+        # With part of the sweep's poses unknown the attitude is not trusted at all (the water fit absorbs up to
+        # max_tilt of it, see preprocess below); ``roll`` may then be the sampled poses, not one per point, and must
+        # not be broadcast.
+        if not known.all():
+            roll_pt = pitch_pt = np.zeros(scan.n_points)
+        elif index is None:
+            roll_pt, pitch_pt = np.broadcast_to(roll, (scan.n_points,)), np.broadcast_to(pitch, (scan.n_points,))
+        else:
+            roll_pt, pitch_pt = np.asarray(roll)[index], np.asarray(pitch)[index]
+        beams, live = beams_of(scan, roll_pt, pitch_pt, self.settings)
         if not known.all():
             # Pose lost (autopilot silent): obstacles still come from the body frame, tracking waits. The water
             # surface fit absorbs up to max_tilt of the attitude it no longer knows.
@@ -373,6 +383,7 @@ class PerceptionPipeline:
                 ring=scan.ring,
                 point_t=scan.t,
                 reasons=self.keep_view_detail,
+                beams=beams,
             )
             track_points = None
             self.skipped_no_pose += 1
@@ -390,6 +401,7 @@ class PerceptionPipeline:
                 ring=scan.ring,
                 point_t=scan.t,
                 reasons=self.keep_view_detail,
+                beams=beams,
             )
             track_points = pre.points_world
         self.last_preprocess = pre
@@ -402,15 +414,7 @@ class PerceptionPipeline:
         if own is None:  # the pose at the sweep's end is unknown though each return's was: the sweep's last pose
             own_pos, own_yaw = np.asarray(pos, float).reshape(-1, 3)[-1, :2], float(np.ravel(yaw)[-1])
         solid_body = world_to_body_2d(pre.points_world[:, :2], own_pos, own_yaw)
-        # With part of the sweep's poses unknown the attitude is not trusted at all (the water fit absorbs it, as in
-        # preprocess above); ``roll`` may then be the sampled poses, not one per point, and must not be broadcast.
-        if not known.all():
-            roll_pt = pitch_pt = np.zeros(scan.n_points)
-        elif index is None:
-            roll_pt, pitch_pt = np.broadcast_to(roll, (scan.n_points,)), np.broadcast_to(pitch, (scan.n_points,))
-        else:
-            roll_pt, pitch_pt = np.asarray(roll)[index], np.asarray(pitch)[index]
-        self._lidar_bands = lidar_bands(scan, roll_pt, pitch_pt, pre.water, self.settings)
+        self._lidar_bands = lidar_bands(beams, live, pre.water, self.settings)
         if self.lidar_tracker is not None and track_points is not None and self._may_track("lidar"):
             t0 = time.perf_counter()
             self._lidar_tracks = self.lidar_tracker.step(
@@ -453,12 +457,23 @@ def _no_bands() -> tuple[np.ndarray, np.ndarray]:
 
 
 def lidar_bands(
-    scan: LidarScan, roll: np.ndarray, pitch: np.ndarray, water: WaterEstimate, s: PipelineSettings
+    beams: BeamGeometry, live: np.ndarray, water: WaterEstimate, s: PipelineSettings
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(216, 16) ranges where each beam would return a solid of min_obstacle_height_m at each judged bearing,
-    placed with the roll and pitch at which its bin was swept, above the measured water surface; empty for bins the
-    received packets did not sweep or that returned nothing at all."""
-    bearings = bin_bearings()
+    """(216, 16) ranges where each beam would return a solid of min_obstacle_height_m at each judged bearing, above
+    the measured water surface; empty for the bins not ``live`` (72,): not swept by the received packets or
+    returning nothing at all."""
+    elevation, height = beams.over_surface(water, s.lidar_origin_height_above_water_m)
+    lo, hi = band_intervals(elevation, height, water.margin, s.min_obstacle_height_m, s.lidar_max_range_m)
+    dead = ~np.repeat(live, SUB_BEARINGS.size)
+    lo[dead], hi[dead] = np.inf, -np.inf
+    return lo, hi
+
+
+def beams_of(
+    scan: LidarScan, roll: np.ndarray, pitch: np.ndarray, s: PipelineSettings
+) -> tuple[BeamGeometry, np.ndarray]:
+    """The revolution's beams, placed with the mean roll and pitch (per return, rad) at which each bin was swept,
+    and (72,) bool the bins that count as measured: swept by the received packets and returning something."""
     point_bin = bearing_bins(scan.xyz[:, :2])
     count = np.bincount(point_bin, minlength=72)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -467,18 +482,7 @@ def lidar_bands(
     live = count > 0
     if scan.packet_sweeps is not None:
         live &= swept_bins(scan.packet_sweeps, s.lidar_mount.yaw)
-    per = SUB_BEARINGS.size
-    elevation, origin_up = beam_elevations_level(
-        bearings, np.repeat(roll_bin, per), np.repeat(pitch_bin, per), s.lidar_mount
-    )
-    # the surface's own tilt along each bearing lowers or raises it under the beams
-    tilt = water.slope_x * np.cos(bearings) + water.slope_y * np.sin(bearings)
-    elevation = np.arctan(np.tan(elevation) - tilt[:, None])
-    height = origin_up + s.lidar_origin_height_above_water_m - water.offset
-    lo, hi = band_intervals(elevation, height, water.margin, s.min_obstacle_height_m, s.lidar_max_range_m)
-    dead = ~np.repeat(live, per)
-    lo[dead], hi[dead] = np.inf, -np.inf
-    return lo, hi
+    return BeamGeometry.at_bins(roll_bin, pitch_bin, s.lidar_mount), live
 
 
 def _radar_band(s: PipelineSettings) -> tuple[np.ndarray, np.ndarray]:

@@ -20,13 +20,18 @@ Frames: sensor FLU -> sensor FRD -> body FRD (mount) -> level (roll, pitch); bea
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from drivers.mount import FLU_TO_FRD, Mount
-from drivers.vlp16.packet import LASER_ELEVATION_RAD
+from drivers.vlp16.packet import LASER_ELEVATION_DEG, LASER_ELEVATION_RAD
 from tracker.ego import rotation_matrices
+from tracker.lidar.water import WaterEstimate
+
+# Column of the beam arrays (laser id order, as LASER_ELEVATION_RAD) that holds each ring (0 = the lowest beam).
+RING_COLUMNS = np.argsort(LASER_ELEVATION_DEG, kind="stable")
 
 
 def beam_elevations_level(
@@ -131,6 +136,34 @@ N_BINS = 72
 def bin_bearings() -> np.ndarray:
     """(72 * 3,) body bearings, rad: three per 5-degree bin, the bin's centre and 2 deg either side."""
     return np.radians((np.arange(N_BINS)[:, None] * 5.0 + SUB_BEARINGS[None, :]).ravel())
+
+
+@dataclass(frozen=True)
+class BeamGeometry:
+    """The 16 beams at the judged bearings (bin_bearings) during one revolution, placed with the roll and pitch at
+    which each bin was swept: level-frame elevation (216, 16) rad, up positive, in laser id order, and the sensor
+    origin's height above the body origin in the level frame (216,) m."""
+
+    elevation: np.ndarray
+    origin_up: np.ndarray
+
+    @classmethod
+    def at_bins(cls, roll_bin: np.ndarray, pitch_bin: np.ndarray, mount: Mount) -> BeamGeometry:
+        """From each of the 72 bins' roll and pitch (rad)."""
+        per = SUB_BEARINGS.size
+        elevation, origin_up = beam_elevations_level(
+            bin_bearings(), np.repeat(roll_bin, per), np.repeat(pitch_bin, per), mount
+        )
+        return cls(elevation, origin_up)
+
+    def over_surface(self, water: WaterEstimate, origin_height_above_water: float) -> tuple[np.ndarray, np.ndarray]:
+        """(216, 16) elevations against the estimated water surface and (216,) the sensor's height above it: the
+        surface's own tilt along each bearing lowers or raises it under the beams. ``origin_height_above_water``:
+        the body origin above the configured waterline, m."""
+        bearings = bin_bearings()
+        tilt = water.slope_x * np.cos(bearings) + water.slope_y * np.sin(bearings)
+        elevation = np.arctan(np.tan(self.elevation) - tilt[:, None])
+        return elevation, self.origin_up + origin_height_above_water - water.offset
 
 
 def swept_bins(packet_sweeps: np.ndarray, mount_yaw: float, min_share: float = 0.95) -> np.ndarray:

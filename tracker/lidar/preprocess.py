@@ -17,6 +17,7 @@ import numpy as np
 from tracker.ego import PoseTable
 from tracker.grouping import expand_groups, group_keys
 from tracker.lidar.config import PreprocessConfig
+from tracker.lidar.coverage import RING_COLUMNS, SUB_BEARINGS, BeamGeometry, band_intervals
 from tracker.lidar.range_image import RINGS, RangeImage
 from tracker.lidar.water import WaterEstimate, WaterSurface
 from tracker.obstacle_map import bearing_bins
@@ -131,6 +132,7 @@ def preprocess(
     ring: np.ndarray | None = None,
     point_t: np.ndarray | None = None,
     reasons: bool = False,
+    beams: BeamGeometry | None = None,
 ) -> PreprocessResult:
     """Filter one revolution and move it to the world frame.
 
@@ -143,7 +145,9 @@ def preprocess(
     water, which every lower beam meets, from one beam's line along a quay face. With ``ring`` and the firing
     times ``point_t`` the revolution's range image (range_image.py) also drops lone returns (rain, spray) and keeps
     returns on vertical faces out of the water estimate; without them those two rules are not applied.
-    ``reasons`` also returns, per point, the rule that dropped it (PreprocessResult.reason).
+    ``reasons`` also returns, per point, the rule that dropped it (PreprocessResult.reason). ``beams`` (where the
+    revolution's beams pointed, coverage.BeamGeometry) lets the grazing-line rule judge each laser's water returns
+    against the firings that met the water (see _grazing_lines).
     """
     cfg = config or PreprocessConfig()
     xyz = np.asarray(xyz_body, dtype=float).reshape(-1, 3)
@@ -235,7 +239,9 @@ def preprocess(
             solid |= rescued
             n_water -= n_grazing
         elif cfg.grazing_line_min_run > 0:
-            line = _grazing_lines(image, idx, horizontal, height, in_band, margin, r2_kept, bx, by, rings, cfg)
+            line = _grazing_lines(
+                image, idx, horizontal, height, in_band, (estimate, beams), r2_kept, bx, by, rings, cfg
+            )
             n_line = int(np.count_nonzero(line))
             n_grazing += n_line
             n_water -= n_line
@@ -312,7 +318,7 @@ def _grazing_lines(
     horizontal: np.ndarray,
     height: np.ndarray,
     in_band: np.ndarray,
-    margin: float,
+    sea: tuple[WaterEstimate, BeamGeometry | None],
     r2_kept: np.ndarray,
     bx: np.ndarray,
     by: np.ndarray,
@@ -325,24 +331,48 @@ def _grazing_lines(
     a time along a ring, while the strakes of a low hull at 20-60 m under the crests' margin, met by one beam,
     return a run of firings at one range. Only above the calm margin (margin_floor), in the part the measured waves
     added: a flat sea whose every firing returns draws exact lines at the surface itself. And only on a laser whose
-    far returns in the margin are sporadic: in the bearing bins where it returned any, the median bin saw them on
-    at most grazing_line_max_fill of its firings. A sea that returns the grazing beams firing after firing fills
-    every such bin and draws lines along its crests, and then no line of that laser is trusted.
+    sea is sparse, judged against the firings that met the water beyond grazing_line_min_range: at most
+    grazing_line_max_sporadic of them returned in the margin outside a run (the sea's own rate: solids come in runs,
+    so a quay along the beam does not raise it), and at most grazing_line_max_fill returned at all (a sea returning
+    firing after firing draws its returns into runs along the crests, which the first measure then misses).
+
+    The firings that met the water are counted from the beams' geometry (``sea``: the water estimate and where the
+    beams pointed): those in the bins where the laser came down through the sea margin between
+    grazing_line_min_range and the revolution's farthest return. Counting only the bins that returned something
+    in the margin judged a laser by its solids: a laser that met the water in range only here and there but ran
+    along hulls' strakes had its bins full, and none of its lines was trusted. Without the geometry those bins are
+    all there is to count.
     """
-    far = in_band & (height <= margin) & (r2_kept >= cfg.grazing_line_min_range**2)
+    far = in_band & (height <= sea[0].margin) & (r2_kept >= cfg.grazing_line_min_range**2)
     line = far & (height > cfg.water.margin_floor)
     members = np.flatnonzero(line)
     if members.size == 0:
         return line
-    n_seq = image.image.shape[0] - 2
+    firings_per_bin = (image.image.shape[0] - 2) / 72.0
     far_idx = np.flatnonzero(far)
-    cell = rings[far_idx].astype(np.int64) * 72 + bearing_bins(np.column_stack([bx[far_idx], by[far_idx]]))
-    per_cell = np.bincount(cell, minlength=RINGS * 72).reshape(RINGS, 72) / (n_seq / 72.0)
-    fill = np.array([np.median(row[row > 0]) if np.any(row > 0) else 0.0 for row in per_cell])  # 16 rings
-    runs = image.ring_runs(idx[members], horizontal[idx[members]], cfg.continuity_abs_tol, cfg.continuity_rel_tol)
-    sporadic_sea = fill[rings[members]] <= cfg.grazing_line_max_fill
-    line[members[(runs < cfg.grazing_line_min_run) | ~sporadic_sea]] = False
+    far_rings = rings[far_idx].astype(np.int64)
+    cell = far_rings * 72 + bearing_bins(np.column_stack([bx[far_idx], by[far_idx]]))
+    met = np.bincount(cell, minlength=RINGS * 72).reshape(RINGS, 72) > 0
+    if sea[1] is not None:
+        met |= _laser_meets_water(sea[0], sea[1], float(np.sqrt(r2_kept.max())), cfg)
+    runs = image.ring_runs(idx[far_idx], horizontal[idx[far_idx]], cfg.continuity_abs_tol, cfg.continuity_rel_tol)
+    alone = runs < cfg.grazing_line_min_run
+    met_firings = np.maximum(np.count_nonzero(met, axis=1) * firings_per_bin, 1.0)
+    sporadic = np.bincount(far_rings[alone], minlength=RINGS) / met_firings
+    fill = np.bincount(far_rings, minlength=RINGS) / met_firings
+    sporadic_sea = (sporadic <= cfg.grazing_line_max_sporadic) & (fill <= cfg.grazing_line_max_fill)
+    sporadic_sea = sporadic_sea[rings[members]]
+    line[members[alone[np.searchsorted(far_idx, members)] | ~sporadic_sea]] = False
     return line
+
+
+def _laser_meets_water(water: WaterEstimate, beams: BeamGeometry, reach: float, cfg: PreprocessConfig) -> np.ndarray:
+    """(16, 72) bool by ring and bin: the laser, at the bin's centre bearing, comes down through the sea margin
+    (as deep under the surface as the margin is above it: a trough) between grazing_line_min_range and ``reach``."""
+    elevation, sensor_height = beams.over_surface(water, cfg.origin_height_above_water)
+    centre = slice(int(np.flatnonzero(SUB_BEARINGS == 0.0)[0]), None, SUB_BEARINGS.size)  # each bin's centre
+    lo, hi = band_intervals(elevation[centre], sensor_height[centre], -water.margin, water.margin, reach)
+    return (hi >= np.maximum(lo, cfg.grazing_line_min_range))[:, RING_COLUMNS].T
 
 
 def _in_own_box(
