@@ -1,15 +1,21 @@
-"""The coordinated-turn model (tracker.coordinated_turn) and the LiDAR EKF's ctrv_predict built on it."""
+"""The coordinated-turn model (tracker.coordinated_turn) and the two filters built on it: the LiDAR EKF's
+ctrv_predict and the radar filter's ct_transition / predict_many."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from decimal import Decimal, localcontext
 
 import numpy as np
 import pytest
 
 from tracker.coordinated_turn import SERIES_BELOW, coordinated_turn
-from tracker.lidar.ekf import PSI, VE, VN, ctrv_predict
+from tracker.lidar.ekf import OMEGA, PE, PN, PSI, VE, VN, ctrv_predict
+from tracker.radar import kalman
+from tracker.radar.config import RadarTrackerConfig
+
+CT = RadarTrackerConfig(motion_model="ct", accel_std=0.7)
 
 
 def _reference_gains(w: float, dt: float) -> tuple[float, float, float, float]:
@@ -92,3 +98,66 @@ def test_ctrv_jacobian_matches_finite_differences(omega: float) -> None:
         lo, _ = ctrv_predict((x - dx)[None], 0.3)
         num[:, j] = (hi[0] - lo[0]) / (2 * h)
     assert f[0] == pytest.approx(num, abs=1e-6)
+
+
+def test_coordinated_turn_prediction_follows_the_circle_with_its_jacobian() -> None:
+    x = np.array([0.0, 0.0, 3.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.2])  # 3 m/s north, turning toward east at 1.2 rad/s
+    y, j = kalman.ct_transition(x, 2 * np.pi / 1.2)  # one full turn: back at the start, same velocity
+    np.testing.assert_allclose(y[0, :4], x[:4], atol=1e-9)
+    y, _ = kalman.ct_transition(x, np.pi / 1.2)  # half a turn: 2 r = 5 m east, heading south
+    np.testing.assert_allclose(y[0, :4], [0.0, 5.0, -3.0, 0.0], atol=1e-9)
+    for w in (1.2, 1e-7):  # the Jacobian, also on the small-angle branch
+        x[kalman.TURN] = w
+        _, j = kalman.ct_transition(x, 0.1)
+        num = np.zeros_like(j[0])
+        for i in range(x.size):
+            e = np.zeros(x.size)
+            e[i] = 1e-6
+            num[:, i] = (kalman.ct_transition(x + e, 0.1)[0][0] - kalman.ct_transition(x - e, 0.1)[0][0]) / 2e-6
+        np.testing.assert_allclose(j[0], num, atol=1e-6)
+
+
+def test_both_filters_predict_the_same_turn() -> None:
+    rng = np.random.default_rng(5)
+    vel, w = rng.uniform(-10, 10, (50, 2)), rng.uniform(-1, 1, 50)
+    w[:5] = [0.0, 1e-9, -1e-6, SERIES_BELOW / 0.1, -SERIES_BELOW / 0.1]
+    lidar = np.zeros((50, 9))
+    lidar[:, [VN, VE]], lidar[:, OMEGA] = vel, w
+    radar = np.zeros((50, 9))
+    radar[:, kalman.VEL], radar[:, kalman.TURN] = vel, w
+    xl, fl = ctrv_predict(lidar, 0.1)
+    xr, jr = kalman.ct_transition(radar, 0.1)
+    np.testing.assert_array_equal(xl[:, [PN, PE, VN, VE]], xr[:, :4])
+    np.testing.assert_array_equal(fl[:, [PN, PE, VN, VE]][:, :, [VN, VE, OMEGA]], jr[:, :4][:, :, [2, 3, kalman.TURN]])
+
+
+@pytest.mark.parametrize("model", ["ct", "ca", "cv"])
+def test_predict_many_is_predict_per_filter(model: str) -> None:
+    """The radar tracker predicts all its tracks in one stack: the same numbers as one at a time, each its own dt."""
+    cfg = replace(CT, motion_model=model)
+    rng = np.random.default_rng(7)
+    n = kalman.dim_x(cfg)
+    one, many = [], []
+    for _ in range(6):
+        x = rng.normal(size=(n, 1)) * 5.0
+        if model == "ct":
+            x[kalman.TURN, 0] = rng.uniform(-3.0, 3.0)  # beyond max_turn_rate too: clamped
+        a = rng.normal(size=(n, n))
+        for bank in (one, many):
+            kf = kalman.new_filter(np.zeros(2), np.ones(2), 30.0, None, cfg)
+            kf.x, kf.P = x.copy(), a @ a.T + np.eye(n)
+            bank.append(kf)
+    dts = [0.1, 0.1, 0.25, 0.0, -0.1, 0.1]  # a track that does not move for dt <= 0
+    before = [kf.x.copy() for kf in many]
+    kalman.predict_many(many, dts, cfg)
+    for kf, dt in zip(one, dts, strict=True):
+        kalman.predict(kf, dt, cfg)
+    for k, (a_kf, b_kf) in enumerate(zip(one, many, strict=True)):
+        np.testing.assert_allclose(b_kf.x, a_kf.x, rtol=1e-14, atol=1e-14)
+        np.testing.assert_allclose(b_kf.P, a_kf.P, rtol=1e-14, atol=1e-14)
+        if dts[k] <= 0:
+            np.testing.assert_array_equal(b_kf.x, before[k])
+        else:
+            assert b_kf.last_dt == dts[k]
+            if model == "ct":
+                assert abs(b_kf.x[kalman.TURN, 0]) <= cfg.max_turn_rate
