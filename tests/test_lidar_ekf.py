@@ -17,7 +17,6 @@ from tracker.lidar.ekf import (
     WID,
     EkfBank,
     Measurement,
-    ctrv_predict,
     measurement_noise,
     measurement_noises,
     visibility,
@@ -27,35 +26,6 @@ from tracker.types import ShapeKind
 
 CFG = EkfConfig()
 R_FULL = measurement_noise(None, CFG)
-
-
-def test_ctrv_follows_the_circle() -> None:
-    # Heading north at 3 m/s, turning clockwise (toward east) at 0.1 rad/s: a circle of radius 30 m centred east.
-    x = np.array([[0.0, 0.0, 3.0, 0.0, 0.0, 0.1, 8.0, 3.0, 2.0]])
-    out, _ = ctrv_predict(x, 2.0)
-    a = 0.2
-    assert out[0, :2] == pytest.approx([30.0 * math.sin(a), 30.0 * (1.0 - math.cos(a))], abs=1e-12)
-    assert out[0, [VN, VE]] == pytest.approx([3.0 * math.cos(a), 3.0 * math.sin(a)], abs=1e-12)
-    assert out[0, PSI] == pytest.approx(a)
-    assert out[0, 6:] == pytest.approx([8.0, 3.0, 2.0])
-    # No turn: a straight line.
-    straight, _ = ctrv_predict(np.array([[1.0, 2.0, 3.0, -1.0, 0.3, 0.0, 1, 1, 1]]), 0.5)
-    assert straight[0, :4] == pytest.approx([2.5, 1.5, 3.0, -1.0])
-
-
-@pytest.mark.parametrize("omega", [0.0, 1e-6, 0.2, -0.5])
-def test_ctrv_jacobian_matches_finite_differences(omega: float) -> None:
-    x = np.array([5.0, -3.0, 2.0, -1.5, 0.7, omega, 8.0, 3.0, 2.0])
-    _, f = ctrv_predict(x[None], 0.3)
-    num = np.empty((9, 9))
-    h = 1e-6
-    for j in range(9):
-        dx = np.zeros(9)
-        dx[j] = h
-        hi, _ = ctrv_predict((x + dx)[None], 0.3)
-        lo, _ = ctrv_predict((x - dx)[None], 0.3)
-        num[:, j] = (hi[0] - lo[0]) / (2 * h)
-    assert f[0] == pytest.approx(num, abs=1e-6)
 
 
 def test_eq12_full_visibility_noise_and_eq11_inflation() -> None:

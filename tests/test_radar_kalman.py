@@ -96,23 +96,6 @@ def test_doppler_is_fused_without_a_manoeuvre_with_its_model_floor() -> None:
 CT = RadarTrackerConfig(motion_model="ct", accel_std=0.7)
 
 
-def test_coordinated_turn_prediction_follows_the_circle_with_its_jacobian() -> None:
-    x = np.array([0.0, 0.0, 3.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.2])  # 3 m/s north, turning toward east at 1.2 rad/s
-    y, j = kalman.ct_transition(x, 2 * np.pi / 1.2)  # one full turn: back at the start, same velocity
-    np.testing.assert_allclose(y[:4], x[:4], atol=1e-9)
-    y, _ = kalman.ct_transition(x, np.pi / 1.2)  # half a turn: 2 r = 5 m east, heading south
-    np.testing.assert_allclose(y[:4], [0.0, 5.0, -3.0, 0.0], atol=1e-9)
-    for w in (1.2, 1e-7):  # the Jacobian, also on the small-angle branch
-        x[kalman.TURN] = w
-        _, j = kalman.ct_transition(x, 0.1)
-        num = np.zeros_like(j)
-        for i in range(x.size):
-            e = np.zeros(x.size)
-            e[i] = 1e-6
-            num[:, i] = (kalman.ct_transition(x + e, 0.1)[0] - kalman.ct_transition(x - e, 0.1)[0]) / 2e-6
-        np.testing.assert_allclose(j, num, atol=1e-6)
-
-
 def test_turn_rate_state_follows_a_tight_turn_that_cv_lags() -> None:
     """3 m/s on a 2.5 m radius, positions only: the ct filter learns the rate and stays on the hull."""
     w, r, dt = 1.2, 2.5, 0.1

@@ -2,10 +2,11 @@
 
 State (eq. 6), world NED: x = [p_n, p_e, v_n, v_e, heading, yaw_rate, length, width, height]; heading 0 = north,
 clockwise positive, so a velocity (v_n, v_e) turning at yaw_rate w rotates as d/dt (v_n, v_e) = w (-v_e, v_n).
-Motion model (eq. 8): a rigid body at constant turn rate and speed (the coordinated-turn model with Cartesian
-velocity): the hull heading and the velocity vector both turn at w; sizes are constant. Its Jacobian feeds the
-covariance prediction. All tracks are predicted at once with numpy; the filterpy objects hold each track's state,
-and the updates (Joseph form, as filterpy's) run stacked for all tracks that take eq. 7's plain update.
+Motion model (eq. 8): a rigid body at constant turn rate and speed (the coordinated-turn model with Cartesian velocity,
+tracker.coordinated_turn, shared with the radar filter): the hull heading and the velocity vector both turn at w; sizes
+are constant. Its Jacobian feeds the covariance prediction. All tracks are predicted at once with numpy; the filterpy
+objects hold each track's state, and the updates (Joseph form, as filterpy's) run stacked for all tracks that take
+eq. 7's plain update.
 
 Measurement (eq. 7): y = [p_n, p_e, heading, length, width, height], linear in the state. R (eq. 11, 12) is the
 full-visibility noise inflated where visibility (eq. 10) is poor: far away, a bad fit, or the object seen
@@ -32,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
+from tracker.coordinated_turn import coordinated_turn
 from tracker.kalman_update import joseph_update, joseph_update_selected
 from tracker.lidar.config import EkfConfig
 from tracker.types import ShapeKind
@@ -49,6 +51,11 @@ _ALIAS_MEAS = np.array([[Z_PSI], [Z_LEN], [Z_WID]])
 _QUARTERS = 0.5 * math.pi * np.arange(4)
 _Z_STATES = np.array([PN, PE, PSI, LEN, WID, HGT])  # the state each measurement component observes (H_FULL)
 _ODD = np.arange(4) % 2 == 1
+# Where coordinated_turn's results go: rows (p_n, p_e, v_n, v_e) of its (4, 3) Jacobian block, columns (v_n, v_e,
+# yaw rate). Slices where they can be: a fancy index costs several times as much in this per-cycle path.
+_POSITION, _VELOCITY = slice(PN, PE + 1), slice(VN, VE + 1)
+_TURN_ROWS = np.array([[PN], [PE], [VN], [VE]])
+_TURN_COLS = np.array([VN, VE, OMEGA])
 
 
 def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
@@ -60,29 +67,14 @@ def ctrv_predict(x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Constant turn rate and velocity for (T, 9) states over ``dt`` s: predicted states and (T, 9, 9) Jacobians."""
     x = np.atleast_2d(x)
     n = x.shape[0]
-    vn, ve, w = x[:, VN], x[:, VE], x[:, OMEGA]
-    wt = w * dt
-    s, c = np.sin(wt), np.cos(wt)
-    small = np.abs(wt) < 1e-3
-    w_safe = np.where(small, 1.0, w)
-    # a = sin(wT)/w, b = (1 - cos(wT))/w and their derivatives in w; Taylor series near w = 0.
-    a = np.where(small, dt * (1.0 - wt * wt / 6.0), s / w_safe)
-    b = np.where(small, 0.5 * w * dt * dt * (1.0 - wt * wt / 12.0), (1.0 - c) / w_safe)
-    da = np.where(small, -w * dt**3 / 3.0, (dt * c * w - s) / w_safe**2)
-    db = np.where(small, 0.5 * dt * dt * (1.0 - wt * wt / 4.0), (dt * s * w - (1.0 - c)) / w_safe**2)
-
+    step = coordinated_turn(x[:, VN], x[:, VE], x[:, OMEGA], dt)
     out = x.copy()
-    out[:, PN] += a * vn - b * ve
-    out[:, PE] += b * vn + a * ve
-    out[:, VN] = c * vn - s * ve
-    out[:, VE] = s * vn + c * ve
-    out[:, PSI] = wrap_angle(x[:, PSI] + wt)
+    out[:, _POSITION] += step.delta_position
+    out[:, _VELOCITY] = step.velocity
+    out[:, PSI] = wrap_angle(x[:, PSI] + x[:, OMEGA] * dt)
 
     f = np.broadcast_to(np.eye(DIM_X), (n, DIM_X, DIM_X)).copy()
-    f[:, PN, VN], f[:, PN, VE], f[:, PN, OMEGA] = a, -b, da * vn - db * ve
-    f[:, PE, VN], f[:, PE, VE], f[:, PE, OMEGA] = b, a, db * vn + da * ve
-    f[:, VN, VN], f[:, VN, VE], f[:, VN, OMEGA] = c, -s, -dt * (s * vn + c * ve)
-    f[:, VE, VN], f[:, VE, VE], f[:, VE, OMEGA] = s, c, dt * (c * vn - s * ve)
+    f[:, _TURN_ROWS, _TURN_COLS] = step.jacobian
     f[:, PSI, OMEGA] = dt
     return out, f
 

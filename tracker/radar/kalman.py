@@ -10,18 +10,21 @@ information: R_v = C_doppler / (gamma * min(1, d_ref / d)). The Doppler covarian
 cannot determine (a huge variance across the line of sight), so a radial-only velocity corrects only the radial
 component of the state.
 
-Not in the paper: motion_model "ct" appends a turn rate omega (state TURN) and predicts a coordinated turn (EKF). A
-turning hull's returns carry omega x lever arm, so the profile fit over them reads v + M omega (M from the returns'
-offsets, RadarTracker._turn_gain); the velocity measurement gets that row for omega instead of being read as v.
+Not in the paper: motion_model "ct" appends a turn rate omega (state TURN) and predicts a coordinated turn (EKF;
+tracker.coordinated_turn, shared with the LiDAR EKF). A turning hull's returns carry omega x lever arm, so the profile
+fit over them reads v + M omega (M from the returns' offsets, RadarTracker._turn_gain); the velocity measurement gets
+that row for omega instead of being read as v.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
+from tracker.coordinated_turn import coordinated_turn
 from tracker.kalman_update import joseph_update, joseph_update_selected
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.velocity_profile import VelocityEstimate, VelocityStatus
@@ -29,6 +32,9 @@ from tracker.radar.velocity_profile import VelocityEstimate, VelocityStatus
 DIM_X = 8
 POS, VEL, ACC, SIZE = slice(0, 2), slice(2, 4), slice(4, 6), slice(6, 8)
 TURN = 8  # the "ct" model's ninth state: turn rate (rad/s, + clockwise seen from above, i.e. north toward east)
+# Where coordinated_turn's (4, 3) Jacobian block goes: rows (px, py, vx, vy), columns (vx, vy, turn rate).
+_TURN_ROWS = np.array([[0], [1], [2], [3]])
+_TURN_COLS = np.array([2, 3, TURN])
 
 
 def dim_x(cfg: RadarTrackerConfig) -> int:
@@ -61,34 +67,20 @@ def transition(dt: float, cfg: RadarTrackerConfig | None = None) -> np.ndarray:
     return f
 
 
-def ct_transition(x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Coordinated turn over dt: the predicted state and the Jacobian of the prediction (EKF).
+def ct_transition(x: np.ndarray, dt: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Coordinated turn (tracker.coordinated_turn) of (n, 9) states over ``dt`` s (one, or (n,) of them): the
+    predicted states and the (n, 9, 9) Jacobians of the prediction (EKF).
 
     The velocity turns by omega dt at constant speed and the position follows the arc; omega (state TURN) is a random
     walk. omega x r = (-omega r_e, omega r_n) in N/E, as the simulator's rigid-body velocity."""
-    x = np.asarray(x, float).reshape(-1)
-    vn, ve, w = float(x[2]), float(x[3]), float(x[TURN])  # Python floats: scalar numpy maths costs ~10x here
-    th = w * dt
-    s, c = math.sin(th), math.cos(th)
-    if abs(th) > 1e-4:
-        a, b = s / w, (1.0 - c) / w  # position gain along and across the velocity
-        da = (dt * c * w - s) / (w * w)
-        db = (dt * s * w - (1.0 - c)) / (w * w)
-    else:  # series about omega = 0
-        a, b = dt - w * w * dt**3 / 6, w * dt * dt / 2
-        da, db = -w * dt**3 / 3, dt * dt / 2
+    x = np.atleast_2d(np.asarray(x, float))
+    n, dim = x.shape
+    step = coordinated_turn(x[:, 2], x[:, 3], x[:, TURN], dt)
     out = x.copy()
-    out[0] += a * vn - b * ve
-    out[1] += b * vn + a * ve
-    out[2] = c * vn - s * ve
-    out[3] = s * vn + c * ve
-    j = np.eye(x.size)
-    j[0, 2], j[0, 3], j[1, 2], j[1, 3] = a, -b, b, a
-    j[2, 2], j[2, 3], j[3, 2], j[3, 3] = c, -s, s, c
-    j[0, TURN] = da * vn - db * ve
-    j[1, TURN] = db * vn + da * ve
-    j[2, TURN] = dt * (-s * vn - c * ve)
-    j[3, TURN] = dt * (c * vn - s * ve)
+    out[:, POS] += step.delta_position
+    out[:, VEL] = step.velocity
+    j = np.broadcast_to(np.eye(dim), (n, dim, dim)).copy()
+    j[:, _TURN_ROWS, _TURN_COLS] = step.jacobian
     return out, j
 
 
@@ -180,21 +172,38 @@ def new_filter(
 
 
 def predict(kf: KalmanFilter, dt: float, cfg: RadarTrackerConfig) -> None:
-    if dt <= 0:
+    """:func:`predict_many` for one filter."""
+    predict_many([kf], [dt], cfg)
+
+
+def predict_many(filters: Sequence[KalmanFilter], dts: Sequence[float], cfg: RadarTrackerConfig) -> None:
+    """Predict each filter its own ``dt`` s ahead (none for dt <= 0), all in one stack: per filter, the dozens of
+    small numpy calls would cost more than their arithmetic."""
+    moving = [(kf, dt) for kf, dt in zip(filters, dts, strict=True) if dt > 0]
+    if not moving:
         return
+    x = np.array([kf.x[:, 0] for kf, _ in moving])
+    p = np.array([kf.P for kf, _ in moving])
+    dt = np.array([d for _, d in moving], float)
+    # The tracks of a frame are all predicted to its time, so there is mostly one dt: one Q (and F) per distinct dt.
+    q_of = {d: process_noise(d, cfg) for d in set(dt.tolist())}
+    q = np.array([q_of[d] for d in dt.tolist()])
     if cfg.motion_model == "ct":
-        x, j = ct_transition(kf.x, dt)
-        p = j @ kf.P @ j.T + process_noise(dt, cfg)
-        x[TURN] = min(max(float(x[TURN]), -cfg.max_turn_rate), cfg.max_turn_rate)
-        kf.x = x.reshape(-1, 1)
-        kf.P = (p + p.T) / 2
+        x, j = ct_transition(x, dt)
+        p = j @ p @ j.transpose(0, 2, 1) + q
+        x[:, TURN] = np.minimum(np.maximum(x[:, TURN], -cfg.max_turn_rate), cfg.max_turn_rate)
+        p = (p + p.transpose(0, 2, 1)) / 2
     else:
         # filterpy's KalmanFilter.predict, without its per-call copies of the prior (nothing here reads them).
-        f = transition(dt, cfg)
-        kf.x = f @ kf.x
-        kf.P = f @ kf.P @ f.T + process_noise(dt, cfg)
-    kf.last_dt = dt  # for the manoeuvre rule in fused_update
-    kf.x[SIZE, 0] = np.maximum(kf.x[SIZE, 0], cfg.min_box_size_m)
+        f_of = {d: transition(d, cfg) for d in q_of}
+        f = np.array([f_of[d] for d in dt.tolist()])
+        x = (f @ x[:, :, None])[:, :, 0]
+        p = f @ p @ f.transpose(0, 2, 1) + q
+    x[:, SIZE] = np.maximum(x[:, SIZE], cfg.min_box_size_m)
+    for n, (kf, d) in enumerate(moving):
+        kf.x = x[n].reshape(-1, 1)
+        kf.P = p[n]
+        kf.last_dt = d  # for the manoeuvre rule in fused_update
 
 
 def doppler_consistent(

@@ -224,8 +224,8 @@ class RadarTracker:
         frame_dt = t - self.t_last if math.isfinite(self.t_last) else 0.0
         self.t_last = t
         cfg = self.cfg
+        kalman.predict_many([tr.kf for tr in self.tracks], [t - tr.t for tr in self.tracks], cfg)
         for tr in self.tracks:
-            kalman.predict(tr.kf, t - tr.t, cfg)
             tr.t = t
             far = float(np.hypot(*(tr.kf.x[kalman.POS, 0] - out.sensor_ne))) > cfg.turn_model_max_range_m
             if far and tr.kf.dim_x > kalman.TURN:
