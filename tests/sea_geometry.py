@@ -94,9 +94,9 @@ def revolution_over_water(
         e = np.subtract(p1, p0, dtype=float)
         nrm = np.array([e[1], -e[0]]) / np.hypot(*e)
         den = d_world[:, :2] @ nrm
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore"):  # rays along the wall never meet it (den = 0)
             mu = ((np.asarray(p0, float) - o_world[:, :2]) @ nrm) / den
-        p = o_world + mu[:, None] * d_world
+            p = o_world + mu[:, None] * d_world
         along = ((p[:, :2] - np.asarray(p0, float)) @ e) / (e @ e)
         on = (den != 0) & (mu > 0.5) & (mu < lam) & (along >= 0) & (along <= 1) & (-p[:, 2] >= 0) & (-p[:, 2] <= top)
         lam = np.where(on, mu, lam)

@@ -186,3 +186,33 @@ def test_low_hulls_filling_most_of_a_grazing_beams_margin_returns_are_obstacles_
         for beam in (0, 36):
             np.testing.assert_allclose(d[(beam + offsets) % 72] / 100.0, expected, atol=0.05)
         assert np.count_nonzero(d <= 10000) == 2 * offsets.size  # and no crest anywhere else
+
+
+def test_a_low_pontoon_met_by_one_beam_stays_out_of_the_water_fit_and_is_an_obstacle() -> None:
+    """A pontoon 0.45 m high and 60 m long lies 24 m off to starboard in the chop above; the sea returns 10 % of
+    the firings meeting it. Only the -3 deg beam meets the pontoon, 0.34 m above the mean water abeam: a line of
+    returns within the fit's search window. Fitted as water, that line tilted the surface 0.0055 up to starboard
+    (0.13 m under the pontoon) and widened the margin to 0.55 m, so the pontoon's face measured 0.2 m up and its
+    ends were lost in the margin: bins 14 and 21-22 unknown. Lines far out stay out of the fit, as far water never
+    draws them: the surface stays level and the pontoon is an obstacle in every bin the beam meets it in."""
+
+    def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(np.shape(t)), np.zeros(np.shape(t))
+
+    pipeline = lidar_pipeline(MOUNT)
+    ego = SteadyEgo(level, 0.0)
+    pontoon = (((-30.0, 24.0), (30.0, 24.0), 0.45),)
+    for k in range(3):
+        ret = revolution_over_water(
+            MOUNT, level, yaw=0.0, elevation=chop, t0=0.1 * k, walls=pontoon, water_share=(0.1, 20 + k)
+        )
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+        water = pipeline.last_preprocess.water
+        assert water.measured and abs(water.slope_y) < 0.002 and abs(water.offset) < 0.03
+        assert water.margin < 0.5
+        # bins 14-22 span 67.5-112.5 deg: the pontoon 24 m / cos(the bin's bearing nearest abeam) off; beyond them
+        # the beam has come down under the calm margin before it reaches the pontoon
+        abeam = np.arange(14, 23)
+        expected = 24.0 / np.cos(np.radians(np.maximum(np.abs(abeam - 18) * 5.0 - 2.5, 0.0)))
+        np.testing.assert_allclose(out.distances_cm[abeam] / 100.0, expected, atol=0.05)
+        assert set(np.flatnonzero(out.distances_cm <= 10000).tolist()) <= set(range(12, 25))

@@ -197,8 +197,19 @@ def preprocess(
         neighbours = kept(neighbours_all)
         alone = neighbours == 0
     r2_kept = kept(r2)
+    not_water = vertical
+    if water is not None and image is not None and vertical is not None and cfg.grazing_line_min_run > 0:
+        # A low solid met by one beam far out draws a line of returns within the search window of the surface (a
+        # pontoon, a quay's foot, a hull's strakes); in the fit it tilts the surface up under itself and hides its
+        # own foot beneath it. Far water does not draw lines (_grazing_lines), so lines stay out of the fit.
+        reach = cfg.water.max_offset + cfg.water.search_window  # the highest the fit's window ever looks
+        far = np.flatnonzero((r2_kept >= cfg.grazing_line_min_range**2) & (height <= reach) & ~vertical)
+        if far.size:
+            runs = image.ring_runs(idx[far], horizontal[idx[far]], cfg.continuity_abs_tol, cfg.continuity_rel_tol)
+            not_water = vertical.copy()
+            not_water[far[runs >= cfg.grazing_line_min_run]] = True
     estimate = (
-        water.update(bx, by, height, t, rings, vertical, alone)
+        water.update(bx, by, height, t, rings, not_water, alone)
         if water is not None
         else WaterEstimate(margin=cfg.water.margin_floor)
     )
