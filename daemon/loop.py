@@ -21,6 +21,7 @@ import numpy as np
 from daemon.ais import MMSI_BASE, ais_vessel
 from daemon.buffers import BoundedQueue, LatestSlot
 from daemon.health import CycleStats, RateCounter
+from daemon.heap import release_free_memory
 from daemon.sdnotify import SystemdNotifier
 from drivers.frames import EgoPose, LidarScan, RadarFrame
 from tracker.pipeline import EgoSource, PerceptionOutput, PerceptionPipeline
@@ -121,6 +122,8 @@ class DaemonLoop:
         self.alerts: Callable[[float], list[tuple[int, str]]] | None = None
         # World NED -> (lat, lon, alt) or None; a replay with the recording's poses sets it, live uses the publisher's.
         self.world_to_geodetic: Callable[[np.ndarray], tuple[Any, Any, Any] | None] | None = None
+        # Once per health interval, after the health line: the C heap's free pages back to the system (daemon.heap).
+        self.release_memory: Callable[[], object] | None = release_free_memory
 
     # ---- one cycle -------------------------------------------------------------------------------------------
     def tick(self, t: float, deadline: float | None = None) -> PerceptionOutput:
@@ -332,6 +335,8 @@ class DaemonLoop:
             else:
                 self.health_line(t)  # prime the rate counters
             self._last_health = t
+            if self.release_memory is not None:
+                self.release_memory()
 
     # ---- drivers of the loop -----------------------------------------------------------------------------------
     def run_live(self, stop: threading.Event, duration_s: float | None = None) -> None:

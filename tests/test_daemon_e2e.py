@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from daemon import heap
 from daemon.config import Config
 from daemon.demo import config_for_simulation, free_udp_port, simulation_settings
 from daemon.runner import RunningDaemon, StartupError, start_daemon
@@ -264,6 +265,25 @@ def test_radar_frames_of_another_board_are_rejected_and_reported(caplog: pytest.
             emulator.platform = 0xA1843
             assert wait_for(lambda: parser.frames_ok >= ok + 5)
             assert [s.text for s in ap.statustexts()].count(alert) == 1
+
+
+def test_the_live_daemon_trims_its_heap_after_each_health_line(caplog: pytest.LogCaptureFixture) -> None:
+    # glibc keeps freed memory in its heap resident (bench/soak.py found up to 36 MB); the loop hands it back
+    with SimulationRun(simulation_settings("one_box", radar=False), scene=one_box_scene()) as sim:
+        config = config_for_simulation(sim)
+        config.output.health_interval_s = 0.5
+        with caplog.at_level(logging.INFO, logger="daemon.loop"), running(sim, config) as daemon:
+            trim = daemon.loop.release_memory
+            assert trim is heap.release_free_memory
+            lines_at_trim: list[int] = []
+
+            def spy() -> object:
+                lines_at_trim.append(sum(r.getMessage().startswith("health: ") for r in list(caplog.records)))
+                return trim()
+
+            daemon.loop.release_memory = spy
+            assert wait_for(lambda: len(lines_at_trim) >= 4)
+    assert np.all(np.diff(lines_at_trim[:4]) == 1), lines_at_trim  # one trim per health line, right after it
 
 
 def test_no_data_at_start_is_waiting_first_and_an_error_after_the_grace(caplog: pytest.LogCaptureFixture) -> None:

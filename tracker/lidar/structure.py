@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from tracker.grid_shift import shift_in_place
 from tracker.lidar.config import StructureConfig
 
 _NEIGHBOURS = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=np.int64)
@@ -79,13 +80,7 @@ class StructureMemory:
             return
         new_origin = np.floor((own - half) / self.cfg.cell_m) * self.cfg.cell_m
         shift = np.rint((new_origin - self.origin) / self.cfg.cell_m).astype(int)
-        moved = np.full_like(self.last_seen, -np.inf)
-        n = self.cells
-        src = [slice(max(s, 0), n + min(s, 0)) for s in shift]
-        dst = [slice(max(-s, 0), n + min(-s, 0)) for s in shift]
-        if all(sl.stop > sl.start for sl in src):
-            moved[dst[0], dst[1]] = self.last_seen[src[0], src[1]]
-        self.last_seen = moved
+        shift_in_place(self.last_seen, shift[0], shift[1], -np.inf)  # no new grid per move (tracker/grid_shift.py)
         self.origin = new_origin
 
     def _index(self, points_ne: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -22,6 +22,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
+from tracker.grid_shift import shift_in_place
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.dbscan import kd_tree
 
@@ -118,18 +119,10 @@ class StaticMap:
         if want == self.origin:
             return
         di, dj = want[0] - self.origin[0], want[1] - self.origin[1]
-        new = np.zeros_like(self.grid)
-        new_hit = np.full_like(self.last_hit, -np.inf)
-        src_i = slice(max(di, 0), self.size + min(di, 0))
-        dst_i = slice(max(-di, 0), self.size + min(-di, 0))
-        src_j = slice(max(dj, 0), self.size + min(dj, 0))
-        dst_j = slice(max(-dj, 0), self.size + min(-dj, 0))
-        if src_i.start < src_i.stop and src_j.start < src_j.stop:
-            new[dst_i, dst_j] = self.grid[src_i, src_j]
-            new_hit[dst_i, dst_j] = self.last_hit[src_i, src_j]
-        self.grid = new
-        self.last_hit = new_hit
-        self._touched = np.flatnonzero(new)  # a rare event: one full scan
+        # In place: two new 11 MB grids per shift kept glibc's heap large (tracker/grid_shift.py)
+        shift_in_place(self.grid, di, dj, 0.0)
+        shift_in_place(self.last_hit, di, dj, -np.inf)
+        self._touched = np.flatnonzero(self.grid)  # a rare event: one full scan
         self._touched_new = []
         self._is_touched[:] = False
         self._is_touched[self._touched] = True
