@@ -131,6 +131,8 @@ def vouched_range(
 
 SUB_BEARINGS = np.array([-2.0, 0.0, 2.0])  # deg about each bin's centre where coverage is judged (the worst wins)
 N_BINS = 72
+# The bins' centres among the judged bearings (bin_bearings): rows of a (72 * 3, ...) array, one per bin.
+BIN_CENTRES = slice(int(np.flatnonzero(SUB_BEARINGS == 0.0)[0]), None, SUB_BEARINGS.size)
 
 
 def bin_bearings() -> np.ndarray:

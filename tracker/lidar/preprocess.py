@@ -17,7 +17,7 @@ import numpy as np
 from tracker.ego import PoseTable
 from tracker.grouping import expand_groups, group_keys
 from tracker.lidar.config import PreprocessConfig
-from tracker.lidar.coverage import RING_COLUMNS, SUB_BEARINGS, BeamGeometry, band_intervals
+from tracker.lidar.coverage import BIN_CENTRES, N_BINS, RING_COLUMNS, BeamGeometry, band_intervals
 from tracker.lidar.range_image import RINGS, RangeImage
 from tracker.lidar.water import WaterEstimate, WaterSurface
 from tracker.obstacle_map import bearing_bins
@@ -359,11 +359,11 @@ def _grazing_lines(
     members = np.flatnonzero(line)
     if members.size == 0:
         return line
-    firings_per_bin = (image.image.shape[0] - 2) / 72.0
+    firings_per_bin = image.n_sequences / N_BINS
     far_idx = np.flatnonzero(far)
     far_rings = rings[far_idx].astype(np.int64)
-    cell = far_rings * 72 + bearing_bins(np.column_stack([bx[far_idx], by[far_idx]]))
-    met = np.bincount(cell, minlength=RINGS * 72).reshape(RINGS, 72) > 0
+    cell = far_rings * N_BINS + bearing_bins(np.column_stack([bx[far_idx], by[far_idx]]))
+    met = np.bincount(cell, minlength=RINGS * N_BINS).reshape(RINGS, N_BINS) > 0
     if sea[1] is not None:
         met |= _laser_meets_water(sea[0], sea[1], float(np.sqrt(r2_kept.max())), cfg)
     runs = image.ring_runs(idx[far_idx], horizontal[idx[far_idx]], cfg.continuity_abs_tol, cfg.continuity_rel_tol)
@@ -381,8 +381,7 @@ def _laser_meets_water(water: WaterEstimate, beams: BeamGeometry, reach: float, 
     """(16, 72) bool by ring and bin: the laser, at the bin's centre bearing, comes down through the sea margin
     (as deep under the surface as the margin is above it: a trough) between grazing_line_min_range and ``reach``."""
     elevation, sensor_height = beams.over_surface(water, cfg.origin_height_above_water)
-    centre = slice(int(np.flatnonzero(SUB_BEARINGS == 0.0)[0]), None, SUB_BEARINGS.size)  # each bin's centre
-    lo, hi = band_intervals(elevation[centre], sensor_height[centre], -water.margin, water.margin, reach)
+    lo, hi = band_intervals(elevation[BIN_CENTRES], sensor_height[BIN_CENTRES], -water.margin, water.margin, reach)
     return (hi >= np.maximum(lo, cfg.grazing_line_min_range))[:, RING_COLUMNS].T
 
 

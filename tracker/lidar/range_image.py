@@ -89,6 +89,11 @@ class RangeImage:
         image.ravel()[out._cell] = horizontal_range
         return out
 
+    @property
+    def n_sequences(self) -> int:
+        """Firing sequences the revolution spans (the image's rows less their padding)."""
+        return self.image.shape[0] - 2
+
     @cached_property
     def _cell(self) -> np.ndarray:
         """(N,) each return's cell in the flat image (a flat index costs a fraction of a 2-D one)."""
@@ -157,7 +162,7 @@ class RangeImage:
         the run it belongs to among the members: consecutive firings of its laser each within abs_tol + rel_tol * r
         of the one before (1: alone on its ring). A few (ring x sequence) array passes, whatever M is."""
         seq, ring = self.seq[members], self.ring[members]
-        n_seq = self.image.shape[0] - 2
+        n_seq = self.n_sequences
         runs = np.full((RINGS, n_seq), np.nan)  # ring-major: a ring's firings are contiguous once flattened
         runs[ring, seq] = r
         flat = runs.ravel()
