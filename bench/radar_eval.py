@@ -112,7 +112,8 @@ def run_tracker(rec: Recording, cfg: RadarTrackerConfig) -> TrackerRun:
     for k, (t, data, pose) in enumerate(zip(rec.times, rec.packets, rec.poses, strict=True)):
         t0, c0 = time.perf_counter(), time.thread_time()
         tracks = []
-        for frame in parser.feed(data, float(t)):
+        # The firmware pauses after each frame's burst; the live reader then hands the parser the quiet (idle)
+        for frame in parser.feed(data, float(t)) + parser.idle(float(t)):
             tracks = tracker.step_frame(frame, pose)
         out.seconds[k] = time.perf_counter() - t0
         out.cpu_seconds[k] = time.thread_time() - c0

@@ -422,3 +422,20 @@ def test_a_frame_overrunning_a_magic_cut_by_the_read_is_dropped_as_in_one_read()
         ]
         assert got == [1, 3, 4]
         assert (parser.stats.frames_dropped, parser.stats.bytes_skipped) == (1, 90)
+
+
+def test_a_frame_ending_like_a_magic_word_waits_for_bytes_or_for_the_line_to_go_quiet() -> None:
+    """Two points and noise 60 dB: header and TLVs fill 96 bytes (no padding) and the frame ends in 0x58 0x02, the
+    noise x 10 of its last point, and 0x02 is how a magic word starts. The parser cannot tell yet whether the next
+    frame began a byte early; the next read decides, or the pause after the burst (``idle``) does, at once."""
+    frame = encode_frame(7, np.array([[1.0, 5.0, 0.0], [2.0, 9.0, 0.0]]), [0.5, -0.25], 20.0, 60.0)
+    assert len(frame) == 96 and frame[-1:] == MAGIC[:1]
+    parser = RadarFrameParser()
+    assert parser.feed(frame, 1.0) == []  # held: its last byte may start the next frame's magic
+    got = parser.idle(1.02)
+    assert [f.frame_number for f in got] == [7] and got[0].stamp == 1.0 and got[0].n_points == 2
+    # the same bytes followed by the next frame in the next read: the same frame, and the next one
+    parser = RadarFrameParser()
+    assert parser.feed(frame, 1.0) == []
+    nxt = encode_frame(8, np.array([[1.0, 5.0, 0.0]]), [0.5], 20.0, 30.0)
+    assert [f.frame_number for f in parser.feed(nxt, 1.1) + parser.idle(1.12)] == [7, 8]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
 from collections.abc import Callable
@@ -280,3 +281,27 @@ def test_paced_replay_stops_on_request(shared_fixtures: Path) -> None:
         reader.close()
     assert [f.frame_number for f in reader.frames[:2]] == [1986, 1987]
     assert len(reader.frames) < 440
+
+
+def test_a_frame_ending_like_a_magic_word_goes_out_in_the_pause_after_its_burst() -> None:
+    """A frame whose last byte is 0x02 (how a magic word starts) and nothing after it: the reader passes the line's
+    quiet to the parser, which sends the frame on rather than holding it for the next frame's bytes (a whole frame
+    period later; here, never)."""
+    from drivers.awr1843.parser import encode_frame
+
+    frame = encode_frame(7, np.array([[1.0, 5.0, 0.0], [2.0, 9.0, 0.0]]), [0.5, -0.25], 20.0, 60.0)
+    assert frame[-1:] == MAGIC[:1]
+    master, slave = os.openpty()
+    try:
+        source = SerialRadarSource("", os.ttyname(slave), None, configure=False, stop_sensor_on_exit=False)
+        reader = Reader(source)
+        try:
+            time.sleep(0.2)  # the reader has opened the port
+            os.write(master, frame)
+            reader.wait_for(lambda: len(reader.frames) >= 1, timeout=5.0)
+        finally:
+            reader.close()
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert [(f.frame_number, f.n_points) for f in reader.frames] == [(7, 2)]

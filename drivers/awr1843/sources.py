@@ -90,7 +90,7 @@ class SerialRadarSource:
         expected: ExpectedStream | None = None,
         stop_sensor_on_exit: bool = True,
         silence_timeout_s: float = 2.0,
-        read_timeout_s: float = 0.1,
+        read_timeout_s: float = 0.02,
         reconnect_backoff_s: tuple[float, ...] = (0.2, 0.5, 1.0, 2.0, 5.0),
         cli_command_timeout_s: float = 1.0,
         cli_slow_command_timeout_s: float = 3.0,
@@ -222,7 +222,8 @@ class SerialRadarSource:
             now = self.clock()
             if data and self.raw_sink is not None:
                 self.raw_sink(data)
-            frames = self.parser.feed(data, now) if data else []
+            # An empty read is the pause between two frames' bursts: a frame held for its last bytes goes out now.
+            frames = self.parser.feed(data, now) if data else self.parser.idle(now)
             for frame in frames:
                 if self.stats.silent:
                     self.stats.silent = False
