@@ -60,3 +60,22 @@ def observe(
         dop = dop + rng.normal(0.0, doppler_noise, dop.shape)
     body = (p - own.position) @ own.rotation()  # R^T (p - pos), row-wise
     return np.column_stack([body, np.full(len(p), z)]), dop
+
+
+def sea_clutter(
+    rng: np.random.Generator, per_frame: float, half_fov: float = np.radians(60.0), r0: float = 1.0, r1: float = 50.0
+) -> np.ndarray:
+    """(n, 2) sea-clutter returns of one frame around a radar at the origin looking north, at fresh places: a Poisson
+    count of mean ``per_frame`` with areal density proportional to range^-2 (uniform in log range), uniform in bearing
+    within ``half_fov``."""
+    n = rng.poisson(per_frame)
+    r = np.exp(rng.uniform(np.log(r0), np.log(r1), n))
+    b = rng.uniform(-half_fov, half_fov, n)
+    return np.column_stack([r * np.cos(b), r * np.sin(b)])
+
+
+def sea_clutter_density(
+    per_frame: float, range_m: float, half_fov: float = np.radians(60.0), r0: float = 1.0, r1: float = 50.0
+) -> float:
+    """Returns per m^2 per frame of ``sea_clutter`` at ``range_m``."""
+    return per_frame / (2 * half_fov * np.log(r1 / r0)) / range_m**2

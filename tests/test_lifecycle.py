@@ -20,6 +20,16 @@ def test_confirmed_after_m_hits_within_n_cycles() -> None:
     assert life.confirmed and life.hits == 3
 
 
+def test_unproven_hits_leave_a_track_tentative_until_its_evidence_stands_out() -> None:
+    """``proven`` False (its returns no more than the clutter there explains): M hits do not confirm it."""
+    life = make(confirm_hits=3, confirm_window=5).start(0.0)
+    assert life.hit(0.1, proven=False) is TrackStatus.TENTATIVE
+    assert life.hit(0.2, proven=False) is TrackStatus.TENTATIVE  # 3 of 3, but not believed
+    assert life.hit(0.3, proven=False) is TrackStatus.TENTATIVE
+    assert life.hit(0.4, proven=True) is TrackStatus.CONFIRMED
+    assert life.hits == 5
+
+
 def test_tentative_deleted_once_m_is_out_of_reach() -> None:
     life = make(confirm_hits=3, confirm_window=5, max_unseen_time_tentative=10.0).start(0.0)
     assert life.miss(0.1) is TrackStatus.TENTATIVE  # 1 hit, 3 cycles left: can still reach 3

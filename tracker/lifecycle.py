@@ -88,13 +88,15 @@ class TrackLife:
     def time_since_update(self) -> float:
         return self.t_now - self.t_last_hit
 
-    def hit(self, t: float) -> TrackStatus:
+    def hit(self, t: float, proven: bool = True) -> TrackStatus:
+        """A cycle with a detection. ``proven`` False: the tracker does not yet believe the track is more than
+        clutter (tracker.existence), so a tentative track stays tentative however many hits it has."""
         if not self.alive:
             return self.status
         self._advance(t, True)
         self.t_last_hit = t
         self.hits += 1
-        reached_m = self.status is TrackStatus.TENTATIVE and sum(self._window) >= self.config.confirm_hits
+        reached_m = self.status is TrackStatus.TENTATIVE and sum(self._window) >= self.config.confirm_hits and proven
         if reached_m or self.status is TrackStatus.COASTING:
             self.status = TrackStatus.CONFIRMED
         return self.status

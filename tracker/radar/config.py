@@ -229,6 +229,21 @@ class RadarTrackerConfig:
     # where the nearer hulls are taller than the radar mount (a radar at the water line among moored boats).
     occlusion_lit_edge: bool = False
 
+    # --- Existence against the measured clutter (not in the paper; tracker.existence) -------------------------------
+    # A track counts the returns in its predicted box grown by existence_pad_m every frame; the sea's clutter density
+    # at its range, measured over clutter_time_constant_s and times existence_clutter_peak (rough water gathers its
+    # clutter on the crests), says how many clutter alone would put there. Over its last existence_window_frames
+    # frames (birth excluded) the Poisson chance of clutter giving as many must be at most existence_confirm_tail to
+    # confirm it; a confirmed track whose chance rises above existence_keep_tail is dropped. The static map's cells
+    # must beat the clutter the same way to count as shore. The tails at 1: off, as the paper (M of N alone); the
+    # daemon turns it on (daemon/tracker_adapters.py).
+    existence_confirm_tail: float = 1.0
+    existence_keep_tail: float = 1.0
+    existence_clutter_peak: float = 1.0
+    existence_window_frames: int = 10
+    existence_pad_m: float = 1.0
+    clutter_time_constant_s: float = 3.0
+
     # --- Motion discriminator (eq. 8, Table 1) --------------------------------------------------------------------
     motion_discriminator_enabled: bool = True  # ablation switch ("Remove Motion Discriminator", Table 4)
     # c in eq. 8, not given in the paper. Chosen on synthetic 3 m boats with 6-20 returns per frame: hull IoU at rest
@@ -300,6 +315,8 @@ class RadarTrackerConfig:
             "doppler_gate_chi2",
             "association_distance_gate_m",
             "min_box_size_m",
+            "clutter_time_constant_s",
+            "existence_clutter_peak",
         )
         for name in positive:
             if not getattr(self, name) > 0:
@@ -355,6 +372,7 @@ class RadarTrackerConfig:
             "motion_group_window_s",
             "hull_point_pad_m",
             "static_doppler_threshold_mps",
+            "existence_pad_m",
         )
         for name in nonneg:
             if not getattr(self, name) >= 0:
@@ -365,6 +383,7 @@ class RadarTrackerConfig:
             "static_submap_cells",
             "ego_min_points",
             "birth_window_frames",
+            "existence_window_frames",
         ):
             if int(getattr(self, name)) < 1:
                 raise ConfigError(f"RadarTrackerConfig.{name} must be >= 1")
@@ -387,6 +406,8 @@ class RadarTrackerConfig:
             "multipath_cluster_ghost_share",
             "occluded_min_share",
             "duplicate_iou",
+            "existence_confirm_tail",
+            "existence_keep_tail",
         ):
             if not 0.0 < getattr(self, name) <= 1.0:
                 raise ConfigError(f"RadarTrackerConfig.{name} must be in (0, 1]")

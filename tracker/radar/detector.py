@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tracker.ego import rotation_matrices
+from tracker.existence import ClutterDensity
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.dbscan import dbscan, dbscan_1d_grouped, kd_tree
 from tracker.radar.multipath import MultipathSettings, multipath_ghosts
@@ -131,6 +132,14 @@ class DetectorOutput:
     _detections: list[Detection] | None = None
 
     @property
+    def candidate(self) -> np.ndarray:
+        """(m,) bool, the returns that may be a vessel's: in a kept cluster, or loose."""
+        mask = self.loose.copy()
+        for cl in self.kept_clusters:
+            mask[cl.index] = True
+        return mask
+
+    @property
     def detections(self) -> list[Detection]:
         """The kept clusters as Detections, same order as ``kept_clusters``; built on first use (the tracker works
         on the clusters)."""
@@ -170,6 +179,20 @@ class RadarDetector:
         self.profile = config.profile_settings()
         self.ego_profile = config.ego_profile_settings()
         self.totals: dict[str, int] = {}
+        self.clutter = self.new_clutter()
+        self.static_map.clutter_per_m2 = lambda range_m: self.clutter_expected(range_m, 1.0)
+
+    def new_clutter(self) -> ClutterDensity:
+        """The sea clutter's density around the radar, measured from the frames' returns (tracker.existence)."""
+        c = self.cfg
+        return ClutterDensity(
+            max(c.roi_min_range_m, 0.5), c.roi_max_range_m, 2 * c.roi_max_abs_azimuth_rad, c.clutter_time_constant_s
+        )
+
+    def clutter_expected(self, range_m: np.ndarray, area_m2: np.ndarray | float) -> np.ndarray:
+        """(n,) clutter returns a frame expected over ``area_m2`` at ``range_m`` from the radar: the measured density
+        times its peak on the crests (``existence_clutter_peak``)."""
+        return self.clutter.at(range_m) * area_m2 * self.cfg.existence_clutter_peak
 
     def _count(self, counts: dict[str, int], key: str, n: int) -> None:
         counts[key] = counts.get(key, 0) + int(n)
@@ -289,7 +312,8 @@ class RadarDetector:
             on_line[static] = self.shore_lines.mark(t, world[static], sensor_ne, defer=map_extracted)
         if c.static_map_min_neighbours > 0 and static.any():
             # Sea clutter is static-looking but scattered: over minutes it would fill the water near the boat with
-            # "occupied" cells. A wall or a hull gives returns with neighbours in the same frame; lone ones are left out.
+            # "occupied" cells. A wall or a hull gives returns with neighbours in the same frame; lone ones are left
+            # out. (The map's extraction then asks more of a cell than the clutter there leaves: StaticMap.)
             idx = np.flatnonzero(static)
             pairs = kd_tree(world[idx]).query_pairs(c.cluster_radius_m, output_type="ndarray")
             nbrs = np.bincount(pairs.reshape(-1), minlength=idx.size)
@@ -360,6 +384,12 @@ class RadarDetector:
             counts=counts,
             min_box_size_m=c.min_box_size_m,
         )
+        # The clutter density is measured over every return that may be a vessel's, the vessels' own included: left
+        # out, a clutter track once confirmed took its returns out of the sea's measure, and the sea looked calmer
+        # still (held out: radar-only false-obstacle bins 0.77 -> 2.2 %, 32 % in random:1028).
+        rel = xyz[out.candidate, :2] - sensor_body
+        az = np.angle(np.exp(1j * (np.arctan2(rel[:, 1], rel[:, 0]) - c.sensor_yaw_body_rad)))
+        self.clutter.update(t, rng[out.candidate], az)
         if update_map:
             self.update_map(out)
         return out

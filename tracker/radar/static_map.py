@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 
 import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
+from tracker.existence import clutter_tail
 from tracker.grid_shift import shift_in_place
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.dbscan import kd_tree
@@ -63,6 +65,10 @@ class StaticMap:
         self.t_ref = 0.0
         self.t_last = -math.inf
         self.shifts = 0
+        self.frames = 0.0  # frames added, decayed as the evidence is (same scale): how many a cell could have been hit
+        # Clutter returns a frame expected per m^2 at given ranges from the boat (RadarDetector.clutter_expected);
+        # None: the fixed static_occupied_hits alone decides
+        self.clutter_per_m2: Callable[[np.ndarray], np.ndarray] | None = None
         # Flat indices of the cells holding evidence: the shore scan visits only these, not 1200 x 1200 cells.
         self._touched = np.empty(0, np.int64)
         self._touched_new: list[np.ndarray] = []  # cells hit since the last shore extraction, merged there
@@ -79,6 +85,7 @@ class StaticMap:
         self._is_touched[:] = False
         self.origin = None
         self.t_last = -math.inf
+        self.frames = 0.0
         self._clear_shore()
 
     def _clear_shore(self) -> None:
@@ -105,6 +112,7 @@ class StaticMap:
             self.t_ref = t
         self.t_last = t
         if self._scale(t) > _REBASE_FACTOR:
+            self.frames *= 1.0 / self._scale(t)
             self.grid *= 1.0 / self._scale(t)
             self.t_ref = t
 
@@ -134,6 +142,7 @@ class StaticMap:
     def add_points(self, points_ne: np.ndarray, t: float) -> int:
         """One hit per occupied cell per frame (a dense reflector does not outvote persistence). Returns cells hit."""
         self.advance_time(t)
+        self.frames += self._scale(t)
         if self.origin is None or len(points_ne) == 0:
             return 0
         rc = self.cells(points_ne) - np.asarray(self.origin)
@@ -200,9 +209,12 @@ class StaticMap:
         # Occupied: enough evidence, and seen lately. A structure is judged by what is there now: the returns a slow
         # boat leaves behind (its Doppler looks static) fall out after static_recent_s instead of adding up to a
         # "shore" as long as its track.
-        occ = self._touched[(pooled >= self.cfg.static_occupied_hits * scale) & recent]
-        rc = np.stack(np.divmod(occ, self.size), axis=1)
+        occupied = (pooled >= self.cfg.static_occupied_hits * scale) & recent
         boat = self.cells(np.asarray(position_ne, float).reshape(1, 2))[0] - np.asarray(self.origin)
+        if self.clutter_per_m2 is not None and occupied.any():
+            occupied[occupied] = self._beyond_clutter(self._touched[occupied], pooled[occupied] / scale, boat, pool)
+        occ = self._touched[occupied]
+        rc = np.stack(np.divmod(occ, self.size), axis=1)
         rc = rc[np.all(np.abs(rc - boat) <= math.ceil(max_range_m / self.res) + 1, axis=1)]
         if rc.size == 0:
             return True
@@ -238,6 +250,17 @@ class StaticMap:
         inner = raster[r + 1, c] & raster[r - 1, c] & raster[r, c + 1] & raster[r, c - 1]
         self._edge_rc = shore[~inner]
         return True
+
+    def _beyond_clutter(self, flat: np.ndarray, hits: np.ndarray, boat_rc: np.ndarray, pool: int) -> np.ndarray:
+        """(n,) bool: the pooled hits of these cells are more than the sea's clutter would have left there over the
+        map's decayed frames (Poisson tail at most ``existence_confirm_tail``). Rough water leaves static-looking
+        returns everywhere near the boat; a wall leaves them in the same place frame after frame."""
+        assert self.clutter_per_m2 is not None
+        rc = np.stack(np.divmod(flat, self.size), axis=1)
+        range_m = np.hypot(*((rc - boat_rc) * self.res).T)
+        block_area = (pool * self.res) ** 2
+        expected = self.clutter_per_m2(range_m) * block_area * (self.frames / self._scale(self.t_last))
+        return clutter_tail(hits, expected) <= self.cfg.existence_confirm_tail
 
     def _contains(self, cells_rc: np.ndarray) -> np.ndarray:
         keys = _keys(cells_rc)

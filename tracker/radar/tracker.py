@@ -18,6 +18,7 @@ from filterpy.kalman import KalmanFilter
 
 from drivers.frames import EgoPose, RadarFrame
 from tracker.assignment import gated_assignment
+from tracker.existence import ExistenceEvidence, boxes_area, boxes_members
 from tracker.lifecycle import IdSource, Lifecycle, TrackLife, TrackStatus
 from tracker.radar import kalman, occlusion
 from tracker.radar.config import RadarTrackerConfig
@@ -84,6 +85,7 @@ class RadarTrackState:
     shape: deque[tuple[float, np.ndarray]] = field(default_factory=deque)  # (t, returns - centre) of recent frames
     sparse: bool = False  # born from returns pooled over several frames (a far boat)
     shadowed: float = 0.0  # share of its bearing span in a nearer object's shadow at its last update or miss
+    evidence: ExistenceEvidence | None = None  # its returns against the clutter expected, frame by frame
 
     def to_track(self, cfg: RadarTrackerConfig) -> Track:
         x = self.kf.x[:, 0]
@@ -160,6 +162,7 @@ class RadarTracker:
         self.detector.static_map.reset()
         self.detector.shore_lines.reset()
         self._pool.clear()
+        self.detector.clutter = self.detector.new_clutter()
 
     # --- the cycle ---------------------------------------------------------------------------------------------------
 
@@ -231,6 +234,7 @@ class RadarTracker:
             if far and tr.kf.dim_x > kalman.TURN:
                 kalman.freeze_turn_rate(tr.kf)  # before the update, so it cannot learn a rate either
         self._boxes = self._predicted_boxes()
+        self._weigh_evidence(out)
         clusters = out.kept_clusters
         claims, spawn = self._associate(clusters)
         groups = {ti: self.detector.merge_clusters([clusters[di] for di in dis]) for ti, dis in claims.items()}
@@ -249,6 +253,7 @@ class RadarTracker:
         for cl, sparse in births:
             self.tracks.append(self._start_track(cl, sparse, t, out))
         self._update_static_map(out, used)
+        self._drop_unproven()
         self._prune_duplicates()
         self.tracks = [tr for tr in self.tracks if tr.life.alive]
         return self.current_tracks()
@@ -279,7 +284,7 @@ class RadarTracker:
             position_var_extra=cfg.occlusion_position_var_m2 * hidden * hidden,
         )
         self._remember_shape(tr, cl, t)
-        tr.life.hit(t)
+        tr.life.hit(t, proven=tr.life.confirmed or self._proven(tr))
         tr.points = cl.points
         if cfg.motion_discriminator_enabled:
             tr.motion.observe(t, cl.points, self._doppler_moving(cl), self._filter_moving(tr))
@@ -329,11 +334,46 @@ class RadarTracker:
             t=t,
             points=cl.points,
             sparse=sparse,
+            evidence=ExistenceEvidence(cfg.existence_window_frames),
         )
         self._remember_shape(tr, cl, t)
         if cfg.motion_discriminator_enabled:
             tr.motion.observe(t, cl.points, self._doppler_moving(cl))
         return tr
+
+    def _weigh_evidence(self, out: DetectorOutput) -> None:
+        """Every track's count of the frame's candidate returns (kept clusters, loose) in its predicted box against the
+        clutter expected there (tracker.existence), before any update moves the boxes."""
+        cfg = self.cfg
+        boxes = self._boxes
+        if not len(boxes):
+            return
+        n = boxes_members(out.points[out.candidate], boxes, cfg.existence_pad_m).sum(axis=1)
+        centre = (boxes[:, :2] + boxes[:, 2:]) / 2
+        mu = self.detector.clutter_expected(
+            np.linalg.norm(centre - out.sensor_ne, axis=1), boxes_area(boxes, cfg.existence_pad_m)
+        )
+        for tr, ni, mi in zip(self.tracks, n.tolist(), mu.tolist(), strict=True):
+            if tr.evidence is not None:
+                tr.evidence.add(ni, mi)
+
+    def _proven(self, tr: RadarTrackState) -> bool:
+        """The track's recent returns are more than the clutter at its place explains (``existence_confirm_tail``)."""
+        return tr.evidence is None or tr.evidence.tail() <= self.cfg.existence_confirm_tail
+
+    def _drop_unproven(self) -> None:
+        """A confirmed track whose last ``existence_window_frames`` frames of returns clutter explains as well
+        (``existence_keep_tail``) is deleted: it was a bunch of clutter, or its boat no longer stands out of the sea.
+        One hidden in a nearer object's shadow is expected to show nothing and is left to coast."""
+        cfg = self.cfg
+        if cfg.existence_keep_tail >= 1.0:
+            return
+        for tr in self.tracks:
+            ev = tr.evidence
+            if not (tr.life.confirmed and ev is not None and ev.full) or tr.shadowed >= cfg.occluded_min_share:
+                continue
+            if ev.tail() > cfg.existence_keep_tail:
+                tr.life.status = TrackStatus.DELETED
 
     def _predicted_boxes(self) -> np.ndarray:
         """(tracks, 4) kalman.box_of of every track, from one stacked state array: association, loose returns,
