@@ -1,10 +1,12 @@
-"""Which radar tracks become obstacles: a radar-only track near the boat while the LiDAR sees is clutter."""
+"""Which radar tracks become obstacles: a radar-only track where the LiDAR's beams vouch and saw nothing is clutter;
+in the gap between its beams, or with the LiDAR blind, the radar speaks alone."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from drivers.frames import LidarScan, RadarFrame
+from drivers.mount import Mount
 from tracker.obstacle_map import UNKNOWN
 from tracker.pipeline import PerceptionPipeline, PipelineSettings
 from tracker.types import Track
@@ -39,37 +41,60 @@ def frame(t: float) -> RadarFrame:
     return RadarFrame(t, 1, np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0))
 
 
-def run(tracks: list[Track], lidar: bool) -> np.ndarray:
-    p = PerceptionPipeline(radar_tracker_factory=lambda: FixedRadarTracks(tracks))
-    out = p.step(1.0, empty_scan(0.95) if lidar else None, [frame(0.95)], None)
-    return out.distances_cm
+# The shipped mount: a VLP-16 1.6 m above the water. Its beams vouch for a 0.5 m solid at 4.1-11.8 m (the lowest
+# five lasers' bands overlap), 12.6-16.6 m, 21-27.7 m (-3 deg) and 63-83 m (-1 deg); between them a low hull hides.
+MOUNTED = PipelineSettings(lidar_mount=Mount(z=-1.6))  # the body origin at the waterline
+
+
+def water_scan(t: float) -> LidarScan:
+    """A revolution whose only returns are one water return 8 m off in each bin: every bin measured, nothing solid."""
+    b = np.radians(5.0 * np.arange(72))
+    xyz = np.column_stack([8.0 * np.cos(b), 8.0 * np.sin(b), np.zeros(72)])
+    return LidarScan(t, t, xyz, np.zeros(72, np.float32), np.zeros(72, np.uint8), np.full(72, t))
+
+
+def run(tracks: list[Track], lidar: bool, settings: PipelineSettings = MOUNTED) -> tuple[np.ndarray, list[Track]]:
+    p = PerceptionPipeline(settings, radar_tracker_factory=lambda: FixedRadarTracks(tracks))
+    out = p.step(1.0, water_scan(0.95) if lidar else None, [frame(0.95)], None)
+    return out.distances_cm, out.tracks
 
 
 def test_near_radar_only_track_is_not_an_obstacle_while_the_lidar_sees() -> None:
-    d = run([radar_track(6.0, 0.0)], lidar=True)
-    assert d[0] == UNKNOWN  # the LiDAR looked there and saw nothing: clutter, not a hull
+    d, tracks = run([radar_track(6.0, 0.0)], lidar=True)
+    assert d[0] == UNKNOWN and tracks == []  # the LiDAR looked there and saw nothing: clutter, not a hull
 
 
-def test_radar_only_track_within_the_lidars_reach_is_neither_obstacle_nor_track_while_the_lidar_sees() -> None:
-    p = PerceptionPipeline(radar_tracker_factory=lambda: FixedRadarTracks([radar_track(30.0, 0.0)]))
-    out = p.step(1.0, empty_scan(0.95), [frame(0.95)], None)
-    assert out.distances_cm[0] == UNKNOWN and out.tracks == []
-    # beyond the LiDAR's 100 m the radar speaks alone
-    p = PerceptionPipeline(
-        PipelineSettings(max_distance_m=200.0),
-        radar_tracker_factory=lambda: FixedRadarTracks([radar_track(120.0, 0.0)]),
+def test_radar_only_track_where_the_lidars_beams_vouch_is_neither_obstacle_nor_track() -> None:
+    d, tracks = run([radar_track(24.0, 0.0)], lidar=True)  # in the -3 deg beam's band
+    assert d[0] == UNKNOWN and tracks == []
+
+
+def test_radar_only_track_in_the_gap_between_the_lidars_beams_is_an_obstacle_and_a_track() -> None:
+    """A low hull 40 m off passes between the -3 and -1 deg beams: only the radar can see it, so it speaks there."""
+    d, tracks = run([radar_track(40.0, 0.0)], lidar=True)
+    assert d[0] == 3900 and [tr.source for tr in tracks] == ["radar"]
+
+
+def test_radar_only_track_within_a_fixed_range_is_muted_when_one_is_set() -> None:
+    fixed = PipelineSettings(
+        max_distance_m=200.0,
+        lidar_mount=Mount(z=-1.6),
+        lidar_origin_height_above_water_m=1.6,
+        radar_alone_beyond_m=100.0,
     )
-    out = p.step(1.0, empty_scan(0.95), [frame(0.95)], None)
-    assert out.distances_cm[0] == 11900 and [tr.source for tr in out.tracks] == ["radar"]
+    d, tracks = run([radar_track(40.0, 0.0)], lidar=True, settings=fixed)
+    assert d[0] == UNKNOWN and tracks == []
+    d, tracks = run([radar_track(120.0, 0.0)], lidar=True, settings=fixed)  # beyond it the radar speaks alone
+    assert d[0] == 11900 and [tr.source for tr in tracks] == ["radar"]
 
 
 def test_near_radar_only_track_counts_when_the_lidar_is_blind() -> None:
-    d = run([radar_track(6.0, 0.0)], lidar=False)
+    d, _ = run([radar_track(6.0, 0.0)], lidar=False)
     assert d[0] == 500  # the near face of the 2 x 2 m box 6 m ahead
 
 
 def test_far_radar_only_track_is_an_obstacle_when_the_lidar_is_blind() -> None:
-    d = run([radar_track(30.0, 0.0)], lidar=False)
+    d, _ = run([radar_track(30.0, 0.0)], lidar=False)
     assert d[0] == 2900
 
 

@@ -23,6 +23,7 @@ from drivers.mount import Mount
 from tracker.ego import sample_poses, world_to_body_2d
 from tracker.fusion import fuse_tracks
 from tracker.lidar.coverage import (
+    BIN_CENTRES,
     SUB_BEARINGS,
     BeamGeometry,
     band_intervals,
@@ -91,11 +92,13 @@ class PipelineSettings:
     radar_yaw_rad: float = 0.0
     radar_max_range_m: float = 50.0
     fusion_gate_m: float = 3.0
-    # While the LiDAR delivers, the radar speaks alone only beyond this range (None: lidar_max_range_m): a radar-only
-    # track or radar shore within the LiDAR's reach is sea clutter or a ghost far more often than a hull the LiDAR
-    # missed. On the tuning scenes (random:1-4, sea states 1-3) 78 % of confirmed radar-only track-frames were on
-    # no vessel, and radar shore built from clutter filled 45 % of the bins with false obstacles. With the LiDAR
-    # blind, the radar's tracks and shore are obstacles.
+    # While the LiDAR delivers, the radar speaks alone (its tracks no LiDAR track holds, its shore, its shore returns)
+    # only where the LiDAR's beams do not vouch that they would have returned a solid (None), or only beyond this
+    # range (m). Where the beams vouch and returned nothing, a radar-only object is clutter or a ghost far more
+    # often than a hull the LiDAR missed; where they do not (the gap between the lowest beams in which a low hull
+    # hides, 30-63 m for a 0.5 m hull under a VLP-16 1.6 m up; beyond the LiDAR's range in rain), the radar is the
+    # only sensor that can see it, and its field of view counts toward "clear" there. With the LiDAR blind, the
+    # radar's tracks and shore are obstacles everywhere.
     radar_alone_beyond_m: float | None = None
     lidar_mount: Mount = field(default_factory=Mount)
     # Coverage (tracker/lidar/coverage.py): "clear" is sent only for a bin where a solid this tall above the water
@@ -250,13 +253,10 @@ class PerceptionPipeline:
         # the returns are dropped with the sensor's freshness, never reused beyond it.
         lidar_fresh = t - self._last_lidar_t <= self.freshness_s
         radar_fresh = t - self._last_radar_t <= self.freshness_s
-        radar_alone = (
-            (s.lidar_max_range_m if s.radar_alone_beyond_m is None else s.radar_alone_beyond_m) if lidar_fresh else 0.0
-        )
         if lidar_fresh:
             solid.append(self._lidar_solid)
         if radar_fresh:
-            solid.append(_beyond(self._radar_solid, radar_alone))
+            solid.append(self._radar_speaks(self._radar_solid, lidar_fresh))
 
         # A sensor that stopped delivering takes its tracks with it: a LiDAR track frozen at its last update would
         # otherwise absorb the radar's live track of the same boat, and the boat would drop out of the array.
@@ -264,8 +264,13 @@ class PerceptionPipeline:
             self._lidar_tracks if lidar_fresh else [], self._radar_tracks if radar_fresh else [], s.fusion_gate_m
         )
         own = _pose_now(ego, ego_ok, t)
-        if own is not None and radar_alone > 0:
-            tracks = [tr for tr in tracks if tr.source != "radar" or not _within(tr, own, radar_alone)]
+        if own is not None and lidar_fresh and any(tr.source == "radar" for tr in tracks):
+            alone = [tr for tr in tracks if tr.source == "radar"]
+            at = world_to_body_2d(np.array([tr.position[:2] for tr in alone]), own[0][:2], own[3])
+            muted = {
+                id(tr) for tr, speaks in zip(alone, self._radar_speaks_at(at, lidar_fresh), strict=True) if not speaks
+            }
+            tracks = [tr for tr in tracks if id(tr) not in muted]
         if own is not None:
             # Returns measured this cycle are the truth about a hull; an estimated outline is only added where the
             # LiDAR did not sweep the track's bearing this cycle (a partial sweep) or the radar saw it sparsely. A
@@ -288,12 +293,13 @@ class PerceptionPipeline:
                     or tr.source == "radar"  # the radar sees a hull sparsely; its track's outline stands for it
                 )
             ]
-            if self.radar_tracker is not None:
-                shore = self.radar_tracker.shore_points()
-                outlines.append(shore[np.hypot(*(shore - own[0][:2]).T) > radar_alone] if len(shore) else shore)
             outlines = [o for o in outlines if len(o)]
             if outlines:
                 solid.append(world_to_body_2d(np.concatenate(outlines), own[0][:2], own[3]))
+            if self.radar_tracker is not None and radar_fresh:
+                shore = self.radar_tracker.shore_points()
+                if len(shore):
+                    solid.append(self._radar_speaks(world_to_body_2d(shore, own[0][:2], own[3]), lidar_fresh))
 
         clear_to = _timed(timings, "coverage", lambda: self._clear_to(lidar_fresh, radar_fresh))
         distances = _timed(
@@ -315,6 +321,22 @@ class PerceptionPipeline:
             clear_to_m=clear_to,
             tracking_skipped=tuple(dict.fromkeys(self._skipped)),
         )
+
+    def _radar_speaks_at(self, points_fwd_stbd: np.ndarray, lidar_fresh: bool) -> np.ndarray:
+        """(n,) bool: the radar alone may put an obstacle at these body points (``radar_alone_beyond_m``): the LiDAR is
+        not delivering, or its beams at the point's bin (centre bearing) do not vouch for the point's range."""
+        n = len(points_fwd_stbd)
+        if not lidar_fresh or n == 0:
+            return np.ones(n, dtype=bool)
+        r = np.hypot(points_fwd_stbd[:, 0], points_fwd_stbd[:, 1])
+        if self.settings.radar_alone_beyond_m is not None:
+            return r > self.settings.radar_alone_beyond_m
+        b = bearing_bins(points_fwd_stbd)
+        lo, hi = self._lidar_bands[0][BIN_CENTRES][b], self._lidar_bands[1][BIN_CENTRES][b]
+        return ~np.any((lo <= r[:, None]) & (r[:, None] <= hi), axis=1)
+
+    def _radar_speaks(self, points_fwd_stbd: np.ndarray, lidar_fresh: bool) -> np.ndarray:
+        return points_fwd_stbd[self._radar_speaks_at(points_fwd_stbd, lidar_fresh)]
 
     def _may_track(self, sensor: str) -> bool:
         """Whether the ``sensor``'s tracker fits before the deadline this cycle; counts a skip when it does not."""
@@ -513,17 +535,6 @@ def _swept_many(tracks: list[Track], own: tuple[np.ndarray, float, float, float]
         return np.zeros(0, dtype=bool)
     body = world_to_body_2d(np.array([tr.position for tr in tracks]), own[0][:2], own[3])
     return swept[bearing_bins(body)]
-
-
-def _beyond(points_fwd_stbd: np.ndarray, range_m: float) -> np.ndarray:
-    """The points farther than ``range_m`` from the body origin."""
-    if range_m <= 0 or len(points_fwd_stbd) == 0:
-        return points_fwd_stbd
-    return points_fwd_stbd[np.hypot(points_fwd_stbd[:, 0], points_fwd_stbd[:, 1]) > range_m]
-
-
-def _within(tr: Track, own: tuple[np.ndarray, float, float, float], range_m: float) -> bool:
-    return float(np.hypot(*(tr.position - own[0][:2]))) < range_m
 
 
 def _pose_now(ego: EgoSource | None, ego_ok: bool, t: float) -> tuple[np.ndarray, float, float, float] | None:
