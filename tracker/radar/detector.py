@@ -189,6 +189,14 @@ class RadarDetector:
             max(c.roi_min_range_m, 0.5), c.roi_max_range_m, 2 * c.roi_max_abs_azimuth_rad, c.clutter_time_constant_s
         )
 
+    def measure_clutter(self, out: DetectorOutput, exclude: np.ndarray | None = None) -> None:
+        """The frame's candidate returns (``DetectorOutput.candidate``), less ``exclude`` (m,) bool, into the clutter
+        density (the tracker calls this once per frame, after counting its tracks' returns)."""
+        use = out.candidate if exclude is None else out.candidate & ~exclude
+        rel = out.points_body[use, :2] - np.asarray(self.cfg.sensor_position_body)
+        az = np.angle(np.exp(1j * (np.arctan2(rel[:, 1], rel[:, 0]) - self.cfg.sensor_yaw_body_rad)))
+        self.clutter.update(out.t, out.range_m[use], az)
+
     def clutter_expected(self, range_m: np.ndarray, area_m2: np.ndarray | float) -> np.ndarray:
         """(n,) clutter returns a frame expected over ``area_m2`` at ``range_m`` from the radar: the measured density
         times its peak on the crests (``existence_clutter_peak``)."""
@@ -384,12 +392,6 @@ class RadarDetector:
             counts=counts,
             min_box_size_m=c.min_box_size_m,
         )
-        # The clutter density is measured over every return that may be a vessel's, the vessels' own included: left
-        # out, a clutter track once confirmed took its returns out of the sea's measure, and the sea looked calmer
-        # still (held out: radar-only false-obstacle bins 0.77 -> 2.2 %, 32 % in random:1028).
-        rel = xyz[out.candidate, :2] - sensor_body
-        az = np.angle(np.exp(1j * (np.arctan2(rel[:, 1], rel[:, 0]) - c.sensor_yaw_body_rad)))
-        self.clutter.update(t, rng[out.candidate], az)
         if update_map:
             self.update_map(out)
         return out

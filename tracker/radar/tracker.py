@@ -343,19 +343,29 @@ class RadarTracker:
 
     def _weigh_evidence(self, out: DetectorOutput) -> None:
         """Every track's count of the frame's candidate returns (kept clusters, loose) in its predicted box against the
-        clutter expected there (tracker.existence), before any update moves the boxes."""
+        clutter expected there (tracker.existence), before any update moves the boxes; then the frame's candidates
+        into the clutter density, less those of tracks confirmed for longer than the density remembers
+        (clutter_time_constant_s). Boats moored across the radar's view otherwise became their own ring's "clutter"
+        and lost the test; a clutter track never lives that long, so it cannot calm the sea's measure (leaving out
+        every confirmed track did: held out, radar-only false-obstacle bins 0.77 -> 2.2 %)."""
         cfg = self.cfg
+        cand = out.candidate
         boxes = self._boxes
-        if not len(boxes):
-            return
-        n = boxes_members(out.points[out.candidate], boxes, cfg.existence_pad_m).sum(axis=1)
-        centre = (boxes[:, :2] + boxes[:, 2:]) / 2
-        mu = self.detector.clutter_expected(
-            np.linalg.norm(centre - out.sensor_ne, axis=1), boxes_area(boxes, cfg.existence_pad_m)
-        )
-        for tr, ni, mi in zip(self.tracks, n.tolist(), mu.tolist(), strict=True):
-            if tr.evidence is not None:
-                tr.evidence.add(ni, mi)
+        inside = boxes_members(out.points[cand], boxes, cfg.existence_pad_m)  # (tracks, candidates)
+        exclude = None
+        if len(boxes):
+            centre = (boxes[:, :2] + boxes[:, 2:]) / 2
+            mu = self.detector.clutter_expected(
+                np.linalg.norm(centre - out.sensor_ne, axis=1), boxes_area(boxes, cfg.existence_pad_m)
+            )
+            for tr, ni, mi in zip(self.tracks, inside.sum(axis=1).tolist(), mu.tolist(), strict=True):
+                if tr.evidence is not None:
+                    tr.evidence.add(ni, mi)
+            old = np.array([tr.life.confirmed and tr.life.age >= cfg.clutter_time_constant_s for tr in self.tracks])
+            if old.any():
+                exclude = np.zeros(len(out.points), bool)
+                exclude[np.flatnonzero(cand)[inside[old].any(axis=0)]] = True
+        self.detector.measure_clutter(out, exclude)
 
     def _proven(self, tr: RadarTrackState) -> bool:
         """The track's recent returns are more than the clutter at its place explains (``existence_confirm_tail``)."""
