@@ -82,6 +82,7 @@ def radar_frames(config: Config, start_time: float | None, prefetch: bool = True
     from daemon.runner import expected_radar_stream
     from drivers.awr1843.parser import RadarFrameParser
     from drivers.awr1843.profile import load_profile
+    from drivers.awr1843.sources import QUIET_READ_S
     from drivers.awr1843.timed_capture import read_sidecar, timed_chunks
 
     profile = (
@@ -93,8 +94,12 @@ def radar_frames(config: Config, start_time: float | None, prefetch: bool = True
         parser = RadarFrameParser(profile, mount, expected=expected)
 
         def gen() -> Iterator[RadarFrame]:
+            prev = -math.inf
             for chunk, t in timed_chunks(url.path):
+                if t - prev > QUIET_READ_S:  # the live reader's read went quiet before this chunk came
+                    yield from parser.idle(prev + QUIET_READ_S)
                 yield from parser.feed(chunk, t)
+                prev = t
             yield from parser.finish(math.inf)
 
         return _ahead("radar", gen(), RADAR_AHEAD, prefetch)

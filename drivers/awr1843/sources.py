@@ -30,6 +30,10 @@ from drivers.mount import Mount
 
 log = logging.getLogger(__name__)
 
+# A read that waits this long for a byte and gets none is the pause between two frames' bursts: the parser then
+# decides a frame held for its last bytes (RadarFrameParser.idle). A replay of timed chunks does the same.
+QUIET_READ_S = 0.02
+
 DATA_BAUDRATE = 921600
 DEFAULT_FRAME_PERIOD_S = 0.1
 
@@ -90,7 +94,7 @@ class SerialRadarSource:
         expected: ExpectedStream | None = None,
         stop_sensor_on_exit: bool = True,
         silence_timeout_s: float = 2.0,
-        read_timeout_s: float = 0.02,
+        read_timeout_s: float = QUIET_READ_S,
         reconnect_backoff_s: tuple[float, ...] = (0.2, 0.5, 1.0, 2.0, 5.0),
         cli_command_timeout_s: float = 1.0,
         cli_slow_command_timeout_s: float = 3.0,
