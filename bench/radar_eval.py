@@ -112,7 +112,8 @@ def run_tracker(rec: Recording, cfg: RadarTrackerConfig) -> TrackerRun:
     for k, (t, data, pose) in enumerate(zip(rec.times, rec.packets, rec.poses, strict=True)):
         t0, c0 = time.perf_counter(), time.thread_time()
         tracks = []
-        # The firmware pauses after each frame's burst; the live reader then hands the parser the quiet (idle)
+        # The firmware pauses after each frame's burst, and the live reader tells the parser so (idle): a frame
+        # held for its last bytes goes out then, not with the next frame
         for frame in parser.feed(data, float(t)) + parser.idle(float(t)):
             tracks = tracker.step_frame(frame, pose)
         out.seconds[k] = time.perf_counter() - t0

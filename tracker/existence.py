@@ -75,11 +75,8 @@ class ClutterDensity:
         self._density = self._median_density()
 
     def _median_density(self) -> np.ndarray:
-        return np.median(self.counts / self.exposure, axis=1) / self.cell_area
-
-    def density(self) -> np.ndarray:
         """(rings,) returns per m^2 per frame: the median over each ring's sectors."""
-        return self._density
+        return np.median(self.counts / self.exposure, axis=1) / self.cell_area
 
     def at(self, range_m: np.ndarray) -> np.ndarray:
         """(n,) density at these ranges (the nearest ring's inside, the edge rings' outside)."""

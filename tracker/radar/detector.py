@@ -189,10 +189,9 @@ class RadarDetector:
             max(c.roi_min_range_m, 0.5), c.roi_max_range_m, 2 * c.roi_max_abs_azimuth_rad, c.clutter_time_constant_s
         )
 
-    def measure_clutter(self, out: DetectorOutput, exclude: np.ndarray | None = None) -> None:
-        """The frame's candidate returns (``DetectorOutput.candidate``), less ``exclude`` (m,) bool, into the clutter
-        density (the tracker calls this once per frame, after counting its tracks' returns)."""
-        use = out.candidate if exclude is None else out.candidate & ~exclude
+    def measure_clutter(self, out: DetectorOutput, use: np.ndarray) -> None:
+        """The frame's returns flagged in ``use`` (m,) bool (its candidates, less those of established tracks) into the
+        clutter density; the tracker calls this once per frame, after counting its tracks' returns."""
         rel = out.points_body[use, :2] - np.asarray(self.cfg.sensor_position_body)
         az = np.angle(np.exp(1j * (np.arctan2(rel[:, 1], rel[:, 0]) - self.cfg.sensor_yaw_body_rad)))
         self.clutter.update(out.t, out.range_m[use], az)

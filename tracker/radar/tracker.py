@@ -82,10 +82,10 @@ class RadarTrackState:
     motion: MotionDiscriminator
     t: float  # time of the filter's state
     points: np.ndarray  # last associated point group, world N/E
+    evidence: ExistenceEvidence  # its returns against the clutter expected, frame by frame
     shape: deque[tuple[float, np.ndarray]] = field(default_factory=deque)  # (t, returns - centre) of recent frames
     sparse: bool = False  # born from returns pooled over several frames (a far boat)
     shadowed: float = 0.0  # share of its bearing span in a nearer object's shadow at its last update or miss
-    evidence: ExistenceEvidence | None = None  # its returns against the clutter expected, frame by frame
 
     def to_track(self, cfg: RadarTrackerConfig) -> Track:
         x = self.kf.x[:, 0]
@@ -352,24 +352,22 @@ class RadarTracker:
         cand = out.candidate
         boxes = self._boxes
         inside = boxes_members(out.points[cand], boxes, cfg.existence_pad_m)  # (tracks, candidates)
-        exclude = None
+        measured = cand.copy()
         if len(boxes):
             centre = (boxes[:, :2] + boxes[:, 2:]) / 2
             mu = self.detector.clutter_expected(
                 np.linalg.norm(centre - out.sensor_ne, axis=1), boxes_area(boxes, cfg.existence_pad_m)
             )
             for tr, ni, mi in zip(self.tracks, inside.sum(axis=1).tolist(), mu.tolist(), strict=True):
-                if tr.evidence is not None:
-                    tr.evidence.add(ni, mi)
+                tr.evidence.add(ni, mi)
             old = np.array([tr.life.confirmed and tr.life.age >= cfg.clutter_time_constant_s for tr in self.tracks])
             if old.any():
-                exclude = np.zeros(len(out.points), bool)
-                exclude[np.flatnonzero(cand)[inside[old].any(axis=0)]] = True
-        self.detector.measure_clutter(out, exclude)
+                measured[np.flatnonzero(cand)[inside[old].any(axis=0)]] = False
+        self.detector.measure_clutter(out, measured)
 
     def _proven(self, tr: RadarTrackState) -> bool:
         """The track's recent returns are more than the clutter at its place explains (``existence_confirm_tail``)."""
-        return tr.evidence is None or tr.evidence.tail() <= self.cfg.existence_confirm_tail
+        return tr.evidence.tail() <= self.cfg.existence_confirm_tail
 
     def _drop_unproven(self) -> None:
         """A confirmed track whose last ``existence_window_frames`` frames of returns clutter explains as well
@@ -380,7 +378,7 @@ class RadarTracker:
             return
         for tr in self.tracks:
             ev = tr.evidence
-            if not (tr.life.confirmed and ev is not None and ev.full) or tr.shadowed >= cfg.occluded_min_share:
+            if not (tr.life.confirmed and ev.full) or tr.shadowed >= cfg.occluded_min_share:
                 continue
             if ev.tail() > cfg.existence_keep_tail:
                 tr.life.status = TrackStatus.DELETED
