@@ -24,6 +24,7 @@ from daemon.buffers import BoundedQueue, LatestSlot
 from daemon.config import Config, signing_passphrase
 from daemon.ego import HistoryEgo
 from daemon.health import source_status
+from daemon.heap import limit_arenas
 from daemon.loop import DaemonLoop, LoopSettings, SensorInputs
 from daemon.readers import ReaderThread
 from daemon.sdnotify import SystemdNotifier
@@ -231,6 +232,7 @@ def start_daemon(
     and closed by the caller) is given every tick."""
     from daemon.autopilot import AutopilotLink
 
+    limit_arenas()  # before any reader thread allocates (daemon.heap)
     sources = open_sources(config, fast)
     stop = threading.Event()
     inputs = SensorInputs(LatestSlot[LidarScan](), BoundedQueue[RadarFrame](64))

@@ -16,6 +16,7 @@ import pytest
 from daemon.demo import config_for_simulation, simulation_settings
 from simulator.run import SimulationRun
 from tests.test_daemon_e2e import one_box_scene, wait_for
+from tests.test_heap import GLIBC, thread_arenas
 
 # Real sockets, ptys and threads in real time on a 2-core machine that may be busy: a missed deadline is retried once
 # (a deterministic failure still fails); the assertions themselves are not loosened.
@@ -48,6 +49,8 @@ def test_run_process_notifies_systemd_and_stops_on_sigterm(tmp_path: Path) -> No
             ap = sim.autopilot
             assert ap is not None
             assert wait_for(lambda: len(ap.obstacle_distances()) >= 5, timeout=10.0)
+            if GLIBC:  # its reader threads share one malloc arena beside the main heap (daemon.heap)
+                assert thread_arenas(Path(f"/proc/{proc.pid}/maps").read_text()) <= 1
             t_term = time.monotonic()
             proc.send_signal(signal.SIGTERM)
             rc = proc.wait(timeout=10.0)

@@ -62,3 +62,54 @@ def test_the_loop_trims_once_per_health_interval_after_its_line() -> None:
     for now in [k * 0.1 for k in range(151)]:  # 15 s of ticks at 10 Hz
         loop.maybe_log_health(now)
     assert when == pytest.approx([0.0, 5.0, 10.0, 15.0])
+
+
+def thread_arenas(maps: str) -> int:
+    """glibc thread arenas in a /proc/PID/maps text: 64 MB-aligned anonymous mappings of 64 MB reserved, their used
+    part read-write and the rest inaccessible."""
+    lines = [line for line in maps.splitlines() if line.strip()]
+    n = 0
+    for a, b in zip(lines, [*lines[1:], ""], strict=True):
+        f, g = a.split(), b.split()
+        start, end = (int(x, 16) for x in f[0].split("-"))
+        if len(f) != 5 or f[1] != "rw-p" or start % (64 << 20):
+            continue
+        size = end - start
+        if g and g[1] == "---p" and int(g[0].split("-")[0], 16) == end:
+            size += int(g[0].split("-")[1], 16) - end
+        n += size == 64 << 20
+    return n
+
+
+ARENA_PROBE = """
+import threading, numpy as np
+from daemon import heap
+if LIMIT:
+    assert heap.limit_arenas(2)
+go = threading.Barrier(6)
+def work():
+    go.wait()  # all six alive at once: glibc gives each a new arena while under its cap
+    keep = [np.ones(4096) for _ in range(200)]
+    go.wait()
+ts = [threading.Thread(target=work) for _ in range(6)]
+for t in ts: t.start()
+for t in ts: t.join()
+print(open("/proc/self/maps").read())
+"""
+
+
+@needs_glibc
+@pytest.mark.parametrize("limit", [False, True])
+def test_threads_share_one_arena_beside_the_main_heap_under_the_cap(limit: bool) -> None:
+    """Six threads allocating at once: glibc's default gives each its own arena; under the daemon's cap of two
+    (daemon.heap.limit_arenas) they share one beside the main heap."""
+    import subprocess
+    import sys
+
+    code = ARENA_PROBE.replace("LIMIT", str(limit))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
+    arenas = thread_arenas(out.stdout)
+    if limit:
+        assert arenas <= 1
+    else:
+        assert arenas >= 4  # the default (8 per core) leaves six threads at least four of their own
