@@ -119,6 +119,24 @@ def test_coasting_deletion_and_no_reused_ids() -> None:
     assert [tr.id for tr in tracks] == [first_id + 1]
 
 
+def test_a_track_lost_before_its_velocity_is_known_coasts_one_second_not_three() -> None:
+    """A just-confirmed track's velocity is a guess (not published); coasting on it for the full 3 s carried quay
+    pieces away at 20 m/s on the tuning scenes. It ends once unseen for longer than max_unseen_time_unknown_motion."""
+    cfg = LidarTrackerConfig()
+    assert (cfg.lifecycle.max_unseen_time, cfg.lifecycle.max_unseen_time_unknown_motion) == (3.0, 1.0)
+    tracker = LidarTracker(cfg)
+    boat = SyntheticObject((70.0, 10.0), 0.3, 6.0, 2.5, 2.0)  # far: few returns, its velocity settles slowly
+    pts = scan_objects([boat], ORIGIN)
+    for k in range(4):
+        tracks = tracker.step(pts, k * DT, ORIGIN, 0.0)
+    assert len(tracks) == 1 and tracks[0].confirmed
+    assert np.isnan(tracks[0].velocity).all()  # confirmed, its motion not yet known
+    for k in range(4, 13):  # unseen for 0.9 s: still coasting
+        tracks = tracker.step(np.zeros((0, 3)), k * DT, ORIGIN, 0.0)
+    assert len(tracks) == 1 and tracks[0].time_since_update == pytest.approx(0.9)
+    assert tracker.step(np.zeros((0, 3)), 1.5, ORIGIN, 0.0) == []  # unseen for 1.2 s: ended
+
+
 def test_static_object_seen_from_a_moving_turning_boat() -> None:
     """World-frame points from an own boat moving north at 3 m/s and turning: the buoy stays put."""
     tracker = LidarTracker()

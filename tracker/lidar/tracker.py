@@ -451,8 +451,11 @@ class LidarTracker:
             self._kinds[ti] = measurements[di].kind
             for k in self._detection_clusters[di]:
                 self.last_cluster_track[k] = self._lives[ti].id
-        for ti in assignment.unmatched_rows:
-            self._lives[ti].miss(t)
+        if len(assignment.unmatched_rows):
+            p = self.bank.covariances()
+            known = np.maximum(p[:, VN, VN], p[:, VE, VE]) <= self.config.ekf.velocity_valid_std**2
+            for ti in assignment.unmatched_rows:
+                self._lives[ti].miss(t, motion_known=bool(known[ti]))
         dead = [i for i, life in enumerate(self._lives) if not life.alive] + self._static_structure(t)
         dead += self._duplicates(set(dead))
         dead = sorted(set(dead))
