@@ -374,6 +374,16 @@ class StructureConfig:
     line_max_thickness_m: float = 0.5
     line_min_length_m: float = 4.0
     line_min_share: float = 0.25
+    # Hulls moored against a wall (tracker.lidar.moored): in a cluster too big for a vessel with a straight face
+    # (at least moored_face_min_share of its cells within 0.5 m of one line), the cells standing
+    # moored_min_offset_m or more in front of the face, towards the sensor, in runs along it with gaps under
+    # moored_gap_m and at least moored_min_length_m long, are clusters of their own. 0 turns it off. Ours, chosen
+    # from the geometry (a beam of 1 m or more plus the 0.3 m fender gap); held out (random:1001-1050, fused)
+    # against 0: MOTA 0.773 -> 0.786, worst scene 0.090 -> 0.138, IDF1 0.805 -> 0.813.
+    moored_min_offset_m: float = 0.8
+    moored_min_length_m: float = 1.5
+    moored_gap_m: float = 1.5
+    moored_face_min_share: float = 0.5
 
     def __post_init__(self) -> None:
         _positive(
@@ -385,8 +395,14 @@ class StructureConfig:
             "line_reach_m",
             "line_gap_m",
             "line_min_length_m",
+            "moored_min_offset_m",
             allow_zero=True,
         )
+        _positive(self, "moored_min_length_m", "moored_gap_m")
+        if not 0.0 < self.moored_face_min_share <= 1.0:
+            raise ConfigError(
+                f"StructureConfig.moored_face_min_share: must be within (0, 1], got {self.moored_face_min_share!r}"
+            )
         _positive(self, "line_max_thickness_m")
         if not 0.0 < self.line_min_share <= 1.0:
             raise ConfigError(f"StructureConfig.line_min_share: must be within (0, 1], got {self.line_min_share!r}")

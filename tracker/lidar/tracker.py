@@ -32,6 +32,7 @@ from tracker.lidar.ekf import (
     measurement_noises,
     visibility,
 )
+from tracker.lidar.moored import carve_moored_hulls
 from tracker.lidar.shape_fit import (
     DegenerateClusterError,
     ShapeFit,
@@ -91,6 +92,17 @@ class LidarTracker:
         """
         own = np.asarray(own_position, dtype=float)[:2]
         result = cluster_points(points_world, own, self.config.cluster)
+        s = self.config.structure
+        result = carve_moored_hulls(
+            result,
+            points_world,
+            own,
+            s.moored_min_offset_m,
+            s.moored_min_length_m,
+            s.moored_gap_m,
+            s.moored_face_min_share,
+            self.config.cluster.grid_cell,
+        )
         self._cluster_result = result
         self.last_clusters = result.clusters
         self.last_cluster_track = [None] * len(result.clusters)

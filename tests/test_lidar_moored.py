@@ -1,0 +1,70 @@
+"""Hulls moored against a wall are carved out of the wall's cluster (tracker.lidar.moored) and tracked as vessels."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.lidar_synthetic import SyntheticObject, scan_objects
+from tracker.lidar import LidarTracker, LidarTrackerConfig
+from tracker.lidar.moored import hull_cells
+
+ORIGIN = np.zeros(2)
+DT = 0.1
+# A quay face running north-south 30 m east of the sensor, 120 m of it, 5 m deep; a 10 x 3.5 m boat on 0.3 m fenders.
+WALL = SyntheticObject((0.0, 32.5), 0.0, 120.0, 5.0, 1.5)
+BOAT = SyntheticObject((8.0, 30.0 - 0.3 - 1.75), 0.0, 10.0, 3.5, 2.0)
+
+
+def run(objects: list[SyntheticObject], offset_m: float, scans: int = 20) -> list:
+    cfg = LidarTrackerConfig()
+    cfg.structure.moored_min_offset_m = offset_m
+    tracker = LidarTracker(cfg)
+    rng = np.random.default_rng(1)
+    tracks = []
+    for k in range(scans):
+        tracks = tracker.step(scan_objects(objects, ORIGIN, range_noise=0.03, rng=rng), k * DT, ORIGIN, 0.0)
+    return [t for t in tracks if t.confirmed]
+
+
+def test_a_boat_moored_against_a_quay_is_a_track_and_the_quay_is_not() -> None:
+    tracks = run([WALL, BOAT], 0.8)
+    assert len(tracks) == 1
+    # its side towards the sensor is seen, its beam only in part: the centre within 1 m, the length within 0.5 m
+    assert tracks[0].position == pytest.approx(BOAT.center, abs=1.0)
+    assert tracks[0].length == pytest.approx(BOAT.length, abs=0.5)
+
+
+def test_without_the_carving_the_moored_boat_is_part_of_the_quay() -> None:
+    assert run([WALL, BOAT], 0.0) == []
+
+
+def test_a_quay_alone_gives_no_track() -> None:
+    assert run([WALL], 0.8) == []
+
+
+def wall_cells(length: float = 60.0, east: float = 30.0, step: float = 0.3) -> np.ndarray:
+    north = np.arange(-0.5 * length, 0.5 * length, step)
+    return np.column_stack([north, np.full_like(north, east)])
+
+
+def test_cells_in_front_of_the_face_are_one_hull_and_land_behind_it_is_none() -> None:
+    wall = wall_cells()
+    hull = np.column_stack([np.arange(5.0, 14.0, 0.3), np.full(30, 26.5)])  # 9 m long, 3.5 m in front
+    land = np.column_stack([np.arange(-20.0, 0.0, 0.5), np.full(40, 35.0)])  # behind the face, away from the sensor
+    fp = np.concatenate([wall, hull, land])
+    groups, axis, normal, _ = hull_cells(fp, ORIGIN, 0.8, 1.5, 1.5, 0.5)
+    assert len(groups) == 1
+    assert sorted(groups[0].tolist()) == list(range(len(wall), len(wall) + len(hull)))
+    assert abs(axis[0]) == pytest.approx(1.0, abs=1e-3)  # the face runs north-south
+    assert normal[1] == pytest.approx(-1.0, abs=1e-3)  # towards the sensor, west
+
+
+def test_a_perpendicular_arm_or_a_shapeless_cluster_is_no_hull() -> None:
+    wall = wall_cells()
+    arm = np.column_stack([np.full(40, -10.0), np.arange(18.0, 30.0, 0.3)])  # a pier towards the sensor: thin along
+    groups, *_ = hull_cells(np.concatenate([wall, arm]), ORIGIN, 0.8, 1.5, 1.5, 0.5)
+    assert groups == []
+    blob = np.random.default_rng(2).uniform(-10.0, 10.0, (400, 2)) + np.array([0.0, 40.0])  # rough shore: no face
+    groups, *_ = hull_cells(blob, ORIGIN, 0.8, 1.5, 1.5, 0.5)
+    assert groups == []
