@@ -68,3 +68,32 @@ def test_a_perpendicular_arm_or_a_shapeless_cluster_is_no_hull() -> None:
     blob = np.random.default_rng(2).uniform(-10.0, 10.0, (400, 2)) + np.array([0.0, 40.0])  # rough shore: no face
     groups, *_ = hull_cells(blob, ORIGIN, 0.8, 1.5, 1.5, 0.5)
     assert groups == []
+
+
+def run_with(objects: list[SyntheticObject], **structure: float) -> list:
+    cfg = LidarTrackerConfig()
+    for k, v in structure.items():
+        setattr(cfg.structure, k, v)
+    tracker = LidarTracker(cfg)
+    rng = np.random.default_rng(1)
+    tracks = []
+    for k in range(20):
+        tracks = tracker.step(scan_objects(objects, ORIGIN, range_noise=0.03, rng=rng), k * DT, ORIGIN, 0.0)
+    return [t for t in tracks if t.confirmed]
+
+
+def test_a_boat_against_a_stretch_of_quay_shorter_than_a_ship_is_carved_too() -> None:
+    """30 m of quay with the boat: one cluster a vessel could be. Searched from moored_min_extent_m (15 m) up."""
+    quay = SyntheticObject((0.0, 32.5), 0.0, 30.0, 5.0, 1.5)
+    near_boat = [t for t in run_with([quay, BOAT]) if np.hypot(*(t.position - BOAT.center)) <= 1.0]
+    assert len(near_boat) == 1 and near_boat[0].length == pytest.approx(BOAT.length, abs=0.5)
+    whole = run_with([quay, BOAT], moored_min_extent_m=1000.0)  # only clusters too big for a vessel searched
+    assert [t for t in whole if np.hypot(*(t.position - BOAT.center)) <= 1.0] == []
+
+
+def test_a_ship_alone_is_never_carved() -> None:
+    """A convex hull has no cells in front of its own face: a 45 m ship seen from its quarter stays one track."""
+    ship = SyntheticObject((25.0, 30.0), np.radians(20.0), 45.0, 9.0, 6.0)
+    tracks = run_with([ship])
+    assert len(tracks) == 1
+    assert tracks[0].position == pytest.approx(ship.center, abs=2.0)

@@ -381,6 +381,11 @@ class StructureConfig:
     # from the geometry (a beam of 1 m or more plus the 0.3 m fender gap); held out (random:1001-1050, fused)
     # against 0: MOTA 0.773 -> 0.786, worst scene 0.090 -> 0.138, IDF1 0.805 -> 0.813.
     moored_min_offset_m: float = 0.8
+    # Clusters at least this long (m) are searched too, not only those too big for a vessel: a stretch of quay
+    # shorter than max_extent with a boat moored against it. A convex hull never has cells in front of its own
+    # face, so a vessel alone is never carved. Held out (random:1001-1050, fused) against only the clusters too big
+    # for a vessel: MOTA 0.786 -> 0.795, worst scene 0.138 -> 0.344, false track-frames 12.0 -> 11.2 %.
+    moored_min_extent_m: float = 15.0
     moored_min_length_m: float = 1.5
     moored_gap_m: float = 1.5
     moored_face_min_share: float = 0.5
@@ -398,7 +403,7 @@ class StructureConfig:
             "moored_min_offset_m",
             allow_zero=True,
         )
-        _positive(self, "moored_min_length_m", "moored_gap_m")
+        _positive(self, "moored_min_length_m", "moored_gap_m", "moored_min_extent_m")
         if not 0.0 < self.moored_face_min_share <= 1.0:
             raise ConfigError(
                 f"StructureConfig.moored_face_min_share: must be within (0, 1], got {self.moored_face_min_share!r}"

@@ -80,12 +80,16 @@ def carve_moored_hulls(
     gap_m: float,
     face_min_share: float,
     cell_m: float,
+    min_extent_m: float = np.inf,
 ) -> ClusterResult:
-    """``result`` with every hull found in front of an oversized cluster's face (:func:`hull_cells`) made a cluster
-    of its own (not oversized); the wall keeps the rest. Clusters stay nearest first and ``labels`` follows them.
-    ``points_world`` (N, 3) are the points ``result`` was clustered from; ``cell_m`` the footprint's grid cell."""
-    big = np.flatnonzero(result.oversized)
-    if big.size == 0 or min_offset_m <= 0.0:
+    """``result`` with every hull found in front of the face (:func:`hull_cells`) of a cluster too big for a vessel
+    or at least ``min_extent_m`` across made a cluster of its own (not oversized); the wall keeps the rest. Clusters
+    stay nearest first and ``labels`` follows them. ``points_world`` (N, 3) are the points ``result`` was clustered
+    from; ``cell_m`` the footprint's grid cell."""
+    if min_offset_m <= 0.0 or not result.clusters:
+        return result
+    big = np.flatnonzero(result.oversized | (_extents(result.footprints) >= min_extent_m))
+    if big.size == 0:
         return result
     pts = np.asarray(points_world, dtype=float).reshape(-1, 3)
     labels = result.labels.copy()
@@ -190,3 +194,17 @@ def _densest_strip(rel: np.ndarray, angles: np.ndarray) -> tuple[float, float, i
     window = counts[:, :-1] + counts[:, 1:]
     a, b = np.unravel_index(int(np.argmax(window)), window.shape)
     return float(angles[a]), float(lo[a] + (int(b) + 1) * FACE_HALF_WIDTH_M), int(window[a, b])
+
+
+def _extents(footprints: list[np.ndarray]) -> np.ndarray:
+    """(k,) each footprint's bounding-box diagonal (m), as the clustering measures ``max_extent``: one reduceat."""
+    sizes = np.array([f.shape[0] for f in footprints], dtype=np.int64)
+    out = np.zeros(sizes.size)
+    full = np.flatnonzero(sizes > 0)
+    if full.size == 0:
+        return out
+    cells = np.concatenate([footprints[k] for k in full]).reshape(-1, 2)
+    starts = np.cumsum(sizes[full]) - sizes[full]
+    span = np.maximum.reduceat(cells, starts) - np.minimum.reduceat(cells, starts)
+    out[full] = np.hypot(span[:, 0], span[:, 1])
+    return out

@@ -102,6 +102,7 @@ class LidarTracker:
             s.moored_gap_m,
             s.moored_face_min_share,
             self.config.cluster.grid_cell,
+            s.moored_min_extent_m,
         )
         self._cluster_result = result
         self.last_clusters = result.clusters
