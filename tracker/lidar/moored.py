@@ -6,12 +6,14 @@ and remembered, so that later scans of the boat were structure too. On the tunin
 of the vessels missed (random:4: 570 of its 588 missed vessel-ticks).
 
 What tells the boat from the wall is where it lies: a wall seen from the water shows one straight face, and a hull
-moored against it stands in front of that face, towards the sensor, by its beam plus the fender gap. So, in an
-oversized cluster's footprint (its occupied grid cells, world north/east): the face is the densest line along the
-cluster's principal axis (a vertical face stacks every ring's returns onto it); when at least ``face_min_share`` of
-the cells lie within ``FACE_HALF_WIDTH_M`` of it, the cells standing ``min_offset_m`` or more in front of it,
-grouped along the face with gaps under ``gap_m``, are hulls of at least ``min_length_m``. Land behind the face lies
-away from the sensor and is never carved; a cluster with no straight face (a corner, rough shore) is left whole.
+moored against it stands in front of that face, towards the sensor, by its beam plus the fender gap. So, in the
+footprint (occupied grid cells, world north/east) of a cluster too big for a vessel or at least ``min_extent_m``
+across: the face is the densest 1 m strip over all directions (a Hough search; a vertical face stacks every ring's
+returns onto one line); when at least ``face_min_share`` of the cells lie in it, the cells standing
+``min_offset_m`` or more in front of it, grouped along the face with gaps under ``gap_m``, are hulls of at least
+``min_length_m``. Land behind the face lies away from the sensor and is never carved; a cluster with no straight
+face (a corner, rough shore) is left whole; a convex hull has no cells in front of its own face, so a vessel alone
+is never carved. The work is a few array passes per long cluster, over at most a thousand of its cells.
 """
 
 from __future__ import annotations
