@@ -39,6 +39,7 @@ class ClusterResult:
     footprints: list[np.ndarray]
     min_range: np.ndarray  # (k,) m, horizontal distance of each cluster's nearest return from the own boat
     oversized: np.ndarray  # (k,) bool: extent above max_extent (shore, quay): structure, not a vessel
+    extent: np.ndarray  # (k,) m, the diagonal of each cluster's horizontal bounding box (north, east)
     labels: np.ndarray  # (N,) int index into ``clusters`` per input point, -1 = not in a kept cluster
     # Bearing interval seen from the own boat (rad, 0 = north, clockwise): centre, and the span as offsets from
     # it (lo <= 0 <= hi), so an interval across north needs no special case. For occlusion reasoning.
@@ -176,6 +177,7 @@ def cluster_points(
         [],
         np.zeros(0),
         np.zeros(0, bool),
+        np.zeros(0),
         np.full(all_pts.shape[0], -1, dtype=int),
         np.zeros(0),
         np.zeros(0),
@@ -236,6 +238,7 @@ def cluster_points(
         footprints,
         nearest[candidates],
         extent[candidates] > cfg.max_extent,
+        extent[candidates],
         out_labels,
         centre[candidates],
         span_lo[candidates],

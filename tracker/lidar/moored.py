@@ -90,7 +90,7 @@ def carve_moored_hulls(
     from; ``cell_m`` the footprint's grid cell."""
     if min_offset_m <= 0.0 or not result.clusters:
         return result
-    big = np.flatnonzero(result.oversized | (_extents(result.footprints) >= min_extent_m))
+    big = np.flatnonzero(result.oversized | (result.extent >= min_extent_m))
     if big.size == 0:
         return result
     pts = np.asarray(points_world, dtype=float).reshape(-1, 3)
@@ -148,10 +148,12 @@ def _nearest_first(
     own: np.ndarray,
     changed: list[int],
 ) -> ClusterResult:
-    """The ``changed`` clusters' ranges and bearing spans recomputed (a handful a scan), all sorted nearest first."""
+    """The ``changed`` clusters' ranges, extents and bearing spans recomputed (a handful a scan), all sorted nearest
+    first."""
     n = len(clusters)
     pad = n - len(result.clusters)
     nearest = np.concatenate([result.min_range, np.zeros(pad)])
+    extent = np.concatenate([result.extent, np.zeros(pad)])
     spans = [
         np.concatenate([b if b is not None else np.zeros(len(result.clusters)), np.zeros(pad)])
         for b in (result.bearing, result.bearing_lo, result.bearing_hi)
@@ -161,6 +163,7 @@ def _nearest_first(
         c = clusters[k]
         dn, de = c[:, 0] - own[0], c[:, 1] - own[1]
         nearest[k] = float(np.sqrt(np.min(dn * dn + de * de)))
+        extent[k] = float(np.hypot(np.ptp(c[:, 0]), np.ptp(c[:, 1])))
         centre[k] = float(np.arctan2(de.sum(), dn.sum()))
         off = np.arctan2(de, dn) - centre[k]
         off -= (2.0 * np.pi) * np.floor((off + np.pi) * (0.5 / np.pi))
@@ -175,6 +178,7 @@ def _nearest_first(
         footprints=[footprints[k] for k in order],
         min_range=nearest[order],
         oversized=oversized[order],
+        extent=extent[order],
         labels=new_labels,
         bearing=centre[order],
         bearing_lo=lo[order],
@@ -196,17 +200,3 @@ def _densest_strip(rel: np.ndarray, angles: np.ndarray) -> tuple[float, float, i
     window = counts[:, :-1] + counts[:, 1:]
     a, b = np.unravel_index(int(np.argmax(window)), window.shape)
     return float(angles[a]), float(lo[a] + (int(b) + 1) * FACE_HALF_WIDTH_M), int(window[a, b])
-
-
-def _extents(footprints: list[np.ndarray]) -> np.ndarray:
-    """(k,) each footprint's bounding-box diagonal (m), as the clustering measures ``max_extent``: one reduceat."""
-    sizes = np.array([f.shape[0] for f in footprints], dtype=np.int64)
-    out = np.zeros(sizes.size)
-    full = np.flatnonzero(sizes > 0)
-    if full.size == 0:
-        return out
-    cells = np.concatenate([footprints[k] for k in full]).reshape(-1, 2)
-    starts = np.cumsum(sizes[full]) - sizes[full]
-    span = np.maximum.reduceat(cells, starts) - np.minimum.reduceat(cells, starts)
-    out[full] = np.hypot(span[:, 0], span[:, 1])
-    return out

@@ -465,8 +465,7 @@ class LidarTracker:
             for k in self._detection_clusters[di]:
                 self.last_cluster_track[k] = self._lives[ti].id
         if len(assignment.unmatched_rows):
-            p = self.bank.covariances()
-            known = np.maximum(p[:, VN, VN], p[:, VE, VE]) <= self.config.ekf.velocity_valid_std**2
+            known = self._velocity_known(self.bank.covariances())
             for ti in assignment.unmatched_rows:
                 self._lives[ti].miss(t, motion_known=bool(known[ti]))
         dead = [i for i, life in enumerate(self._lives) if not life.alive] + self._static_structure(t)
@@ -532,8 +531,7 @@ class LidarTracker:
             across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin
         )
         velocity = x[:, [VN, VE]]
-        p = self.bank.covariances()
-        known = np.maximum(p[:, VN, VN], p[:, VE, VE]) <= self.config.ekf.velocity_valid_std**2
+        known = self._velocity_known(self.bank.covariances())
         dv = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
         same_motion = (dv <= cfg.duplicate_max_speed_diff) | ~(known[:, None] & known[None, :])
         # the guest loses to a confirmed host with more hits (ties: the younger, later-born guest loses)
@@ -549,12 +547,18 @@ class LidarTracker:
         self.stats["duplicates"] += len(out)
         return out
 
+    def _velocity_known(self, p: np.ndarray) -> np.ndarray:
+        """(T,) bool for covariances ``p`` (T, DIM_X, DIM_X): the velocity is settled (both standard deviations at
+        most ``velocity_valid_std``). Unsettled velocities are not published, not used to move a swept detection,
+        and shorten a lost track's coasting (LifecycleConfig.max_unseen_time_unknown_motion)."""
+        return np.maximum(p[:, VN, VN], p[:, VE, VE]) <= self.config.ekf.velocity_valid_std**2
+
     def _swept_to(self, m: Measurement, ti: int, lag: float) -> Measurement:
         """``m`` moved by track ``ti``'s predicted velocity over ``lag`` s (from its sweep to the scan time)."""
         if not (self.config.ekf.compensate_sweep and lag > 0.0):
             return m
         ekf = self.bank.filters[ti]
-        if max(ekf.P[VN, VN], ekf.P[VE, VE]) > self.config.ekf.velocity_valid_std**2:
+        if not self._velocity_known(ekf.P[None])[0]:
             return m  # velocity not known yet: moving the detection would only add noise
         shifted = m.center + lag * ekf.x[[VN, VE]]
         return Measurement(shifted, m.heading, m.length, m.width, m.height, m.kind, m.r, m.sensor, m.completed)
@@ -583,7 +587,7 @@ class LidarTracker:
         x, p = self.bank.states(), self.bank.covariances()
         positions = x[:, [PN, PE]]
         velocities = x[:, [VN, VE]]
-        velocities[np.maximum(p[:, VN, VN], p[:, VE, VE]) > self.config.ekf.velocity_valid_std**2] = np.nan
+        velocities[~self._velocity_known(p)] = np.nan
         headings = (x[:, PSI] % (2.0 * math.pi)).tolist()
         rates, lengths, widths, heights = (x[:, k].tolist() for k in (OMEGA, LEN, WID, HGT))
         position_covs = p[:, :2, :2].copy()
