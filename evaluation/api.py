@@ -7,7 +7,7 @@ simulator truth) that puts the most ticks inside the truth's span; none at all i
 offset. The chosen offset and how it was found are part of the result. Truth is interpolated to each tick's time.
 
 Fairness. With a returns.csv (simulator truth), a vessel is to be tracked at a tick only if, in one of the tick's
-reference windows (those ending in the 0.2 s up to it), the sensors returned it at least ``min_returns`` times (a
+reference windows (those overlapping the 0.2 s up to it), the sensors returned it at least ``min_returns`` times (a
 cluster needs 3 points). A vessel in range (footprint within ``max_distance_m`` of the own boat) that was not
 returned is counted apart as a sensor limit, not a miss; a confirmed track on such a vessel (within the match
 distance of it and of no vessel to be tracked) is neither a match nor a false positive. Without a returns record

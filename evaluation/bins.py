@@ -1,8 +1,9 @@
 """The 72 OBSTACLE_DISTANCE bins as sent, against the solids the sensors returned (simulator/returns.py).
 
-Reference of a tick: the returns.csv windows that ended in the 0.2 s up to the tick (its two latest whole windows).
-A VLP-16 revolution sweeps each bin once per 0.1 s, so whatever revolution the daemon used for a tick saw each bin
-at the instant one of these two windows did; the radar's frames fall in them too.
+Reference of a tick: the returns.csv windows that overlap the 0.2 s up to the tick (two or three of them). A VLP-16
+revolution sweeps each bin once per 0.1 s and the tick uses the newest revolution completed before it, so whatever
+revolution the daemon used for a tick saw each bin at an instant these windows hold; the radar's frames fall in them
+too.
 
 Definitions (d = the distance sent in a bin, tol(d) = max(0.5 m, 5 % of d), max = max_distance):
   * false clear: the bin was sent clear (max + 1 cm) or unknown (65535) while a returned solid lay nearer than
@@ -13,7 +14,7 @@ Definitions (d = the distance sent in a bin, tol(d) = max(0.5 m, 5 % of d), max 
     false; the neighbours absorb a bearing that moved by the boat's turn between sweep and window);
   * within tolerance: an obstacle bin whose d is within tol(d) of the nearest returned solid in that bin in one of
     the reference windows; its share of the obstacle bins is reported.
-Withheld ticks (bins null) and ticks without both reference windows are counted apart, not scored.
+Withheld ticks (bins null) and ticks whose reference windows do not cover the span are counted apart, not scored.
 """
 
 from __future__ import annotations
@@ -27,7 +28,8 @@ from evaluation.errors import EvaluationError
 from evaluation.ticks import UNKNOWN_CM
 from simulator.returns import ReturnsTable
 
-REFERENCE_SPAN_S = 0.2  # two 0.1 s windows
+REFERENCE_SPAN_S = 0.2  # two sweeps of a bin: the revolution a tick uses ends up to 0.1 s before it
+_OVERLAP_S = 1e-3  # a window must overlap the span by more than this (tick stamps fall microseconds off the grid)
 CLEAR_SHARE = 0.8  # a solid nearer than this share of max_distance must not be reported clear
 TOL_MIN_M = 0.5
 TOL_SHARE = 0.05
@@ -65,10 +67,21 @@ class BinScores:
 
 
 def reference_windows(returns: ReturnsTable, t: float) -> np.ndarray:
-    """Indices of the windows that ended in (t - 0.2 s, t] (truth clock); empty unless both are in the record (the
-    first tick has one window before it, and the daemon's sweep then covered only part of the circle)."""
-    w = np.flatnonzero((returns.t_end <= t + 1e-6) & (returns.t_end > t - REFERENCE_SPAN_S + 1e-6))
-    return w if w.size * returns.window_s >= REFERENCE_SPAN_S - 1e-6 else w[:0]
+    """Indices of the windows that overlap (t - 0.2 s, t] (truth clock): every sweep the daemon's newest revolution
+    at tick t can have made of a bin lies in them; empty unless they cover that whole span (the first tick has less
+    before it, and the daemon's sweep then covered only part of the circle).
+
+    Overlap, not "ended by t": a revolution completes up to 0.1 s before the tick that uses it, so it can lie across
+    the window that holds the tick. Ticks on the windows' edges (the held-out bench's, within a microsecond) get the
+    same two windows either way. A live run's ticks fall anywhere: one halfway through a window was judged by windows
+    that ended 0.05 s before it, missing the last part of the sweep it used, and one 0.4 ms before an edge (a short
+    replay's) by the two windows before its revolution's.
+    """
+    span = REFERENCE_SPAN_S - _OVERLAP_S
+    w = np.flatnonzero((returns.t_start < t - _OVERLAP_S) & (returns.t_end > t - span))
+    if w.size == 0 or returns.t_start[w[0]] > t - span or returns.t_end[w[-1]] < t - _OVERLAP_S:
+        return w[:0]
+    return w
 
 
 def score_bins(

@@ -114,3 +114,26 @@ def test_a_solid_on_a_bin_edge_is_no_false_clear_there(tmp_path: Path) -> None:
     assert b.bins_with_solid == 5 * 2  # bins 0 and 31
     assert b.false_clear == 5  # bin 0 only
     assert b.false_obstacle == 0
+
+
+def test_reference_is_the_span_the_ticks_revolution_was_swept_in(tmp_path: Path) -> None:
+    """A quay at 70 m returned in the windows [0.1, 0.2) and [0.2, 0.3), not in [0.3, 0.4) nor after (met at grazing
+    incidence, then not). A tick at 0.3996 s, 0.4 ms before a window's end as a replay's clock falls, used a
+    revolution swept in (0.2, 0.4]: in part where nothing was returned, so its clear bin is no false clear; the tick
+    at 0.2996 s had only [0.1, 0.3) to sweep and its clear bin is one. Judged by the windows that ended by the tick,
+    the 0.3996 s tick would have been blamed for [0.1, 0.3), which its revolution did not see. A tick at 0.35 s (mid
+    window) is judged by three windows: the quay was not there in all of them."""
+    write_truth(tmp_path, two_boats(), 2.0)
+    counts = np.zeros((10, 3, 2), int)
+    counts[:, 1:, 0] = 40
+    near = np.full((10, 72), np.inf)
+    near[1:3, 12] = 70.0
+    write_returns(tmp_path / "returns.csv", counts, near)
+    ticks = [tick(t, track_a_b(), [CLEAR] * 72) for t in (0.2996, 0.35, 0.3996)]
+    b = evaluate_run(tmp_path, write_ticks(tmp_path / "tracks.jsonl", ticks)).bins
+    assert b is not None and b.ticks_scored == 3
+    assert (b.bins_with_solid, b.false_clear) == (1, 1)
+    # and an obstacle reported at 70 m at 0.3996 s is no false obstacle: the quay was returned at 0.2-0.3 s
+    ticks = [tick(0.3996, track_a_b(), [CLEAR] * 12 + [7000] + [CLEAR] * 59)]
+    b = evaluate_run(tmp_path, write_ticks(tmp_path / "tracks.jsonl", ticks)).bins
+    assert b is not None and (b.obstacle_bins, b.false_obstacle, b.within_tolerance) == (1, 0, 1)

@@ -53,15 +53,15 @@ def test_one_vessel_always_in_view(replayed: Path, capsys: pytest.CaptureFixture
     assert main(["evaluate", str(replayed / "tracks.jsonl"), "--truth", str(replayed), "--json"]) == 0
     r = json.loads(capsys.readouterr().out)
     a, t, v, b = r["alignment"], r["tracks"], r["visibility"], r["bins"]
-    # 41 ticks, halfway between the LiDAR's revolutions (the replay locks to its phase as the live loop does):
-    # T0_UNIX + 0.05 + 0.1 k; the truth ends at 3.9 s
+    # 41 ticks, just before the returns record's window edges (the replay locks to the LiDAR's phase as the live
+    # loop does): T0_UNIX + 0.0996 + 0.1 k; the truth ends at 3.9 s
     assert a["time_offset_s"] == -T0_UNIX
     assert (a["ticks_in_file"], a["ticks_scored"], a["ticks_outside_truth"]) == (41, 39, 2)
     assert a["own_position_error_m"]["max"] < 0.01  # the tlog's pose is the scene's: the frames agree
-    # the first two ticks (0.05 and 0.15 s) have not two whole windows behind them; the box is returned in every one
-    # after them
-    assert v["vessel_ticks_without_record"] == 2 and v["vessel_ticks_sensor_limit"] == 0
-    assert v["vessel_ticks_to_track"] == t["objects"] == 37
+    # the first tick (0.0996 s) has not the 0.2 s of record behind it that its revolution may have been swept in;
+    # the box is returned in every window after it
+    assert v["vessel_ticks_without_record"] == 1 and v["vessel_ticks_sensor_limit"] == 0
+    assert v["vessel_ticks_to_track"] == t["objects"] == 38
     # The radar confirms the box first; when the LiDAR confirms it too the fused track keeps the LiDAR's id: one
     # id switch. Nothing else may go wrong on a lone box at 20 m.
     assert t["false_positives"] == 0 and t["misses"] <= 2 and t["id_switches"] <= 1
@@ -70,10 +70,10 @@ def test_one_vessel_always_in_view(replayed: Path, capsys: pytest.CaptureFixture
     assert t["speed_error_mps"]["mean"] < 0.1
     assert t["hota"]["hota"] > 0.85
     # bins: the box's near face in every scored tick, nothing else round the boat
-    assert b["ticks_scored"] == 37 and b["ticks_withheld"] == 0
+    assert b["ticks_scored"] == 38 and b["ticks_withheld"] == 0
     assert b["false_clear"] == 0 and b["false_obstacle"] == 0
     assert b["within_tolerance_share"] >= 0.95
-    assert b["obstacle_bins"] >= 37 * 4  # 8 m of hull at 20 m spans 5 bins or more
+    assert b["obstacle_bins"] >= 38 * 4  # 8 m of hull at 20 m spans 5 bins or more
 
 
 def test_python_api_matches_the_command(replayed: Path, capsys: pytest.CaptureFixture[str]) -> None:
