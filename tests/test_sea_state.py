@@ -15,6 +15,7 @@ import pytest
 
 from drivers.mount import Mount
 from tests.sea_geometry import SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
+from tracker.lidar.preprocess import REASON_NAMES
 from tracker.obstacle_map import UNKNOWN
 
 ROLL, PITCH, YAW = math.radians(5.0), math.radians(3.0), 0.3
@@ -216,3 +217,42 @@ def test_a_low_pontoon_met_by_one_beam_stays_out_of_the_water_fit_and_is_an_obst
         expected = 24.0 / np.cos(np.radians(np.maximum(np.abs(abeam - 18) * 5.0 - 2.5, 0.0)))
         np.testing.assert_allclose(out.distances_cm[abeam] / 100.0, expected, atol=0.05)
         assert set(np.flatnonzero(out.distances_cm <= 10000).tolist()) <= set(range(12, 25))
+
+
+def _wall_in_chop(foot_min_range: float) -> tuple[np.ndarray, object, object]:
+    """Three revolutions from a level boat of a quay face 3 m high and 6 m wide, 25 m dead ahead, in the chop above
+    with every firing returning. The -3 deg beam meets the face 0.29 m up, within the crests' margin; the -1 deg
+    beam meets it 1.16 m up, above."""
+
+    def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(np.shape(t)), np.zeros(np.shape(t))
+
+    pipeline = lidar_pipeline(MOUNT)
+    cfg = pipeline.lidar_preprocess_config
+    pipeline.lidar_preprocess_config = replace(cfg, vertical_foot_min_range=foot_min_range)
+    ego = SteadyEgo(level, 0.0)
+    face = (((25.0, -3.0), (25.0, 3.0), 3.0),)
+    for k in range(3):
+        ret = revolution_over_water(MOUNT, level, yaw=0.0, elevation=chop, t0=0.1 * k, walls=face)
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+    pipeline.keep_view_detail = True
+    out = pipeline.step(0.4, scan_of(ret, 0.4), [], ego)
+    return out.distances_cm, pipeline.last_preprocess, ret
+
+
+def test_a_faces_foot_within_the_sea_margin_is_solid_and_the_crests_are_not() -> None:
+    d, pre, ret = _wall_in_chop(20.0)
+    assert pre.water.measured and pre.water.margin > 0.29  # the foot lies within the sea margin
+    foot = (ret.wall == 0) & (ret.ring == 6)  # the -3 deg ring on the face
+    assert np.count_nonzero(foot) >= 20
+    assert np.all(
+        pre.reason[foot] == REASON_NAMES.index("kept")
+    )  # kept: the -1 deg ring returned at the same range above it
+    assert pre.n_grazing >= np.count_nonzero(foot)
+    # the crests, returning every firing out to 30 m, stay water: no obstacle off the face's bins, none nearer
+    obstacle = np.flatnonzero(d <= 10000)
+    assert set(obstacle.tolist()) <= {71, 0, 1}
+    assert np.all(d[obstacle] >= 2450)
+    # with the rule off (beyond the LiDAR's range) the foot is water
+    _, plain, _ = _wall_in_chop(1000.0)
+    assert np.all(plain.reason[foot] == REASON_NAMES.index("water"))

@@ -222,8 +222,14 @@ def preprocess(
     # At or below the surface plus the sea margin: water (a crest, a trough, a slick), never an obstacle.
     solid = in_band & (height > margin)
     n_water = int(np.count_nonzero(in_band & ~solid))
-    # Rain and spray: alone in the range image (no firing beside it returned at its range).
     n_isolated = n_grazing = 0
+    if vertical is not None and cfg.vertical_foot_min_range < cfg.max_range:
+        # A face's foot: the laser above or below returned at the same range (config: vertical_foot_min_range).
+        foot = in_band & ~solid & vertical & (r2_kept >= cfg.vertical_foot_min_range**2)
+        n_grazing = int(np.count_nonzero(foot))
+        n_water -= n_grazing
+        solid |= foot
+    # Rain and spray: alone in the range image (no firing beside it returned at its range).
     isolated = None
     if image is not None and cfg.continuity_min_neighbours > 0:
         need = cfg.continuity_min_neighbours + (r2_kept < cfg.continuity_near_range**2)
@@ -246,13 +252,15 @@ def preprocess(
         calm = not estimate.measured and int(np.count_nonzero(near_low)) < cfg.calm_max_near_returns
         if cfg.foot_min_neighbours > 0 and calm:
             rescued = in_band & ~solid & (height > 0.0) & (neighbours >= cfg.foot_min_neighbours)
-            n_grazing = int(np.count_nonzero(rescued))
+            n_rescued = int(np.count_nonzero(rescued))
+            n_grazing += n_rescued
+            n_water -= n_rescued
             solid |= rescued
-            n_water -= n_grazing
         elif cfg.grazing_line_min_run > 0:
-            line = _grazing_lines(
-                image, idx, horizontal, height, in_band, (estimate, beams), r2_kept, bx, by, rings, cfg
-            )
+            line = (
+                _grazing_lines(image, idx, horizontal, height, in_band, (estimate, beams), r2_kept, bx, by, rings, cfg)
+                & ~solid
+            )  # a foot on a face is solid already
             n_line = int(np.count_nonzero(line))
             n_grazing += n_line
             n_water -= n_line
