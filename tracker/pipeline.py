@@ -176,7 +176,9 @@ class PerceptionPipeline:
         self._last_radar_t = -np.inf
         self._lidar_coverage = SensorCoverage(0.0, 2 * np.pi, self.settings.lidar_max_range_m)
         self._lidar_bands = _no_bands()  # newest revolution's beam bands per bearing (lo, hi)
-        self._lidar_solid = np.empty((0, 2))  # newest revolution's solid returns, body (fwd, stbd)
+        # newest revolution's solid returns: world (north, east) with the pose at the sweep's end, or body
+        # (fwd, stbd) with None when the sweep's poses were unknown
+        self._lidar_solid: tuple[np.ndarray, tuple[np.ndarray, float] | None] = (np.empty((0, 2)), None)
         self._radar_solid = np.empty((0, 2))  # newest radar frame's solid returns
         self._epoch: int | None = None
         self.lidar_tracker = self.lidar_tracker_factory() if self.lidar_tracker_factory else None
@@ -210,6 +212,9 @@ class PerceptionPipeline:
         if self.radar_tracker_factory:
             self.radar_tracker = self.radar_tracker_factory()
         self._lidar_tracks, self._radar_tracks = [], []
+        points, at_sweep_end = self._lidar_solid
+        if at_sweep_end is not None:  # kept in the body frame of the sweep's end, both in the old world frame
+            self._lidar_solid = (world_to_body_2d(points, *at_sweep_end), None)
 
     def step(
         self,
@@ -241,7 +246,7 @@ class PerceptionPipeline:
         if scan is not None:
             self._last_lidar_t = max(self._last_lidar_t, scan.stamp)
             self._lidar_coverage = lidar_coverage(scan, s)
-            self._lidar_solid = np.empty((0, 2))
+            self._lidar_solid = (np.empty((0, 2)), None)
             self._lidar_bands = _no_bands()  # an empty revolution returned nothing: it vouches for nothing
             if scan.n_points:
                 self._lidar_solid, n_lidar = _timed(timings, "lidar", lambda: self._lidar(scan, ego, ego_ok))
@@ -253,8 +258,9 @@ class PerceptionPipeline:
         # the returns are dropped with the sensor's freshness, never reused beyond it.
         lidar_fresh = t - self._last_lidar_t <= self.freshness_s
         radar_fresh = t - self._last_radar_t <= self.freshness_s
+        own = _pose_now(ego, ego_ok, t)
         if lidar_fresh:
-            solid.append(self._lidar_solid)
+            solid.append(self._lidar_solid_body(own))
         if radar_fresh:
             solid.append(self._radar_speaks(self._radar_solid, lidar_fresh))
 
@@ -263,7 +269,6 @@ class PerceptionPipeline:
         tracks = fuse_tracks(
             self._lidar_tracks if lidar_fresh else [], self._radar_tracks if radar_fresh else [], s.fusion_gate_m
         )
-        own = _pose_now(ego, ego_ok, t)
         if own is not None and lidar_fresh and any(tr.source == "radar" for tr in tracks):
             alone = [tr for tr in tracks if tr.source == "radar"]
             at = world_to_body_2d(np.array([tr.position[:2] for tr in alone]), own[0][:2], own[3])
@@ -367,7 +372,9 @@ class PerceptionPipeline:
         return reach.reshape(72, SUB_BEARINGS.size).min(axis=1)
 
     # ---- LiDAR ----------------------------------------------------------------------------------------------
-    def _lidar(self, scan: LidarScan, ego: EgoSource | None, ego_ok: bool) -> tuple[np.ndarray, int]:
+    def _lidar(
+        self, scan: LidarScan, ego: EgoSource | None, ego_ok: bool
+    ) -> tuple[tuple[np.ndarray, tuple[np.ndarray, float] | None], int]:
         from tracker.lidar.preprocess import preprocess
 
         if ego_ok:
@@ -429,13 +436,14 @@ class PerceptionPipeline:
         self.last_preprocess = pre
         # One classification for the obstacle array and the tracker: each return's own attitude, the measured
         # water surface and the sea margin (tracker/lidar/water.py). The array takes horizontal ranges: world
-        # returns turned into the boat's heading at the end of the sweep (a rolled body frame would put a return
-        # 1 m above the sensor 9 cm off at 5 deg; each return's own pose also undoes the boat's motion in the sweep).
+        # returns, turned into the boat's heading at the tick (_lidar_solid_body; a rolled body frame would put a
+        # return 1 m above the sensor 9 cm off at 5 deg; each return's own pose also undoes the boat's motion in the
+        # sweep).
         own = _pose_now(ego, ego_ok, scan.stamp) if track_points is not None else IDENTITY
         own_pos, own_yaw = (own[0][:2], own[3]) if own is not None else (np.zeros(2), 0.0)
         if own is None:  # the pose at the sweep's end is unknown though each return's was: the sweep's last pose
             own_pos, own_yaw = np.asarray(pos, float).reshape(-1, 3)[-1, :2], float(np.ravel(yaw)[-1])
-        solid_body = world_to_body_2d(pre.points_world[:, :2], own_pos, own_yaw)
+        solid = pre.points_world[:, :2]
         self._lidar_bands = lidar_bands(beams, live, pre.water, self.settings)
         if self.lidar_tracker is not None and track_points is not None and self._may_track("lidar"):
             t0 = time.perf_counter()
@@ -448,8 +456,19 @@ class PerceptionPipeline:
             low = pre.within_margin_world[:, :2]
             hull = low[on_tracked_hulls(low, self._lidar_tracks, self.settings.hull_margin_grow_m)]
             if hull.shape[0]:
-                solid_body = np.concatenate([solid_body, world_to_body_2d(hull, own_pos, own_yaw)])
-        return solid_body, int(solid_body.shape[0])
+                solid = np.concatenate([solid, hull])
+        # without the sweep's poses, preprocess placed the returns in the body frame (zero pose)
+        return (solid, (own_pos, own_yaw) if track_points is not None else None), int(solid.shape[0])
+
+    def _lidar_solid_body(self, own: tuple[np.ndarray, float, float, float] | None) -> np.ndarray:
+        """The newest revolution's solid returns in the body frame (fwd, stbd) of the boat at the tick (``own``, its
+        pose then): the obstacle array's bearings are the heading's when it is sent, not the sweep's end, up to
+        0.1 s and a turning boat's degree earlier."""
+        points, at_sweep_end = self._lidar_solid
+        if at_sweep_end is None:
+            return points
+        pos, yaw = (own[0][:2], own[3]) if own is not None else at_sweep_end
+        return world_to_body_2d(points, pos, yaw)
 
     # ---- radar ----------------------------------------------------------------------------------------------
     def _radar(self, frame: RadarFrame, ego: EgoSource | None, ego_ok: bool) -> np.ndarray:
