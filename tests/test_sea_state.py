@@ -219,25 +219,27 @@ def test_a_low_pontoon_met_by_one_beam_stays_out_of_the_water_fit_and_is_an_obst
         assert set(np.flatnonzero(out.distances_cm <= 10000).tolist()) <= set(range(12, 25))
 
 
-def _wall_in_chop(foot_min_range: float) -> tuple[np.ndarray, object, object]:
-    """Three revolutions from a level boat of a quay face 3 m high and 6 m wide, 25 m dead ahead, in the chop above
-    with every firing returning. The -3 deg beam meets the face 0.29 m up, within the crests' margin; the -1 deg
-    beam meets it 1.16 m up, above."""
+def _level_boat_in_chop(walls: tuple, **preprocess: float) -> tuple[np.ndarray, object, object]:
+    """Three revolutions from a level boat of ``walls`` in the chop above, every firing returning, with these
+    preprocess settings: the third revolution's bins, preprocess result (with per-point reasons) and returns."""
 
     def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros(np.shape(t)), np.zeros(np.shape(t))
 
     pipeline = lidar_pipeline(MOUNT)
-    cfg = pipeline.lidar_preprocess_config
-    pipeline.lidar_preprocess_config = replace(cfg, vertical_foot_min_range=foot_min_range)
+    pipeline.lidar_preprocess_config = replace(pipeline.lidar_preprocess_config, **preprocess)
     ego = SteadyEgo(level, 0.0)
-    face = (((25.0, -3.0), (25.0, 3.0), 3.0),)
     for k in range(3):
-        ret = revolution_over_water(MOUNT, level, yaw=0.0, elevation=chop, t0=0.1 * k, walls=face)
+        ret = revolution_over_water(MOUNT, level, yaw=0.0, elevation=chop, t0=0.1 * k, walls=walls)
+        pipeline.keep_view_detail = k == 2
         out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
-    pipeline.keep_view_detail = True
-    out = pipeline.step(0.4, scan_of(ret, 0.4), [], ego)
     return out.distances_cm, pipeline.last_preprocess, ret
+
+
+def _wall_in_chop(foot_min_range: float) -> tuple[np.ndarray, object, object]:
+    """A quay face 3 m high and 6 m wide, 25 m dead ahead. The -3 deg beam meets the face 0.29 m up, within the
+    crests' margin; the -1 deg beam meets it 1.16 m up, above."""
+    return _level_boat_in_chop((((25.0, -3.0), (25.0, 3.0), 3.0),), vertical_foot_min_range=foot_min_range)
 
 
 def test_a_faces_foot_within_the_sea_margin_is_solid_and_the_crests_are_not() -> None:
@@ -256,3 +258,33 @@ def test_a_faces_foot_within_the_sea_margin_is_solid_and_the_crests_are_not() ->
     # with the rule off (beyond the LiDAR's range) the foot is water
     _, plain, _ = _wall_in_chop(1000.0)
     assert np.all(plain.reason[foot] == REASON_NAMES.index("water"))
+
+
+def _low_oblique_wall_in_chop(solid_line_min_run: int) -> tuple[np.ndarray, object, object]:
+    """A low wall (0.6 m) running from 20 m off on the 20 deg bearing to 30 m off on the 36 deg bearing (clear of the
+    sweep's start at the bow, which a run along a beam does not cross). Only the -3 deg beam meets it, 0.55 m up at
+    its near end (above the crests' margin), 0.03 m up at its far end (within it)."""
+    wall = (((18.79, 6.84), (24.27, 17.63), 0.6),)
+    return _level_boat_in_chop(wall, solid_line_min_run=solid_line_min_run)
+
+
+def test_a_line_along_one_beam_that_rises_out_of_the_sea_margin_is_an_obstacle_along_its_length() -> None:
+    d, pre, ret = _low_oblique_wall_in_chop(5)
+    d_plain, plain, _ = _low_oblique_wall_in_chop(0)
+    on_wall = ret.wall == 0
+    assert set(ret.ring[on_wall].tolist()) == {6}  # the -3 deg beam alone
+    kept, water = REASON_NAMES.index("kept"), REASON_NAMES.index("water")
+    # the far part, within the margin, is water to the tracker either way; with the rule it is the wall's foot in the
+    # obstacle array, to within a few firings of its far end (where a crest in front of the wall breaks the run)
+    far_part = on_wall & (plain.reason == water)
+    assert np.count_nonzero(far_part) >= 20 and plain.feet_world.shape[0] == 0
+    assert np.all(pre.reason[on_wall] == plain.reason[on_wall])
+    assert pre.feet_world.shape[0] >= np.count_nonzero(far_part) - 5
+    assert np.count_nonzero(pre.reason[on_wall] == kept) >= 20
+    # the crests, returning every firing, stay water: obstacles only on the wall's bearings, none nearer than it
+    obstacle = np.flatnonzero(d <= 10000)
+    assert set(obstacle.tolist()) <= {3, 4, 5, 6, 7, 8}
+    assert np.all(d[obstacle] >= 1950)
+    # bins 6 and 7 (27.5-36 deg): the wall 24-30 m off, within the margin; unknown without the rule
+    assert 2300 <= d[6] <= 2800 and 2650 <= d[7] <= 3050
+    assert d_plain[6] == d_plain[7] == UNKNOWN

@@ -443,7 +443,7 @@ class PerceptionPipeline:
         own_pos, own_yaw = (own[0][:2], own[3]) if own is not None else (np.zeros(2), 0.0)
         if own is None:  # the pose at the sweep's end is unknown though each return's was: the sweep's last pose
             own_pos, own_yaw = np.asarray(pos, float).reshape(-1, 3)[-1, :2], float(np.ravel(yaw)[-1])
-        solid = pre.points_world[:, :2]
+        solid = np.concatenate([pre.points_world[:, :2], pre.feet_world[:, :2]])
         self._lidar_bands = lidar_bands(beams, live, pre.water, self.settings)
         if self.lidar_tracker is not None and track_points is not None and self._may_track("lidar"):
             t0 = time.perf_counter()

@@ -148,6 +148,11 @@ class PreprocessConfig:
     # within the margin were on a face. Closer in, crests' faces pair up (440 water against 6,569 solid) and the
     # rain and spray rules judge what is left. Beyond max_range: off.
     vertical_foot_min_range: float = 20.0
+    # A return within the sea margin beyond grazing_line_min_range, in a run of at least solid_line_min_run firings
+    # of its laser at one range (the grazing-line rule's runs) that holds a return kept as solid, is that solid's
+    # foot, an obstacle (not tracking evidence): a quay's foot along one beam rises and falls through the margin's
+    # edge as the beam runs along it, and was an obstacle in one bin and unknown in the next (ours). 0 = off.
+    solid_line_min_run: int = 5
     water: WaterConfig = field(default_factory=WaterConfig)
 
     def __post_init__(self) -> None:
@@ -172,6 +177,7 @@ class PreprocessConfig:
             "grazing_line_max_fill",
             "grazing_line_max_sporadic",
             "vertical_foot_min_range",
+            "solid_line_min_run",
             allow_zero=True,
         )
         if self.min_range >= self.max_range:

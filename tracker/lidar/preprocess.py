@@ -45,6 +45,10 @@ class PreprocessResult:
     # (L, 3) world NED: returns within the sea margin yet above its floor, not alone in the range image and beyond
     # the spray range: a crest's top or a hull's lower strakes; only a known hull around them can tell which
     within_margin_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    # (F, 3) world NED: returns within the sea margin on a line along one laser with a kept return (config
+    # solid_line_min_run): a solid's foot for the obstacle array, not evidence for the tracker, which the kept part
+    # of the line already gives (counted under n_water)
+    feet_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     # (N,) int8 over the input points, KEPT or the rule that dropped each one; only with preprocess(reasons=True)
     # (the live view asks for it), so the boat's hot path never builds it.
     reason: np.ndarray | None = None
@@ -300,6 +304,13 @@ def preprocess(
     n_spray = int(np.count_nonzero(spray))
 
     good = solid & ~spray
+    # Feet of solid lines reach the obstacle array only. Given to the tracker as well they drew quays' clusters out
+    # along their feet: held out, fused MOTA 0.798 -> 0.796 (worst scene 0.329 -> 0.226).
+    feet = (
+        _feet_of_solid_lines(image, idx, horizontal, in_band & ~solid, good, r2_kept, cfg)
+        if image is not None and cfg.solid_line_min_run > 0
+        else np.zeros(idx.size, dtype=bool)
+    )
     if everything:
         keep = good.copy()
     else:
@@ -327,6 +338,7 @@ def preprocess(
         n_grazing=n_grazing,
         water=estimate,
         within_margin_world=_stack_where(undecided, north, east, down),
+        feet_world=_stack_where(feet, north, east, down),
         reason=reason,
     )
 
@@ -383,6 +395,30 @@ def _grazing_lines(
     sporadic_sea = sporadic_sea[rings[members]]
     line[members[alone[np.searchsorted(far_idx, members)] | ~sporadic_sea]] = False
     return line
+
+
+def _feet_of_solid_lines(
+    image: RangeImage,
+    idx: np.ndarray,
+    horizontal: np.ndarray,
+    water: np.ndarray,
+    good: np.ndarray,
+    r2_kept: np.ndarray,
+    cfg: PreprocessConfig,
+) -> np.ndarray:
+    """(K,) over the kept returns: the ``water`` ones beyond grazing_line_min_range that lie in a run along their
+    laser (at least solid_line_min_run firings at one range) holding a ``good`` one."""
+    far = r2_kept >= cfg.grazing_line_min_range**2
+    members = np.flatnonzero(far & (water | good))
+    foot = np.zeros(idx.size, dtype=bool)
+    if members.size == 0 or not np.any(water[members]):
+        return foot
+    run_id, length = image.ring_run_ids(
+        idx[members], horizontal[idx[members]], cfg.continuity_abs_tol, cfg.continuity_rel_tol
+    )
+    holds_solid = np.bincount(run_id, weights=good[members], minlength=length.size) > 0
+    foot[members] = water[members] & holds_solid[run_id] & (length[run_id] >= cfg.solid_line_min_run)
+    return foot
 
 
 def _laser_meets_water(water: WaterEstimate, beams: BeamGeometry, reach: float, cfg: PreprocessConfig) -> np.ndarray:

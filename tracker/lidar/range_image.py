@@ -161,6 +161,13 @@ class RangeImage:
         """(M,) for each of the returns ``members`` (indices of this image's returns, ranges ``r``): the length of
         the run it belongs to among the members: consecutive firings of its laser each within abs_tol + rel_tol * r
         of the one before (1: alone on its ring). A few (ring x sequence) array passes, whatever M is."""
+        run_id, length = self.ring_run_ids(members, r, abs_tol, rel_tol)
+        return length[run_id]
+
+    def ring_run_ids(
+        self, members: np.ndarray, r: np.ndarray, abs_tol: float, rel_tol: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The runs of :meth:`ring_runs`: (M,) each member's run id, and (runs,) each run's length."""
         seq, ring = self.seq[members], self.ring[members]
         n_seq = self.n_sequences
         runs = np.full((RINGS, n_seq), np.nan)  # ring-major: a ring's firings are contiguous once flattened
@@ -174,7 +181,7 @@ class RangeImage:
         starts = present & ~linked
         run_id = np.cumsum(starts) - 1
         length = np.bincount(run_id[present], minlength=int(starts.sum()))
-        return length[run_id[ring * n_seq + seq]]
+        return run_id[ring * n_seq + seq], length
 
     def continuous_and_vertical(
         self, r: np.ndarray, continuity_tol: tuple[float, float], vertical_tol: tuple[float, float]
