@@ -68,6 +68,10 @@ class LidarTrackerRole(Protocol):
         point_times: np.ndarray | None = None,
     ) -> list[Track]: ...
 
+    def on_structure(self, t: float, points_ne: np.ndarray, radius_m: float) -> np.ndarray:
+        """(n,) bool: structure the LiDAR saw lies within ``radius_m`` of each world (north, east) point."""
+        ...
+
 
 class RadarTrackerRole(Protocol):
     """What the pipeline asks of a radar tracker (tracker/radar/tracker.py's RadarTracker)."""
@@ -100,6 +104,12 @@ class PipelineSettings:
     # only sensor that can see it, and its field of view counts toward "clear" there. With the LiDAR blind, the
     # radar's tracks and shore are obstacles everywhere.
     radar_alone_beyond_m: float | None = None
+    # A radar track no LiDAR track holds, lying within this (m) of structure the LiDAR saw (a quay and the land behind
+    # it, tracker.lidar.structure), is that structure: a quay face returns the radar's chirps as strongly as a hull,
+    # and its returns wander along the wall. Its solid is in the obstacle array already, from the LiDAR's returns.
+    # Negative turns it off. Ours, the LiDAR fusion gate's 3 m; held out (random:1001-1050, fused) against off: MOTA
+    # 0.798 -> 0.810, false track-frames 10.5 -> 8.7 % of matches, 16 scenes better and none worse; bins unchanged.
+    radar_on_structure_gate_m: float = 3.0
     lidar_mount: Mount = field(default_factory=Mount)
     # Coverage (tracker/lidar/coverage.py): "clear" is sent only for a bin where a solid this tall above the water
     # would have been returned all the way from clear_inner_m (None: min_distance_m) out to max_distance_m.
@@ -269,12 +279,16 @@ class PerceptionPipeline:
         tracks = fuse_tracks(
             self._lidar_tracks if lidar_fresh else [], self._radar_tracks if radar_fresh else [], s.fusion_gate_m
         )
+        on_structure: list[Track] = []  # radar-only tracks on structure the LiDAR saw: obstacles, not vessels
         if own is not None and lidar_fresh and any(tr.source == "radar" for tr in tracks):
             alone = [tr for tr in tracks if tr.source == "radar"]
-            at = world_to_body_2d(np.array([tr.position[:2] for tr in alone]), own[0][:2], own[3])
-            muted = {
-                id(tr) for tr, speaks in zip(alone, self._radar_speaks_at(at, lidar_fresh), strict=True) if not speaks
-            }
+            world = np.array([tr.position[:2] for tr in alone])
+            speaks = self._radar_speaks_at(world_to_body_2d(world, own[0][:2], own[3]), lidar_fresh)
+            if self.lidar_tracker is not None and s.radar_on_structure_gate_m >= 0:
+                structure = speaks & self.lidar_tracker.on_structure(t, world, s.radar_on_structure_gate_m)
+                on_structure = [tr for tr, q in zip(alone, structure, strict=True) if q]
+                speaks &= ~structure
+            muted = {id(tr) for tr, ok in zip(alone, speaks, strict=True) if not ok}
             tracks = [tr for tr in tracks if id(tr) not in muted]
         if own is not None:
             # Returns measured this cycle are the truth about a hull; an estimated outline is only added where the
@@ -291,7 +305,7 @@ class PerceptionPipeline:
             }
             outlines = [
                 outline_points(tr.footprint())
-                for tr in tracks
+                for tr in [*tracks, *on_structure]
                 if tr.confirmed
                 and (
                     (tr.source != "radar" and id(tr) in unswept)

@@ -108,6 +108,23 @@ class StructureMemory:
         recent = np.take(self.last_seen.ravel(), flat) >= t - self.cfg.memory_s
         return np.any(recent & on_grid, axis=1)  # off the grid nothing is known
 
+    def near(self, t: float, points_ne: np.ndarray, radius_m: float) -> np.ndarray:
+        """(n,) bool: a cell within ``radius_m`` of the point (cell centres, plus half a cell) was seen under
+        structure within ``memory_s`` of ``t``. For positions measured far more coarsely than a cell (a radar
+        track's centre)."""
+        if self.origin is None or len(points_ne) == 0 or not self._remembers_any(t):
+            return np.zeros(len(points_ne), dtype=bool)
+        reach = int(np.ceil(radius_m / self.cfg.cell_m))
+        di, dj = np.mgrid[-reach : reach + 1, -reach : reach + 1]
+        disc = np.hypot(di, dj) * self.cfg.cell_m <= radius_m + 0.5 * self.cfg.cell_m
+        di, dj = di[disc], dj[disc]
+        i, j, _ = self._index(points_ne)
+        ni, nj = i[:, None] + di[None, :], j[:, None] + dj[None, :]
+        on_grid = (ni >= 0) & (ni < self.cells) & (nj >= 0) & (nj < self.cells)
+        flat = np.clip(ni, 0, self.cells - 1) * self.cells + np.clip(nj, 0, self.cells - 1)
+        recent = np.take(self.last_seen.ravel(), flat) >= t - self.cfg.memory_s
+        return np.any(recent & on_grid, axis=1)
+
     def continues(self, t: float, footprints: list[np.ndarray]) -> np.ndarray:
         """(k,) bool: each footprint is a thin straight piece whose own line runs on into remembered structure.
 

@@ -580,6 +580,11 @@ class LidarTracker:
 
     # -- output ------------------------------------------------------------------------------------------------
 
+    def on_structure(self, t: float, points_ne: np.ndarray, radius_m: float) -> np.ndarray:
+        """(n,) bool: structure the LiDAR saw (a quay, the land behind it) lies within ``radius_m`` of each world
+        (north, east) point, as remembered at ``t``."""
+        return self.structure.near(t, points_ne, radius_m)
+
     def tracks(self) -> list[Track]:
         """Every live track, from the bank's states and covariances stacked once (not read filter by filter)."""
         if not self._lives:
