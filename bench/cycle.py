@@ -28,7 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench._common import save
+from bench._common import no_options, save
 from daemon.config import Config
 from daemon.runner import freeze_startup_objects, pipeline_for
 from drivers.awr1843.parser import RadarFrameParser, encode_frame
@@ -167,6 +167,7 @@ def measure(scene: Scene, seconds: float) -> dict[str, object]:
 
 
 def main() -> None:
+    no_options(__doc__)
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
     rows = {}

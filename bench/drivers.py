@@ -23,7 +23,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench._common import save
+from bench._common import no_options, save
 from bench.cycle import ring_scene
 from drivers.awr1843.parser import RadarFrameParser, encode_frame
 from drivers.vlp16.decoder import ScanAssembler
@@ -127,6 +127,7 @@ def radar_throughput(n_frames: int = 3000) -> float:
 
 
 def main() -> None:
+    no_options(__doc__)
     packets = simulated_packets(10.0)
     pps, points = decode_throughput(packets)
     print(

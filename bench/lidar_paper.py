@@ -32,7 +32,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench._common import RESULTS, save
+from bench._common import RESULTS, no_options, save
 from bench.lidar_sim import Frame, iou, points_in_convex, shape_polygon, simulate
 from simulator.scenarios import get_scenario
 from simulator.scene import Scene
@@ -537,6 +537,7 @@ def goals(t1: dict[str, Any], f4: dict[str, dict[str, float]], dense: dict[str, 
 
 
 def main() -> None:
+    no_options(__doc__)
     t_start = time.perf_counter()
     RESULTS.mkdir(parents=True, exist_ok=True)
     # Throughput first, while the heap is small as in the daemon (later, the stored revolutions make every garbage

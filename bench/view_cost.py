@@ -22,6 +22,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from bench._common import no_options
 from bench.cycle import SceneEgo, ring_scene, waves_scene
 from daemon.config import Config
 from daemon.loop import DaemonLoop, LoopSettings, SensorInputs
@@ -82,6 +83,7 @@ def one_pass(scene: Scene, scans: list, frames: list, view_on: bool, mcap: Path)
 
 
 def main() -> None:
+    no_options(__doc__)
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
     with tempfile.TemporaryDirectory() as tmp:
