@@ -61,7 +61,10 @@ def test_clutter_density_is_measured_at_every_range_from_a_sea_that_thins_with_r
     for k in range(100):
         p = sea_clutter(rng, ROUGH)
         dens.update(0.1 * k, np.hypot(*p.T), np.arctan2(p[:, 1], p[:, 0]))
-    for r in (5.0, 8.0, 12.0, 20.0, 40.0):
+    assert dens.edges[0] == 0.5 and dens.edges[-1] == 50.0  # no ring counts area beyond the field
+    # A ring's density is its average; at the ring's (geometric) middle a range^-2 sea matches it.
+    middles = np.sqrt(dens.edges[:-1] * dens.edges[1:])
+    for r in middles[[-11, -9, -7, -5, -3, -1]]:  # 4.5 .. 44.8 m; the last ring ends at the field's edge
         assert dens.at(np.array([r]))[0] == pytest.approx(sea_clutter_density(ROUGH, r), rel=0.2), r
 
 

@@ -51,7 +51,14 @@ class ClutterDensity:
         if not (0 < min_range_m < max_range_m and fov_rad > 0 and time_constant_s > 0):
             raise ValueError("ClutterDensity: need 0 < min_range_m < max_range_m, fov_rad > 0, time_constant_s > 0")
         n_rings = max(1, math.ceil(math.log(max_range_m / min_range_m) / math.log(RING_RATIO)))
-        self.edges = min_range_m * RING_RATIO ** np.arange(n_rings + 1)
+        edges = min_range_m * RING_RATIO ** np.arange(n_rings + 1)
+        # The last ring ends at max_range_m: reaching past it, it counted area no return can come from and read the
+        # clutter there as down to half its density, so clutter at the edge of the radar's range confirmed as tracks.
+        # A last ring thinner than sqrt(RING_RATIO) joins the one before it.
+        edges[-1] = max_range_m
+        if n_rings > 1 and edges[-1] / edges[-2] < math.sqrt(RING_RATIO):
+            edges = np.delete(edges, -2)
+        self.edges = edges
         self.half_fov = min(fov_rad, 2 * math.pi) / 2
         sector = 2 * self.half_fov / N_SECTORS
         self.cell_area = sector / 2 * np.diff(self.edges**2)  # (rings,) m^2 of one sector of each ring
