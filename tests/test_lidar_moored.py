@@ -97,3 +97,20 @@ def test_a_ship_alone_is_never_carved() -> None:
     tracks = run_with([ship])
     assert len(tracks) == 1
     assert tracks[0].position == pytest.approx(ship.center, abs=2.0)
+
+
+def test_a_carved_hull_where_the_memory_has_wall_is_still_a_vessel() -> None:
+    """The wall and the boat seen merged once (carving off, as when a bend hid the face's line): their cells are
+    remembered as structure. Carved afterwards, the boat stands in front of the face: a vessel, not remembered wall."""
+    cfg = LidarTrackerConfig()
+    tracker = LidarTracker(cfg)
+    rng = np.random.default_rng(1)
+    cfg.structure.moored_min_offset_m = 0.0
+    tracker.step(scan_objects([WALL, BOAT], ORIGIN, range_noise=0.03, rng=rng), 0.0, ORIGIN, 0.0)
+    assert tracker.structure.known(0.0, np.array([BOAT.center + np.array([0.0, -1.75])])).all()  # its near side
+    cfg.structure.moored_min_offset_m = 0.8
+    tracks = []
+    for k in range(1, 20):
+        tracks = tracker.step(scan_objects([WALL, BOAT], ORIGIN, range_noise=0.03, rng=rng), k * DT, ORIGIN, 0.0)
+    confirmed = [t for t in tracks if t.confirmed]
+    assert len(confirmed) == 1 and confirmed[0].position == pytest.approx(BOAT.center, abs=1.0)

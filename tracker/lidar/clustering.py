@@ -46,6 +46,9 @@ class ClusterResult:
     bearing: np.ndarray | None = None  # (k,)
     bearing_lo: np.ndarray | None = None  # (k,)
     bearing_hi: np.ndarray | None = None  # (k,)
+    # (k,) bool: a hull carved out of a wall's cluster (tracker.lidar.moored): it stands in front of the face, so it
+    # is not the wall whatever the structure memory remembers there. None: none carved.
+    carved: np.ndarray | None = None
 
     @property
     def objects(self) -> list[np.ndarray]:

@@ -136,7 +136,10 @@ def carve_moored_hulls(
     for j, idx in enumerate(new_points):
         labels[idx] = first_new + j
     changed = sorted({int(k) for k in big} | set(range(first_new, len(clusters))))
-    return _nearest_first(result, clusters, footprints, np.array(oversized, dtype=bool), labels, own, changed)
+    carved = np.arange(len(clusters)) >= first_new
+    if result.carved is not None:
+        carved[:first_new] |= result.carved
+    return _nearest_first(result, clusters, footprints, np.array(oversized, dtype=bool), labels, own, changed, carved)
 
 
 def _nearest_first(
@@ -147,6 +150,7 @@ def _nearest_first(
     labels: np.ndarray,
     own: np.ndarray,
     changed: list[int],
+    carved: np.ndarray,
 ) -> ClusterResult:
     """The ``changed`` clusters' ranges, extents and bearing spans recomputed (a handful a scan), all sorted nearest
     first."""
@@ -183,6 +187,7 @@ def _nearest_first(
         bearing=centre[order],
         bearing_lo=lo[order],
         bearing_hi=hi[order],
+        carved=carved[order],
     )
 
 
