@@ -28,8 +28,11 @@ class FixedRadarTracks:
         return np.empty((0, 2))
 
 
-def radar_track(north: float, east: float) -> Track:
-    return Track(1, 0.0, np.array([north, east]), np.zeros(2), 0.0, 0.0, 2.0, 2.0, 1.0, confirmed=True, source="radar")
+def radar_track(north: float, east: float, age: float = 5.0) -> Track:
+    """A confirmed radar track (2 x 2 m), ``age`` s old: by default long past radar_alone_min_age_s."""
+    return Track(
+        1, 0.0, np.array([north, east]), np.zeros(2), 0.0, 0.0, 2.0, 2.0, 1.0, confirmed=True, source="radar", age=age
+    )
 
 
 def empty_scan(t: float) -> LidarScan:
@@ -73,6 +76,20 @@ def test_radar_only_track_in_the_gap_between_the_lidars_beams_is_an_obstacle_and
     """A low hull 40 m off passes between the -3 and -1 deg beams: only the radar can see it, so it speaks there."""
     d, tracks = run([radar_track(40.0, 0.0)], lidar=True)
     assert d[0] == 3900 and [tr.source for tr in tracks] == ["radar"]
+
+
+def test_a_young_radar_only_track_in_the_gap_is_an_obstacle_but_not_yet_a_vessel() -> None:
+    """Clutter that happens to confirm lasts under a second; until a radar-only track has lasted
+    radar_alone_min_age_s (1 s) its outline is an obstacle, but it is not sent as a vessel."""
+    d, tracks = run([radar_track(40.0, 0.0, age=0.5)], lidar=True)
+    assert d[0] == 3900 and tracks == []
+    d, tracks = run([radar_track(40.0, 0.0, age=1.0)], lidar=True)
+    assert d[0] == 3900 and [tr.source for tr in tracks] == ["radar"]
+
+
+def test_a_young_radar_only_track_is_a_vessel_when_the_lidar_is_blind() -> None:
+    _, tracks = run([radar_track(40.0, 0.0, age=0.2)], lidar=False)
+    assert [tr.source for tr in tracks] == ["radar"]
 
 
 def test_radar_only_track_within_a_fixed_range_is_muted_when_one_is_set() -> None:
