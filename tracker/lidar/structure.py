@@ -99,31 +99,28 @@ class StructureMemory:
 
     def known(self, t: float, points_ne: np.ndarray) -> np.ndarray:
         """(n,) bool: the point lies on, or next to, a cell seen under structure within ``memory_s`` of ``t``."""
-        if self.origin is None or len(points_ne) == 0 or not self._remembers_any(t):
-            return np.zeros(len(points_ne), dtype=bool)
-        i, j, _ = self._index(points_ne)
-        ni, nj = i[:, None] + _NEIGHBOURS[None, :, 0], j[:, None] + _NEIGHBOURS[None, :, 1]
-        on_grid = (ni >= 0) & (ni < self.cells) & (nj >= 0) & (nj < self.cells)
-        flat = np.clip(ni, 0, self.cells - 1) * self.cells + np.clip(nj, 0, self.cells - 1)  # a 2-D gather costs 3x
-        recent = np.take(self.last_seen.ravel(), flat) >= t - self.cfg.memory_s
-        return np.any(recent & on_grid, axis=1)  # off the grid nothing is known
+        return self._seen_within(t, points_ne, _NEIGHBOURS)
 
     def near(self, t: float, points_ne: np.ndarray, radius_m: float) -> np.ndarray:
         """(n,) bool: a cell within ``radius_m`` of the point (cell centres, plus half a cell) was seen under
         structure within ``memory_s`` of ``t``. For positions measured far more coarsely than a cell (a radar
         track's centre)."""
-        if self.origin is None or len(points_ne) == 0 or not self._remembers_any(t):
-            return np.zeros(len(points_ne), dtype=bool)
         reach = int(np.ceil(radius_m / self.cfg.cell_m))
         di, dj = np.mgrid[-reach : reach + 1, -reach : reach + 1]
         disc = np.hypot(di, dj) * self.cfg.cell_m <= radius_m + 0.5 * self.cfg.cell_m
-        di, dj = di[disc], dj[disc]
+        return self._seen_within(t, points_ne, np.column_stack([di[disc], dj[disc]]))
+
+    def _seen_within(self, t: float, points_ne: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+        """(n,) bool: a cell at one of the (k, 2) cell ``offsets`` from the point's cell was seen under structure
+        within ``memory_s`` of ``t``."""
+        if self.origin is None or len(points_ne) == 0 or not self._remembers_any(t):
+            return np.zeros(len(points_ne), dtype=bool)
         i, j, _ = self._index(points_ne)
-        ni, nj = i[:, None] + di[None, :], j[:, None] + dj[None, :]
+        ni, nj = i[:, None] + offsets[None, :, 0], j[:, None] + offsets[None, :, 1]
         on_grid = (ni >= 0) & (ni < self.cells) & (nj >= 0) & (nj < self.cells)
-        flat = np.clip(ni, 0, self.cells - 1) * self.cells + np.clip(nj, 0, self.cells - 1)
+        flat = np.clip(ni, 0, self.cells - 1) * self.cells + np.clip(nj, 0, self.cells - 1)  # a 2-D gather costs 3x
         recent = np.take(self.last_seen.ravel(), flat) >= t - self.cfg.memory_s
-        return np.any(recent & on_grid, axis=1)
+        return np.any(recent & on_grid, axis=1)  # off the grid nothing is known
 
     def continues(self, t: float, footprints: list[np.ndarray]) -> np.ndarray:
         """(k,) bool: each footprint is a thin straight piece whose own line runs on into remembered structure.

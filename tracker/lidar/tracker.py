@@ -196,16 +196,15 @@ class LidarTracker:
         self.structure.follow(own)
         if big.any():
             self.structure.remember(t, np.concatenate([result.footprints[k] for k in np.flatnonzero(big)]))
-        small = np.flatnonzero(~big)
+        # A hull carved off a wall stands in front of its face: where the memory has wall there, it is from a scan
+        # whose hull and wall had merged; and its side runs along the wall's line without being the wall.
+        carved = result.carved if result.carved is not None else np.zeros(big.size, dtype=bool)
+        small = np.flatnonzero(~big & ~carved)
         if small.size:  # every cluster's footprint in one lookup, the share per cluster by reduceat
             sizes = np.array([len(result.footprints[k]) for k in small])
             known = self.structure.known(t, np.concatenate([result.footprints[k] for k in small]))
             share = np.add.reduceat(known.astype(float), np.cumsum(sizes) - sizes) / np.maximum(sizes, 1)
             big[small] = (sizes > 0) & (share >= cfg.min_fraction)
-        carved = result.carved if result.carved is not None else np.zeros(big.size, dtype=bool)
-        # A hull carved off a wall stands in front of its face: where the memory has wall there, it is from a scan
-        # whose hull and wall had merged; and its side runs along the wall's line without being the wall.
-        big &= ~carved
         rest = np.flatnonzero(~big & ~carved)
         if rest.size:
             walls = rest[self.structure.continues(t, [result.footprints[k] for k in rest])]
