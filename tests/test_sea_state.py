@@ -195,7 +195,9 @@ def test_a_low_pontoon_met_by_one_beam_stays_out_of_the_water_fit_and_is_an_obst
     returns within the fit's search window. Fitted as water, that line tilted the surface 0.0055 up to starboard
     (0.13 m under the pontoon) and widened the margin to 0.55 m, so the pontoon's face measured 0.2 m up and its
     ends were lost in the margin: bins 14 and 21-22 unknown. Lines far out stay out of the fit, as far water never
-    draws them: the surface stays level and the pontoon is an obstacle in every bin the beam meets it in."""
+    draws them: the surface stays level and the pontoon is an obstacle in every bin the beam meets it in. Beyond
+    bins 14-22 the beam meets it under the calm margin (0.15 m): a line there in a sea this sparse is solid too
+    (preprocess._grazing_lines), so the obstacle runs on to bins 10-26, where the pontoon ends 30 m off."""
 
     def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros(np.shape(t)), np.zeros(np.shape(t))
@@ -211,12 +213,14 @@ def test_a_low_pontoon_met_by_one_beam_stays_out_of_the_water_fit_and_is_an_obst
         water = pipeline.last_preprocess.water
         assert water.measured and abs(water.slope_y) < 0.002 and abs(water.offset) < 0.03
         assert water.margin < 0.5
-        # bins 14-22 span 67.5-112.5 deg: the pontoon 24 m / cos(the bin's bearing nearest abeam) off; beyond them
-        # the beam has come down under the calm margin before it reaches the pontoon
-        abeam = np.arange(14, 23)
+        # each bin the pontoon 24 m / cos(the bin's bearing nearest abeam) off: bins 14-22 (67.5-112.5 deg) above
+        # the calm margin, 10-13 and 23-26 below it, where a crest in front may break the line at the bin's edge
+        abeam = np.arange(10, 27)
         expected = 24.0 / np.cos(np.radians(np.maximum(np.abs(abeam - 18) * 5.0 - 2.5, 0.0)))
-        np.testing.assert_allclose(out.distances_cm[abeam] / 100.0, expected, atol=0.05)
-        assert set(np.flatnonzero(out.distances_cm <= 10000).tolist()) <= set(range(12, 25))
+        tolerance = np.where(np.abs(abeam - 18) <= 4, 0.05, 0.6)
+        assert np.all(np.abs(out.distances_cm[abeam] / 100.0 - expected) <= tolerance)
+        assert np.all(out.distances_cm[abeam] / 100.0 >= expected - 0.05)  # never nearer: no crest in front of it
+        assert set(np.flatnonzero(out.distances_cm <= 10000).tolist()) == set(abeam.tolist())
 
 
 def _level_boat_in_chop(walls: tuple, **preprocess: float) -> tuple[np.ndarray, object, object]:

@@ -360,37 +360,47 @@ def _grazing_lines(
 
     A returning sea still draws no lines far out: beyond grazing_line_min_range its returns come a firing or two at
     a time along a ring, while the strakes of a low hull at 20-60 m under the crests' margin, met by one beam,
-    return a run of firings at one range. Only above the calm margin (margin_floor), in the part the measured waves
-    added: a flat sea whose every firing returns draws exact lines at the surface itself. And only on a laser whose
-    sea is sparse, judged against the firings that met the water beyond grazing_line_min_range: at most
-    grazing_line_max_sporadic of them returned in the margin outside a run (the sea's own rate: solids come in runs,
-    so a quay along the beam does not raise it), and at most grazing_line_max_fill returned at all (a sea returning
-    firing after firing draws its returns into runs along the crests, which the first measure then misses).
+    return a run of firings at one range. At any height within the margin: a solid's waterline met by one beam lies
+    at or below the calm floor, often below the fitted surface (which the crests' returns lift). Held to the part
+    above the floor, on the tuning scenes in sea state 3 two thirds of the false-clear bins were solids returned
+    only there. But only on a laser whose sea is sparse: at most grazing_line_max_sporadic of its firings that met
+    the water beyond grazing_line_min_range returned in the margin outside a run (the sea's own rate: solids come in
+    runs, so a quay along the beam does not raise it), and at most grazing_line_max_fill of its firings that met the
+    water anywhere beyond the fit's minimum range returned in the margin at all (a sea returning firing after firing
+    draws its returns into runs along the crests, which the first measure then misses). The fill is judged over the
+    laser's whole water, near and far: where a sea returns every firing, a laser coming down to it at 18 m returns
+    mostly short of 20 m, and the few firings reaching a trough beyond draw lines there; judged by its firings
+    beyond 20 m alone, that laser looked sparse.
 
     The firings that met the water are counted from the beams' geometry (``sea``: the water estimate and where the
-    beams pointed): those in the bins where the laser came down through the sea margin between
-    grazing_line_min_range and the revolution's farthest return. Counting only the bins that returned something
-    in the margin judged a laser by its solids: a laser that met the water in range only here and there but ran
-    along hulls' strakes had its bins full, and none of its lines was trusted. Without the geometry those bins are
-    all there is to count.
+    beams pointed): those in the bins where the laser came down through the sea margin within the range judged and
+    the revolution's farthest return. Counting only the bins that returned something in the margin judged a laser
+    by its solids: a laser that met the water in range only here and there but ran along hulls' strakes had its
+    bins full, and none of its lines was trusted. Without the geometry those bins are all there is to count.
     """
-    far = in_band & (height <= sea[0].margin) & (r2_kept >= cfg.grazing_line_min_range**2)
-    line = far & (height > cfg.water.margin_floor)
+    wet = in_band & (height <= sea[0].margin)
+    far = wet & (r2_kept >= cfg.grazing_line_min_range**2)
+    line = far.copy()
     members = np.flatnonzero(line)
     if members.size == 0:
         return line
     firings_per_bin = image.n_sequences / N_BINS
+    reach = float(np.sqrt(r2_kept.max()))
     far_idx = np.flatnonzero(far)
     far_rings = rings[far_idx].astype(np.int64)
-    cell = far_rings * N_BINS + bearing_bins(np.column_stack([bx[far_idx], by[far_idx]]))
-    met = np.bincount(cell, minlength=RINGS * N_BINS).reshape(RINGS, N_BINS) > 0
+    met = _cells(far_rings, bx[far_idx], by[far_idx])
+    wet_idx = np.flatnonzero(wet & (r2_kept >= cfg.water.fit_min_range**2))
+    wet_rings = rings[wet_idx].astype(np.int64)
+    met_wet = _cells(wet_rings, bx[wet_idx], by[wet_idx])
     if sea[1] is not None:
-        met |= _laser_meets_water(sea[0], sea[1], float(np.sqrt(r2_kept.max())), cfg)
+        met |= _laser_meets_water(sea[0], sea[1], reach, cfg.grazing_line_min_range, cfg)
+        met_wet |= _laser_meets_water(sea[0], sea[1], reach, cfg.water.fit_min_range, cfg)
     runs = image.ring_runs(idx[far_idx], horizontal[idx[far_idx]], cfg.continuity_abs_tol, cfg.continuity_rel_tol)
     alone = runs < cfg.grazing_line_min_run
     met_firings = np.maximum(np.count_nonzero(met, axis=1) * firings_per_bin, 1.0)
     sporadic = np.bincount(far_rings[alone], minlength=RINGS) / met_firings
-    fill = np.bincount(far_rings, minlength=RINGS) / met_firings
+    wet_firings = np.maximum(np.count_nonzero(met_wet, axis=1) * firings_per_bin, 1.0)
+    fill = np.bincount(wet_rings, minlength=RINGS) / wet_firings
     sporadic_sea = (sporadic <= cfg.grazing_line_max_sporadic) & (fill <= cfg.grazing_line_max_fill)
     sporadic_sea = sporadic_sea[rings[members]]
     line[members[alone[np.searchsorted(far_idx, members)] | ~sporadic_sea]] = False
@@ -421,12 +431,20 @@ def _feet_of_solid_lines(
     return foot
 
 
-def _laser_meets_water(water: WaterEstimate, beams: BeamGeometry, reach: float, cfg: PreprocessConfig) -> np.ndarray:
+def _cells(ring: np.ndarray, bx: np.ndarray, by: np.ndarray) -> np.ndarray:
+    """(16, 72) bool by ring and bin: some of these returns (their laser, body x and y) lie there."""
+    cell = ring * N_BINS + bearing_bins(np.column_stack([bx, by]))
+    return np.bincount(cell, minlength=RINGS * N_BINS).reshape(RINGS, N_BINS) > 0
+
+
+def _laser_meets_water(
+    water: WaterEstimate, beams: BeamGeometry, reach: float, beyond: float, cfg: PreprocessConfig
+) -> np.ndarray:
     """(16, 72) bool by ring and bin: the laser, at the bin's centre bearing, comes down through the sea margin
-    (as deep under the surface as the margin is above it: a trough) between grazing_line_min_range and ``reach``."""
+    (as deep under the surface as the margin is above it: a trough) between ``beyond`` and ``reach`` (m)."""
     elevation, sensor_height = beams.over_surface(water, cfg.origin_height_above_water)
     lo, hi = band_intervals(elevation[BIN_CENTRES], sensor_height[BIN_CENTRES], -water.margin, water.margin, reach)
-    return (hi >= np.maximum(lo, cfg.grazing_line_min_range))[:, RING_COLUMNS].T
+    return (hi >= np.maximum(lo, beyond))[:, RING_COLUMNS].T
 
 
 def _in_own_box(
