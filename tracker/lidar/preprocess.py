@@ -380,13 +380,11 @@ def _grazing_lines(
     """
     wet = in_band & (height <= sea[0].margin)
     far = wet & (r2_kept >= cfg.grazing_line_min_range**2)
-    line = far.copy()
-    members = np.flatnonzero(line)
-    if members.size == 0:
-        return line
+    far_idx = np.flatnonzero(far)
+    if far_idx.size == 0:
+        return far
     firings_per_bin = image.n_sequences / N_BINS
     reach = float(np.sqrt(r2_kept.max()))
-    far_idx = np.flatnonzero(far)
     far_rings = rings[far_idx].astype(np.int64)
     met = _cells(far_rings, bx[far_idx], by[far_idx])
     wet_idx = np.flatnonzero(wet & (r2_kept >= cfg.water.fit_min_range**2))
@@ -402,8 +400,8 @@ def _grazing_lines(
     wet_firings = np.maximum(np.count_nonzero(met_wet, axis=1) * firings_per_bin, 1.0)
     fill = np.bincount(wet_rings, minlength=RINGS) / wet_firings
     sporadic_sea = (sporadic <= cfg.grazing_line_max_sporadic) & (fill <= cfg.grazing_line_max_fill)
-    sporadic_sea = sporadic_sea[rings[members]]
-    line[members[alone[np.searchsorted(far_idx, members)] | ~sporadic_sea]] = False
+    line = far.copy()
+    line[far_idx[alone | ~sporadic_sea[far_rings]]] = False
     return line
 
 
