@@ -143,3 +143,32 @@ def test_a_boat_stays_an_obstacle_when_the_lidar_goes_silent() -> None:
     out = p.step(3.0, None, [frame(2.95)], None)
     assert [tr.source for tr in out.tracks] == ["radar"]
     assert out.distances_cm[0] == 2900
+
+
+def boat_both_sensors_track(north: float) -> tuple[np.ndarray, list[Track]]:
+    """A 4 x 2 m boat ``north`` m dead ahead, confirmed by both trackers, while the LiDAR's revolution holds only
+    water returns (its hull's returns lay within the sea margin): the bins and the tracks sent."""
+    lidar_track = Track(7, 0.0, np.array([north, 0.0]), np.zeros(2), 0.0, 0.0, 4.0, 2.0, 1.0, confirmed=True)
+    p = PerceptionPipeline(
+        MOUNTED,
+        lidar_tracker_factory=lambda: FixedLidarTracks([lidar_track]),
+        radar_tracker_factory=lambda: FixedRadarTracks([radar_track(north, 0.0)]),
+    )
+    out = p.step(1.0, water_scan(0.95), [frame(0.95)], None)
+    return out.distances_cm, out.tracks
+
+
+def test_a_boat_both_sensors_confirm_is_an_obstacle_where_the_lidars_beams_cannot_vouch() -> None:
+    """40 m off the boat lies between the -3 and -1 deg beams: the LiDAR could not have returned its hull above the
+    sea margin, so the fused track's outline (its near end at 38 m) stands for it, as a radar-only track's would."""
+    d, tracks = boat_both_sensors_track(40.0)
+    assert [tr.source for tr in tracks] == ["fused"]
+    assert d[0] == 3800
+
+
+def test_a_boat_both_sensors_confirm_adds_no_outline_where_the_lidars_beams_vouch() -> None:
+    """24 m off the -3 deg beam vouches for a 0.5 m solid and returned none: its revolution, not an estimated
+    outline, says what is there."""
+    d, tracks = boat_both_sensors_track(24.0)
+    assert [tr.source for tr in tracks] == ["fused"]
+    assert d[0] == UNKNOWN

@@ -322,6 +322,14 @@ class PerceptionPipeline:
             outlines = [o for o in outlines if len(o)]
             if outlines:
                 solid.append(world_to_body_2d(np.concatenate(outlines), own[0][:2], own[3]))
+            # A hull both sensors confirm: where the LiDAR's beams cannot vouch for its range (its returns there lie
+            # within the sea margin, or the hull sits in the beams' blind gap), its outline is what the radar says.
+            both = [outline_points(tr.footprint()) for tr in tracks if tr.confirmed and tr.source == "fused"]
+            both = [o for o in both if len(o)]
+            if both and radar_fresh:
+                solid.append(
+                    self._radar_speaks(world_to_body_2d(np.concatenate(both), own[0][:2], own[3]), lidar_fresh)
+                )
             if self.radar_tracker is not None and radar_fresh:
                 shore = self.radar_tracker.shore_points()
                 if len(shore):
