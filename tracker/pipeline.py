@@ -324,7 +324,12 @@ class PerceptionPipeline:
                 solid.append(world_to_body_2d(np.concatenate(outlines), own[0][:2], own[3]))
             # A hull both sensors confirm: where the LiDAR's beams cannot vouch for its range (its returns there lie
             # within the sea margin, or the hull sits in the beams' blind gap), its outline is what the radar says.
-            both = [outline_points(tr.footprint()) for tr in tracks if tr.confirmed and tr.source == "fused"]
+            # (Those a partial sweep missed are in whole already.)
+            both = [
+                outline_points(tr.footprint())
+                for tr in tracks
+                if tr.confirmed and tr.source == "fused" and id(tr) not in unswept
+            ]
             both = [o for o in both if len(o)]
             if both and radar_fresh:
                 solid.append(

@@ -391,8 +391,9 @@ def _grazing_lines(
     wet_rings = rings[wet_idx].astype(np.int64)
     met_wet = _cells(wet_rings, bx[wet_idx], by[wet_idx])
     if sea[1] is not None:
-        met |= _laser_meets_water(sea[0], sea[1], reach, cfg.grazing_line_min_range, cfg)
-        met_wet |= _laser_meets_water(sea[0], sea[1], reach, cfg.water.fit_min_range, cfg)
+        lo, hi = _laser_in_sea_margin(sea[0], sea[1], reach, cfg)
+        met |= hi >= np.maximum(lo, cfg.grazing_line_min_range)
+        met_wet |= hi >= np.maximum(lo, cfg.water.fit_min_range)
     runs = image.ring_runs(idx[far_idx], horizontal[idx[far_idx]], cfg.continuity_abs_tol, cfg.continuity_rel_tol)
     alone = runs < cfg.grazing_line_min_run
     met_firings = np.maximum(np.count_nonzero(met, axis=1) * firings_per_bin, 1.0)
@@ -435,14 +436,15 @@ def _cells(ring: np.ndarray, bx: np.ndarray, by: np.ndarray) -> np.ndarray:
     return np.bincount(cell, minlength=RINGS * N_BINS).reshape(RINGS, N_BINS) > 0
 
 
-def _laser_meets_water(
-    water: WaterEstimate, beams: BeamGeometry, reach: float, beyond: float, cfg: PreprocessConfig
-) -> np.ndarray:
-    """(16, 72) bool by ring and bin: the laser, at the bin's centre bearing, comes down through the sea margin
-    (as deep under the surface as the margin is above it: a trough) between ``beyond`` and ``reach`` (m)."""
+def _laser_in_sea_margin(
+    water: WaterEstimate, beams: BeamGeometry, reach: float, cfg: PreprocessConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """(16, 72) each, by ring and bin: the horizontal ranges (m) between which the laser, at the bin's centre
+    bearing, comes down through the sea margin (as deep under the surface as the margin is above it: a trough),
+    capped at ``reach``; start > end where it never does."""
     elevation, sensor_height = beams.over_surface(water, cfg.origin_height_above_water)
     lo, hi = band_intervals(elevation[BIN_CENTRES], sensor_height[BIN_CENTRES], -water.margin, water.margin, reach)
-    return (hi >= np.maximum(lo, beyond))[:, RING_COLUMNS].T
+    return lo[:, RING_COLUMNS].T, hi[:, RING_COLUMNS].T
 
 
 def _in_own_box(
