@@ -123,6 +123,29 @@ def test_a_tracked_hulls_returns_within_the_sea_margin_are_obstacles_and_the_cre
     assert gated == plain + on_face
 
 
+@pytest.mark.parametrize(
+    ("attitude", "share"),
+    [(steady, 0.3), (steady, 0.6), (rolling, 0.3), (rolling, 0.6)],
+    ids=["listing-30%", "listing-60%", "rolling-30%", "rolling-60%"],
+)
+def test_a_sea_returning_part_of_its_firings_gives_no_obstacle_over_ten_revolutions(attitude, share: float) -> None:
+    """The chop above returning a share of the firings that meet it, drawn afresh each revolution, under a boat
+    heeled steadily (5 deg roll, 3 deg pitch) or rolling. Listing, the -11 deg laser meets the mean water at 19-20 m
+    on the high side and reaches beyond 20 m in the troughs of 4 bins; its far end (a trough as deep as the sea
+    margin) lay beyond 20 m in 15 bins, and counted against all of those the trough returns looked sporadic: once in
+    three revolutions five of them in a row were a "line", an obstacle at 22 m in bins 61-62."""
+    pipeline = lidar_pipeline(MOUNT)
+    ego = SteadyEgo(attitude, YAW)
+    for k in range(10):
+        ret = revolution_over_water(
+            MOUNT, attitude, yaw=YAW, origin_height=0.2, elevation=chop, t0=0.1 * k, water_share=(share, k)
+        )
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+        assert pipeline.last_preprocess.water.measured
+        assert np.flatnonzero(out.distances_cm <= 10000).tolist() == [], f"revolution {k}"
+        assert out.tracks == []
+
+
 def _low_hull_in_chop(water_share: tuple[float, int] | None) -> tuple[np.ndarray, object]:
     """Four revolutions from a level boat of a hull 0.5 m high and 3 m wide, 25 m dead ahead, in the chop above; the
     sea returns ``water_share`` of the firings meeting it (None: every one). The -3 deg beam meets the hull 0.29 m

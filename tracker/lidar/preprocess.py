@@ -376,7 +376,12 @@ def _grazing_lines(
     beams pointed): those in the bins where the laser came down through the sea margin within the range judged and
     the revolution's farthest return. Counting only the bins that returned something in the margin judged a laser
     by its solids: a laser that met the water in range only here and there but ran along hulls' strakes had its
-    bins full, and none of its lines was trusted. Without the geometry those bins are all there is to count.
+    bins full, and none of its lines was trusted. Without the geometry those bins are all there is to count. For
+    the sporadic rate a bin counts where the middle of the laser's passage through the margin (about where it
+    meets the mean surface) lies beyond grazing_line_min_range, not where its far end (a trough as deep as the
+    margin is high) does: under a boat listing 5 deg, a laser meeting the mean water at 19-20 m reached 20 m only in
+    the troughs of 4 bins, yet its far end lay beyond 20 m in 15; its sea's 13 lone returns there were counted
+    against all 15 bins' firings (a rate of 0.035, "sparse"), and five returns in a row in a trough were a line.
     """
     wet = in_band & (height <= sea[0].margin)
     far = wet & (r2_kept >= cfg.grazing_line_min_range**2)
@@ -392,7 +397,8 @@ def _grazing_lines(
     met_wet = _cells(wet_rings, bx[wet_idx], by[wet_idx])
     if sea[1] is not None:
         lo, hi = _laser_in_sea_margin(sea[0], sea[1], reach, cfg)
-        met |= hi >= np.maximum(lo, cfg.grazing_line_min_range)
+        with np.errstate(invalid="ignore"):  # inf + -inf where the laser never comes down: False, as it should
+            met |= (hi >= lo) & (0.5 * (lo + hi) >= cfg.grazing_line_min_range)
         met_wet |= hi >= np.maximum(lo, cfg.water.fit_min_range)
     runs = image.ring_runs(idx[far_idx], horizontal[idx[far_idx]], cfg.continuity_abs_tol, cfg.continuity_rel_tol)
     alone = runs < cfg.grazing_line_min_run
