@@ -10,7 +10,7 @@ pose for all); output world NED. Heights are "above the water surface", up posit
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -60,6 +60,7 @@ class PreprocessResult:
         return dict(zip(REASON_NAMES, (kept, *n, self.n_spray), strict=True))
 
 
+_LASER_STEP_TAN = float(np.tan(np.radians(2.0)))  # VLP-16 lasers' elevation step (vlp16.md)
 _EXACT_BELOW = 10  # cube counts under 10x the minimum get an exact ball count (dense surfaces never need one)
 _OFFSETS = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)], dtype=np.int64)
 
@@ -219,6 +220,11 @@ def preprocess(
     )
     if estimate.measured:
         height = height - estimate.surface(bx, by)
+    elif water is not None and _sea_returning(height, r2_kept, vertical, cfg):
+        # The sea returns, yet no surface could be fitted to it (rougher than the fit takes, or no fit yet): the
+        # calm floor would make its crests obstacles all round the boat. Nothing up to margin_max is a solid until
+        # a fit is accepted, and the beams vouch for nothing below it: those bins are unknown, not clear.
+        estimate = replace(estimate, margin=cfg.water.margin_max)
     margin = estimate.margin
 
     in_band = (height >= cfg.min_height) & (height <= cfg.max_height)
@@ -229,7 +235,13 @@ def preprocess(
     n_isolated = n_grazing = 0
     if vertical is not None and cfg.vertical_foot_min_range < cfg.max_range:
         # A face's foot: the laser above or below returned at the same range (config: vertical_foot_min_range).
-        foot = in_band & ~solid & vertical & (r2_kept >= cfg.vertical_foot_min_range**2)
+        # Adjacent lasers, 2 deg apart, lie 0.035 m apart per metre of range, so a wave whose crests stand c above
+        # its troughs' depth pairs two of them on one face out to 2 c / tan(2 deg): 24 m for the tests' chop (crests
+        # 0.3 m, 3 sigmas 0.41 m), 32 m for one 1.5 times as high, whose faces were paired into obstacles at 20-25 m
+        # all round the boat. Unmeasured, the margin stands for the crests.
+        crest = cfg.water.margin_sigmas * estimate.spread if estimate.measured else margin
+        foot_range = max(cfg.vertical_foot_min_range, 2.0 * crest / _LASER_STEP_TAN)
+        foot = in_band & ~solid & vertical & (r2_kept >= foot_range**2)
         n_grazing = int(np.count_nonzero(foot))
         n_water -= n_grazing
         solid |= foot
@@ -260,7 +272,7 @@ def preprocess(
             n_grazing += n_rescued
             n_water -= n_rescued
             solid |= rescued
-        elif cfg.grazing_line_min_run > 0:
+        elif cfg.grazing_line_min_run > 0 and estimate.measured:  # an unmeasured sea: its lines are not judged
             line = (
                 _grazing_lines(image, idx, horizontal, height, in_band, (estimate, beams), r2_kept, bx, by, rings, cfg)
                 & ~solid
@@ -451,6 +463,15 @@ def _laser_in_sea_margin(
     elevation, sensor_height = beams.over_surface(water, cfg.origin_height_above_water)
     lo, hi = band_intervals(elevation[BIN_CENTRES], sensor_height[BIN_CENTRES], -water.margin, water.margin, reach)
     return lo[:, RING_COLUMNS].T, hi[:, RING_COLUMNS].T
+
+
+def _sea_returning(height: np.ndarray, r2: np.ndarray, vertical: np.ndarray | None, cfg: PreprocessConfig) -> bool:
+    """More returns at or below the calm floor (and above min_height) within calm_near_range, off any vertical face,
+    than calm_max_near_returns: the water is returning (the test the calm-water rule below makes)."""
+    low = (r2 < cfg.calm_near_range**2) & (height <= cfg.water.margin_floor) & (height >= cfg.min_height)
+    if vertical is not None:
+        low &= ~vertical
+    return int(np.count_nonzero(low)) >= cfg.calm_max_near_returns
 
 
 def _in_own_box(
