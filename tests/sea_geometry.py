@@ -125,6 +125,15 @@ def revolution_over_water(
     return WaterReturns(xyz_body, t[hit], RING_OF_LASER[laser[hit]], xyz_world, wall[hit])
 
 
+def chop(north: np.ndarray, east: np.ndarray) -> np.ndarray:
+    """Three wave trains standing still, crests up to +-0.3 m about the mean water (the simulator's sea state 3)."""
+    return (
+        0.15 * np.sin(0.52 * north + 0.31 * east + 0.4)
+        + 0.10 * np.sin(-0.35 * north + 0.80 * east + 2.0)
+        + 0.05 * np.sin(1.30 * north - 0.90 * east + 1.1)
+    )
+
+
 class SteadyEgo:
     """The autopilot's pose: at the origin, heading ``yaw``, roll and pitch from ``attitude(t)``."""
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from drivers.mount import Mount
-from tests.sea_geometry import SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
+from tests.sea_geometry import SteadyEgo, chop, lidar_pipeline, revolution_over_water, scan_of
 from tracker.lidar.preprocess import REASON_NAMES
 from tracker.obstacle_map import UNKNOWN
 
@@ -48,15 +48,6 @@ def test_flat_sea_under_a_tilted_boat_gives_no_obstacle_and_no_cluster(attitude)
         assert pipeline.lidar_tracker.last_clusters == []
         assert out.tracks == []
     assert np.all((out.distances_cm == 10001) | (out.distances_cm == UNKNOWN))
-
-
-def chop(north: np.ndarray, east: np.ndarray) -> np.ndarray:
-    """Three wave trains, crests up to +-0.3 m about the mean water."""
-    return (
-        0.15 * np.sin(0.52 * north + 0.31 * east + 0.4)
-        + 0.10 * np.sin(-0.35 * north + 0.80 * east + 2.0)
-        + 0.05 * np.sin(1.30 * north - 0.90 * east + 1.1)
-    )
 
 
 def test_choppy_heaving_sea_gives_no_obstacle_and_a_low_hull_in_it_still_does() -> None:
