@@ -218,9 +218,10 @@ def preprocess(
         if water is not None
         else WaterEstimate(margin=cfg.water.margin_floor)
     )
+    sea_returning = not estimate.measured and _sea_returning(height, r2_kept, vertical, cfg)
     if estimate.measured:
         height = height - estimate.surface(bx, by)
-    elif water is not None and _sea_returning(height, r2_kept, vertical, cfg):
+    elif water is not None and sea_returning:
         # The sea returns, yet no surface could be fitted to it (rougher than the fit takes, or no fit yet): the
         # calm floor would make its crests obstacles all round the boat. Nothing up to margin_max is a solid until
         # a fit is accepted, and the beams vouch for nothing below it: those bins are unknown, not clear.
@@ -258,14 +259,10 @@ def preprocess(
         # line of returns at its range is the foot of a solid the beam met just before the water: a RIB at 41 m
         # met by the -1 deg beam 3 cm above its waterline, a quay 80 m off. Once the water does return, a line of
         # water returns is possible and nothing in the margin is trusted.
-        # The water's activity is judged close in, where a rough sea returns the steep beams by the hundred and
-        # solids' feet are few: returns within the sea margin within calm_near_range that are not on a vertical
-        # face. Rain drops and spray above the margin (dropped as alone just above) are not the water: counted as
-        # such, 1,000 drops a revolution made a glassy sea look rough and no foot was kept in rain.
-        near_low = in_band & (height <= margin) & (r2_kept < cfg.calm_near_range**2)
-        if vertical is not None:
-            near_low &= ~vertical
-        calm = not estimate.measured and int(np.count_nonzero(near_low)) < cfg.calm_max_near_returns
+        # The water's activity is judged close in (_sea_returning), where a rough sea returns the steep beams by the
+        # hundred and solids' feet are few. Rain drops and spray above the calm floor are not the water: counted
+        # as such, 1,000 drops a revolution made a glassy sea look rough and no foot was kept in rain.
+        calm = not estimate.measured and not sea_returning
         if cfg.foot_min_neighbours > 0 and calm:
             rescued = in_band & ~solid & (height > 0.0) & (neighbours >= cfg.foot_min_neighbours)
             n_rescued = int(np.count_nonzero(rescued))
@@ -466,8 +463,8 @@ def _laser_in_sea_margin(
 
 
 def _sea_returning(height: np.ndarray, r2: np.ndarray, vertical: np.ndarray | None, cfg: PreprocessConfig) -> bool:
-    """More returns at or below the calm floor (and above min_height) within calm_near_range, off any vertical face,
-    than calm_max_near_returns: the water is returning (the test the calm-water rule below makes)."""
+    """At least calm_max_near_returns returns at or below the calm floor (and above min_height) within
+    calm_near_range, off any vertical face: with no surface fitted, the water is returning."""
     low = (r2 < cfg.calm_near_range**2) & (height <= cfg.water.margin_floor) & (height >= cfg.min_height)
     if vertical is not None:
         low &= ~vertical
