@@ -310,31 +310,28 @@ class PerceptionPipeline:
                 for tr, hit in zip(lidar_confirmed, _swept_many(lidar_confirmed, own, swept), strict=True)
                 if not hit
             }
-            outlines = [
-                outline_points(tr.footprint())
-                for tr in [*tracks, *outline_only]
-                if tr.confirmed
-                and (
-                    (tr.source != "radar" and id(tr) in unswept)
-                    or tr.source == "radar"  # the radar sees a hull sparsely; its track's outline stands for it
-                )
-            ]
-            outlines = [o for o in outlines if len(o)]
-            if outlines:
-                solid.append(world_to_body_2d(np.concatenate(outlines), own[0][:2], own[3]))
+            estimated = _outlines_in_body(
+                [
+                    tr
+                    for tr in [*tracks, *outline_only]
+                    if tr.confirmed
+                    and (
+                        (tr.source != "radar" and id(tr) in unswept)
+                        or tr.source == "radar"  # the radar sees a hull sparsely; its track's outline stands for it
+                    )
+                ],
+                own,
+            )
+            if estimated is not None:
+                solid.append(estimated)
             # A hull both sensors confirm: where the LiDAR's beams cannot vouch for its range (its returns there lie
             # within the sea margin, or the hull sits in the beams' blind gap), its outline is what the radar says.
             # (Those a partial sweep missed are in whole already.)
-            both = [
-                outline_points(tr.footprint())
-                for tr in tracks
-                if tr.confirmed and tr.source == "fused" and id(tr) not in unswept
-            ]
-            both = [o for o in both if len(o)]
-            if both and radar_fresh:
-                solid.append(
-                    self._radar_speaks(world_to_body_2d(np.concatenate(both), own[0][:2], own[3]), lidar_fresh)
-                )
+            both = _outlines_in_body(
+                [tr for tr in tracks if tr.confirmed and tr.source == "fused" and id(tr) not in unswept], own
+            )
+            if both is not None and radar_fresh:
+                solid.append(self._radar_speaks(both, lidar_fresh))
             if self.radar_tracker is not None and radar_fresh:
                 shore = self.radar_tracker.shore_points()
                 if len(shore):
@@ -579,6 +576,13 @@ def lidar_coverage(scan: LidarScan, s: PipelineSettings) -> SensorCoverage:
     # sensor FLU direction (cos a, -sin a, 0) is (cos a, sin a, 0) in sensor-FRD; the mount turns it into the body
     direction = s.lidar_mount.rotate_sensor_frd_to_body(np.array([np.cos(mid), np.sin(mid), 0.0]))
     return SensorCoverage(float(np.arctan2(direction[1], direction[0])), scan.sweep_extent, s.lidar_max_range_m)
+
+
+def _outlines_in_body(tracks: list[Track], own: tuple[np.ndarray, float, float, float]) -> np.ndarray | None:
+    """(M, 2) the tracks' footprint outlines moved from the world to the body frame (fwd, stbd) of the own pose
+    ``own``; None when none has one."""
+    outlines = [o for o in (outline_points(tr.footprint()) for tr in tracks) if len(o)]
+    return world_to_body_2d(np.concatenate(outlines), own[0][:2], own[3]) if outlines else None
 
 
 def _swept_many(tracks: list[Track], own: tuple[np.ndarray, float, float, float], swept: np.ndarray) -> np.ndarray:
