@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 
 from tracker.radar.config import RadarTrackerConfig
-from tracker.radar.velocity_profile import VelocityStatus, fit_velocity_profile, ransac_iterations
+from tracker.radar.velocity_profile import (
+    VelocityStatus,
+    batch_size_limit,
+    fit_velocity_profile,
+    fit_velocity_profiles,
+    ransac_iterations,
+)
 
 SETTINGS = RadarTrackerConfig().profile_settings()
 
@@ -131,3 +137,50 @@ def test_nan_doppler_is_ignored_and_length_mismatch_rejected() -> None:
     assert not est.inliers[[1, 4]].any()
     with pytest.raises(ValueError, match="lines of sight"):
         fit_velocity_profile(lines_of_sight(az), v_r[:5], SETTINGS, np.random.default_rng(0))
+
+
+def _mixed_clusters() -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Clusters taking every branch of the fit: wide and narrow, with outliers, at one azimuth, too few, no
+    consensus, NaN Doppler, and larger than the batch (random pairs)."""
+    rng = np.random.default_rng(11)
+    los, v_r = [], []
+    for n in [3, 4, 5, 6, 8, 10, 12, 14, 20, 45]:
+        for span in [0.5, 3.0, 25.0, 60.0]:
+            az = rng.uniform(-span / 2, span / 2, n) + rng.uniform(-180, 180)
+            z = profile(rng.uniform(0.0, 4.0), rng.uniform(-180, 180), az) + rng.normal(0.0, 0.05, n)
+            z[rng.random(n) < 0.25] += rng.uniform(-3.0, 3.0)
+            los.append(lines_of_sight(az))
+            v_r.append(z)
+    los += [lines_of_sight(np.full(5, 40.0)), lines_of_sight(np.array([0.0, 180.0, 0.0, 180.0]))]
+    v_r += [np.array([1.0, 1.0, 1.1, 0.9, 1.0]), np.array([1.0, -1.0, 1.0, -1.0])]
+    los.append(lines_of_sight(np.array([0.0, 40.0, 80.0, 120.0, 160.0, 200.0])))
+    v_r.append(np.array([3.0, -2.0, 0.5, 4.0, -3.5, 1.5]))  # no two-point model explains three returns
+    los += [lines_of_sight(np.array([0.0, 30.0])), lines_of_sight(np.array([0.0, 20.0, 40.0, 60.0]))]
+    v_r += [np.array([1.0, 0.8]), np.array([1.0, np.nan, 0.9, 0.7])]
+    return los, v_r
+
+
+def test_batch_fit_gives_each_clusters_single_fit() -> None:
+    """fit_velocity_profiles (one padded batch for clusters of up to 14 returns) against fit_velocity_profile one
+    by one on the same generator state: the same status, reason, inliers and heading flag, the numbers to 1e-12 (the
+    batch solves its least squares by normal equations, the single fit by lstsq); the large clusters' random pairs
+    drawn in the same order."""
+    los, v_r = _mixed_clusters()
+    batch = fit_velocity_profiles(los, v_r, SETTINGS, np.random.default_rng(5))
+    rng = np.random.default_rng(5)
+    single = [fit_velocity_profile(u, z, SETTINGS, rng) for u, z in zip(los, v_r, strict=True)]
+    statuses = {est.status for est in single}
+    assert statuses == set(VelocityStatus)  # every branch is exercised
+    assert sum(est.reason == "azimuth spread too small for the tangential component" for est in single) >= 10
+    for b, s in zip(batch, single, strict=True):
+        assert (b.status, b.reason, b.heading_determined) == (s.status, s.reason, s.heading_determined)
+        np.testing.assert_array_equal(b.inliers, s.inliers)
+        for name in ("velocity", "covariance", "radial_direction"):
+            np.testing.assert_allclose(getattr(b, name), getattr(s, name), rtol=1e-12, atol=1e-12, equal_nan=True)
+        for name in ("radial_speed", "tangential_speed", "residual_std"):
+            assert getattr(b, name) == pytest.approx(getattr(s, name), rel=1e-12, abs=1e-12, nan_ok=True)
+
+
+def test_batch_takes_clusters_up_to_the_all_pairs_size() -> None:
+    # 100 iterations at most: every pair of up to 14 returns (91 pairs) is tried, 15 returns (105) are sampled
+    assert batch_size_limit(SETTINGS) == 14

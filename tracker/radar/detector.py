@@ -36,6 +36,7 @@ from tracker.radar.velocity_profile import (
     VelocityEstimate,
     VelocityStatus,
     fit_velocity_profile,
+    fit_velocity_profiles,
 )
 from tracker.types import Detection, ShapeKind
 
@@ -356,8 +357,7 @@ class RadarDetector:
         # The kept clusters' velocity fits draw from the tracker's RNG here, in cluster order, whatever reads them
         # later; a shore cluster's fit, made only if someone asks, draws from a generator of its own. So reading
         # velocities outside the tracker cannot change the random draws, and a replay gives the same tracks.
-        for cl in kept:
-            _ = cl.velocity
+        self.fit_clusters(kept)
         for cl in clusters:
             if cl.shore != SHORE_KEEP:
                 cl.rng = None
@@ -431,6 +431,17 @@ class RadarDetector:
             out.los,
             out.range_m,
         )
+
+    def fit_clusters(self, clusters: list[RadarCluster]) -> None:
+        """The velocity fits of those ``clusters`` not fitted yet, in one batch (velocity_profile.fit_velocity_profiles),
+        drawing from the tracker's RNG in their order (a shore cluster's, on a generator of its own, is left to
+        ``RadarCluster.velocity``)."""
+        todo = [cl for cl in clusters if cl._velocity is None and cl.rng is self.rng]
+        if not todo:
+            return
+        fits = fit_velocity_profiles([cl.los for cl in todo], [cl.doppler_world for cl in todo], self.profile, self.rng)
+        for cl, fit in zip(todo, fits, strict=True):
+            cl._velocity = fit
 
     def merge_clusters(self, parts: list[RadarCluster]) -> RadarCluster:
         """One cluster from pieces a track claims together (a sparse hull that DBSCAN split); velocity refitted."""

@@ -245,6 +245,7 @@ class RadarTracker:
         ]
         births += [(cl, True) for cl in self._pooled_births(out, groups)]
         used = list(groups.items())
+        self.detector.fit_clusters([cl for _, cl in used] + [cl for cl, _ in births])
         shadows = self._shadows(out, groups, lost)
         for ti, cl in used:
             self._update_track(self.tracks[ti], cl, t, out, shadows[ti])
