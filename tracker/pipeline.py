@@ -427,7 +427,7 @@ class PerceptionPipeline:
             roll_pt, pitch_pt = np.broadcast_to(roll, (scan.n_points,)), np.broadcast_to(pitch, (scan.n_points,))
         else:
             roll_pt, pitch_pt = np.asarray(roll)[index], np.asarray(pitch)[index]
-        beams, live = beams_of(scan, roll_pt, pitch_pt, self.settings)
+        beams, live, point_bin = beams_of(scan, roll_pt, pitch_pt, self.settings)
         if not known.all():
             # Pose lost (autopilot silent): obstacles still come from the body frame, tracking waits. The water
             # surface fit absorbs up to max_tilt of the attitude it no longer knows.
@@ -444,6 +444,7 @@ class PerceptionPipeline:
                 point_t=scan.t,
                 reasons=self.keep_view_detail,
                 beams=beams,
+                bins=point_bin,
             )
             track_points = None
             self.skipped_no_pose += 1
@@ -462,6 +463,7 @@ class PerceptionPipeline:
                 point_t=scan.t,
                 reasons=self.keep_view_detail,
                 beams=beams,
+                bins=point_bin,
             )
             track_points = pre.points_world
         self.last_preprocess = pre
@@ -543,9 +545,10 @@ def lidar_bands(
 
 def beams_of(
     scan: LidarScan, roll: np.ndarray, pitch: np.ndarray, s: PipelineSettings
-) -> tuple[BeamGeometry, np.ndarray]:
+) -> tuple[BeamGeometry, np.ndarray, np.ndarray]:
     """The revolution's beams, placed with the mean roll and pitch (per return, rad) at which each bin was swept,
-    and (72,) bool the bins that count as measured: swept by the received packets and returning something."""
+    (72,) bool the bins that count as measured: swept by the received packets and returning something, and (N,)
+    the bin of each return."""
     point_bin = bearing_bins(scan.xyz[:, :2])
     count = np.bincount(point_bin, minlength=72)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -554,7 +557,7 @@ def beams_of(
     live = count > 0
     if scan.packet_sweeps is not None:
         live &= swept_bins(scan.packet_sweeps, s.lidar_mount.yaw)
-    return BeamGeometry.at_bins(roll_bin, pitch_bin, s.lidar_mount), live
+    return BeamGeometry.at_bins(roll_bin, pitch_bin, s.lidar_mount), live, point_bin
 
 
 def _radar_band(s: PipelineSettings) -> tuple[np.ndarray, np.ndarray]:

@@ -138,6 +138,7 @@ def preprocess(
     point_t: np.ndarray | None = None,
     reasons: bool = False,
     beams: BeamGeometry | None = None,
+    bins: np.ndarray | None = None,
 ) -> PreprocessResult:
     """Filter one revolution and move it to the world frame.
 
@@ -152,7 +153,8 @@ def preprocess(
     returns on vertical faces out of the water estimate; without them those two rules are not applied.
     ``reasons`` also returns, per point, the rule that dropped it (PreprocessResult.reason). ``beams`` (where the
     revolution's beams pointed, coverage.BeamGeometry) lets the grazing-line rule judge each laser's water returns
-    against the firings that met the water (see _grazing_lines).
+    against the firings that met the water (see _grazing_lines). ``bins`` (N,), the obstacle-array bin of each
+    return (obstacle_map.bearing_bins of its body x and y), spares that rule computing them again.
     """
     cfg = config or PreprocessConfig()
     xyz = np.asarray(xyz_body, dtype=float).reshape(-1, 3)
@@ -270,8 +272,11 @@ def preprocess(
             n_water -= n_rescued
             solid |= rescued
         elif cfg.grazing_line_min_run > 0 and estimate.measured:  # an unmeasured sea: its lines are not judged
+            bins_kept = kept(bins) if bins is not None else bearing_bins(np.column_stack([bx, by]))
             line = (
-                _grazing_lines(image, idx, horizontal, height, in_band, (estimate, beams), r2_kept, bx, by, rings, cfg)
+                _grazing_lines(
+                    image, idx, horizontal, height, in_band, (estimate, beams), r2_kept, bins_kept, rings, cfg
+                )
                 & ~solid
             )  # a foot on a face is solid already
             n_line = int(np.count_nonzero(line))
@@ -360,8 +365,7 @@ def _grazing_lines(
     in_band: np.ndarray,
     sea: tuple[WaterEstimate, BeamGeometry | None],
     r2_kept: np.ndarray,
-    bx: np.ndarray,
-    by: np.ndarray,
+    bins: np.ndarray,
     rings: np.ndarray,
     cfg: PreprocessConfig,
 ) -> np.ndarray:
@@ -400,10 +404,10 @@ def _grazing_lines(
     firings_per_bin = image.n_sequences / N_BINS
     reach = float(np.sqrt(r2_kept.max()))
     far_rings = rings[far_idx].astype(np.int64)
-    met = _cells(far_rings, bx[far_idx], by[far_idx])
+    met = _cells(far_rings, bins[far_idx])
     wet_idx = np.flatnonzero(wet & (r2_kept >= cfg.water.fit_min_range**2))
     wet_rings = rings[wet_idx].astype(np.int64)
-    met_wet = _cells(wet_rings, bx[wet_idx], by[wet_idx])
+    met_wet = _cells(wet_rings, bins[wet_idx])
     if sea[1] is not None:
         lo, hi = _laser_in_sea_margin(sea[0], sea[1], reach, cfg)
         with np.errstate(invalid="ignore"):  # inf + -inf where the laser never comes down: False, as it should
@@ -445,9 +449,9 @@ def _feet_of_solid_lines(
     return foot
 
 
-def _cells(ring: np.ndarray, bx: np.ndarray, by: np.ndarray) -> np.ndarray:
-    """(16, 72) bool by ring and bin: some of these returns (their laser, body x and y) lie there."""
-    cell = ring * N_BINS + bearing_bins(np.column_stack([bx, by]))
+def _cells(ring: np.ndarray, bins: np.ndarray) -> np.ndarray:
+    """(16, 72) bool by ring and bin: some of these returns (their laser and obstacle-array bin) lie there."""
+    cell = ring * N_BINS + bins
     return np.bincount(cell, minlength=RINGS * N_BINS).reshape(RINGS, N_BINS) > 0
 
 
