@@ -18,7 +18,7 @@ from filterpy.kalman import KalmanFilter
 
 from drivers.frames import EgoPose, RadarFrame
 from tracker.assignment import gated_assignment
-from tracker.existence import ExistenceEvidence, boxes_area, boxes_members
+from tracker.existence import ExistenceEvidence, boxes_area, boxes_members, clutter_tail
 from tracker.lifecycle import IdSource, Lifecycle, TrackLife, TrackStatus
 from tracker.radar import kalman, occlusion
 from tracker.radar.config import RadarTrackerConfig
@@ -240,10 +240,10 @@ class RadarTracker:
         groups = {ti: self.detector.merge_clusters([clusters[di] for di in dis]) for ti, dis in claims.items()}
         groups.update(self._gather_loose(out, [ti for ti in range(len(self.tracks)) if ti not in claims]))
         lost = [ti for ti in range(len(self.tracks)) if ti not in groups]
-        births = [
-            (cl, False) for cl in self._merge_births([clusters[di] for di in spawn]) if not self._near_clutter(cl)
-        ]
-        births += [(cl, True) for cl in self._pooled_births(out, groups)]
+        fresh = [cl for cl in self._merge_births([clusters[di] for di in spawn]) if not self._near_clutter(cl)]
+        pooled = self._pooled_births(out, groups)
+        births = [(cl, False) for cl in self._stand_out(fresh, out, 1)]
+        births += [(cl, True) for cl in self._stand_out(pooled, out, len(self._pool))]
         used = list(groups.items())
         self.detector.fit_clusters([cl for _, cl in used] + [cl for cl, _ in births])
         shadows = self._shadows(out, groups, lost)
@@ -560,6 +560,20 @@ class RadarTracker:
         """Too few returns, too near the radar, to start a track (``near_birth_min_points``)."""
         cfg = self.cfg
         return cl.n_points < cfg.near_birth_min_points and small_median(cl.range_m) < cfg.near_birth_range_m
+
+    def _stand_out(self, clusters: list[RadarCluster], out: DetectorOutput, frames: int) -> list[RadarCluster]:
+        """The ``clusters`` whose returns the clutter expected over their box (grown by ``existence_pad_m``, times
+        ``frames`` for returns pooled over frames) explains with at most ``existence_birth_tail`` chance."""
+        cfg = self.cfg
+        if cfg.existence_birth_tail >= 1.0 or not clusters:
+            return clusters
+        boxes = np.array([cl.box() for cl in clusters])
+        centre = (boxes[:, :2] + boxes[:, 2:]) / 2
+        mu = frames * self.detector.clutter_expected(
+            np.linalg.norm(centre - out.sensor_ne, axis=1), boxes_area(boxes, cfg.existence_pad_m)
+        )
+        tail = clutter_tail(np.array([cl.n_points for cl in clusters]), mu)
+        return [cl for cl, q in zip(clusters, (tail <= cfg.existence_birth_tail).tolist(), strict=True) if q]
 
     def _pooled_births(self, out: DetectorOutput, groups: dict[int, RadarCluster]) -> list[RadarCluster]:
         """New tracks from the loose returns of the last ``birth_window_frames`` frames clustered together (not in the
