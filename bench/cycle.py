@@ -1,6 +1,7 @@
 """Cycle time of the daemon's 10 Hz loop at full sensor load, on one core.
 
     python bench/cycle.py            # about two minutes
+    python bench/cycle.py --worst    # the worst case only, printed (run it in two checkouts to pair them)
 
 Five loads: (1) "20 vessels": the `dense` scenario (20 vessels in view) inside a closed basin of 15 m walls 60 m
 around - a busy harbour, about half the firings return (the low beams see only water); (2) "every firing returns":
@@ -17,6 +18,7 @@ The process is pinned to one core. Prints and saves p50/p99/max and the per-stag
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import math
 import os
@@ -28,7 +30,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench._common import no_options, save
+from bench._common import save
 from daemon.config import Config
 from daemon.runner import freeze_startup_objects, pipeline_for
 from drivers.awr1843.parser import RadarFrameParser, encode_frame
@@ -167,7 +169,11 @@ def measure(scene: Scene, seconds: float) -> dict[str, object]:
 
 
 def main() -> None:
-    no_options(__doc__)
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument(
+        "--worst", action="store_true", help="the worst-case load only, printed and not saved (to pair two checkouts)"
+    )
+    worst_only = ap.parse_args().worst
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
     rows = {}
@@ -178,6 +184,8 @@ def main() -> None:
         ("20 vessels, sea state 3, rolling 5 / pitching 3 deg", waves_scene()),
         ("worst case: the above + rain, water returns, a quay basin, 200 radar points", worst_scene()),
     )
+    if worst_only:
+        loads = loads[-1:]
     for name, scene in loads:
         print(f"{name}: ray casting, decoding, tracking...", flush=True)
         r = measure(scene, SECONDS)
@@ -190,6 +198,8 @@ def main() -> None:
             + "; all passes p50/p99: "
             + ", ".join(f"{q['p50_ms']:.1f}/{q['p99_ms']:.1f}" for q in r["passes"])
         )
+    if worst_only:
+        return
     lines = [
         "One core, each cycle = one VLP-16 revolution + one radar frame through the whole pipeline. Wall time of the "
         f"quietest of {PASSES} passes over the same {SECONDS:.0f} s (the machine is shared: slow phases inflate "
