@@ -355,10 +355,7 @@ class RadarTracker:
         inside = boxes_members(out.points[cand], boxes, cfg.existence_pad_m)  # (tracks, candidates)
         measured = cand.copy()
         if len(boxes):
-            centre = (boxes[:, :2] + boxes[:, 2:]) / 2
-            mu = self.detector.clutter_expected(
-                np.linalg.norm(centre - out.sensor_ne, axis=1), boxes_area(boxes, cfg.existence_pad_m)
-            )
+            mu = self._clutter_in(boxes, out.sensor_ne)
             for tr, ni, mi in zip(self.tracks, inside.sum(axis=1).tolist(), mu.tolist(), strict=True):
                 tr.evidence.add(ni, mi)
             old = np.array([tr.life.confirmed and tr.life.age >= cfg.clutter_time_constant_s for tr in self.tracks])
@@ -567,13 +564,17 @@ class RadarTracker:
         cfg = self.cfg
         if cfg.existence_birth_tail >= 1.0 or not clusters:
             return clusters
-        boxes = np.array([cl.box() for cl in clusters])
-        centre = (boxes[:, :2] + boxes[:, 2:]) / 2
-        mu = frames * self.detector.clutter_expected(
-            np.linalg.norm(centre - out.sensor_ne, axis=1), boxes_area(boxes, cfg.existence_pad_m)
-        )
+        mu = frames * self._clutter_in(np.array([cl.box() for cl in clusters]), out.sensor_ne)
         tail = clutter_tail(np.array([cl.n_points for cl in clusters]), mu)
         return [cl for cl, q in zip(clusters, (tail <= cfg.existence_birth_tail).tolist(), strict=True) if q]
+
+    def _clutter_in(self, boxes: np.ndarray, sensor_ne: np.ndarray) -> np.ndarray:
+        """(boxes,) clutter returns a frame expected in each box [min0, min1, max0, max1] grown by
+        ``existence_pad_m``, at its centre's range from the radar."""
+        centre = (boxes[:, :2] + boxes[:, 2:]) / 2
+        return self.detector.clutter_expected(
+            np.linalg.norm(centre - sensor_ne, axis=1), boxes_area(boxes, self.cfg.existence_pad_m)
+        )
 
     def _pooled_births(self, out: DetectorOutput, groups: dict[int, RadarCluster]) -> list[RadarCluster]:
         """New tracks from the loose returns of the last ``birth_window_frames`` frames clustered together (not in the
