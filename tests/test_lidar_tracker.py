@@ -313,6 +313,31 @@ def test_without_the_duplicate_rule_the_hull_carries_two_tracks() -> None:
     assert len(on_hull) == 2 and first_id in [tr.id for tr in on_hull]
 
 
+def test_a_hull_tracked_around_an_earlier_piece_of_it_is_no_second_vessel() -> None:
+    """The other order: a clump of superstructure 2 m behind the near side of a 10 x 3 m boat broadside 30 m north
+    is seen alone for 1.5 s (confirmed as a small track), then the whole hull comes back around it, beyond the
+    clustering's reach of the clump: the hull starts a second track whose footprint holds the first one's centre.
+    One confirmed track must remain on the hull, the first one; before, both lived on as two "vessels" (the hull's
+    track had fewer hits than the piece's, and only a centre inside the stronger track's footprint ended a track).
+    The survivor keeps the piece's outline (a limit: handing the hull's state to the older identity instead also
+    handed moored boats' identities to the quay pieces around them on the tuning scenes)."""
+    hull = SyntheticObject((30.0, 0.0), math.pi / 2, 10.0, 3.0, 1.0, ShapeKind.BOX)
+    tracker = LidarTracker()
+    rng = np.random.default_rng(3)
+    first_id = None
+    for k in range(60):
+        t = k * DT
+        clump = np.column_stack([rng.uniform(30.1, 30.9, 30), rng.uniform(1.0, 2.0, 30), rng.uniform(-3.0, -2.0, 30)])
+        pts = clump if t < 1.5 else np.concatenate([scan_objects([hull], ORIGIN), clump])
+        tracks = tracker.step(pts, t, ORIGIN, 0.0)
+        if first_id is None and any(tr.confirmed for tr in tracks):
+            first_id = next(tr.id for tr in tracks if tr.confirmed)
+        if t >= 4.0:  # from 2.5 s after the hull appeared, on every scan
+            on_hull = near(tracks, hull, 5.5)
+            assert [tr.id for tr in on_hull] == [first_id], f"t = {t:.1f} s"
+            assert on_hull[0].position == pytest.approx([30.5, 1.5], abs=0.3)  # the clump's centre
+
+
 def _wall_then_a_new_piece(config: LidarTrackerConfig) -> list[Track]:
     """A quay face 70 m long, 60 m north, seen whole for 1 s (structure by size, remembered); then the boat's view
     changes and only a 10 m stretch further along the same line comes back (never seen before), with a 10 m boat

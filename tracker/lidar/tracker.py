@@ -514,11 +514,13 @@ class LidarTracker:
         return out
 
     def _duplicates(self, dying: set[int]) -> list[int]:
-        """Tracks that sit on a confirmed track's hull: the one with fewer hits of each such pair.
+        """Tracks that share a hull with a confirmed track: of each pair where either centre lies in the other's
+        footprint, the one with fewer hits.
 
         A hull seen end-on shows a short face, and its far end or superstructure can come back as a second cluster
         beyond it that no merge gate reaches; that cluster starts a track, and the two then share the hull's
-        detections between them and both live on as two "vessels" in one place."""
+        detections between them and both live on as two "vessels" in one place. Either can come first: a piece of
+        a far hull (its end, its cabin) is often tracked before the whole hull comes back around it."""
         cfg = self.config.association
         n = len(self._lives)
         if cfg.duplicate_margin < 0 or n < 2:
@@ -542,7 +544,7 @@ class LidarTracker:
         stronger = (hits[:, None] > hits[None, :]) | (
             (hits[:, None] == hits[None, :]) & (order[:, None] < order[None, :])
         )
-        pair = inside & same_motion & confirmed[:, None] & stronger
+        pair = (inside | inside.T) & same_motion & confirmed[:, None] & stronger
         np.fill_diagonal(pair, False)
         alive_host = np.array([i not in dying for i in range(n)])
         losers = np.flatnonzero((pair & alive_host[:, None]).any(axis=0))
