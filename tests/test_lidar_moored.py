@@ -70,7 +70,7 @@ def test_a_perpendicular_arm_or_a_shapeless_cluster_is_no_hull() -> None:
     assert groups == []
 
 
-def run_with(objects: list[SyntheticObject], **structure: float) -> list:
+def run_with(objects: list[SyntheticObject], confirmed_only: bool = True, **structure: float) -> list:
     cfg = LidarTrackerConfig()
     for k, v in structure.items():
         setattr(cfg.structure, k, v)
@@ -79,7 +79,7 @@ def run_with(objects: list[SyntheticObject], **structure: float) -> list:
     tracks = []
     for k in range(20):
         tracks = tracker.step(scan_objects(objects, ORIGIN, range_noise=0.03, rng=rng), k * DT, ORIGIN, 0.0)
-    return [t for t in tracks if t.confirmed]
+    return [t for t in tracks if t.confirmed or not confirmed_only]
 
 
 def test_a_boat_against_a_stretch_of_quay_shorter_than_a_ship_is_carved_too() -> None:
@@ -92,9 +92,10 @@ def test_a_boat_against_a_stretch_of_quay_shorter_than_a_ship_is_carved_too() ->
 
 
 def test_a_ship_alone_is_never_carved() -> None:
-    """A convex hull has no cells in front of its own face: a 45 m ship seen from its quarter stays one track."""
+    """A convex hull has no cells in front of its own face: a 45 m ship seen from its quarter stays one track (a
+    tentative one: lying still, it is structure-sized and has not shown a speed)."""
     ship = SyntheticObject((25.0, 30.0), np.radians(20.0), 45.0, 9.0, 6.0)
-    tracks = run_with([ship])
+    tracks = run_with([ship], confirmed_only=False)
     assert len(tracks) == 1
     assert tracks[0].position == pytest.approx(ship.center, abs=2.0)
 

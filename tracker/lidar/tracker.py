@@ -552,6 +552,18 @@ class LidarTracker:
         self.stats["duplicates"] += len(out)
         return out
 
+    def _unproven_structure(self, x: np.ndarray, velocities: np.ndarray) -> np.ndarray:
+        """(T,) bool: tracks of structure size (``static_min_length_m``) that have not shown a speed above
+        ``static_max_speed_mps`` (``velocities`` NaN where unknown). Such a track is a quay stretch until it moves
+        (``_static_structure`` ends it at ``static_min_age_s``), so it is reported tentative until then."""
+        cfg = self.config.structure
+        if cfg.static_min_length_m <= 0:
+            return np.zeros(len(x), dtype=bool)
+        size = np.maximum(x[:, LEN], x[:, WID]) >= cfg.static_min_length_m
+        with np.errstate(invalid="ignore"):
+            moving = np.hypot(velocities[:, 0], velocities[:, 1]) > cfg.static_max_speed_mps
+        return size & ~moving
+
     def _velocity_known(self, p: np.ndarray) -> np.ndarray:
         """(T,) bool for covariances ``p`` (T, DIM_X, DIM_X): the velocity is settled (both standard deviations at
         most ``velocity_valid_std``). Unsettled velocities are not published, not used to move a swept detection,
@@ -601,6 +613,7 @@ class LidarTracker:
         headings = (x[:, PSI] % (2.0 * math.pi)).tolist()
         rates, lengths, widths, heights = (x[:, k].tolist() for k in (OMEGA, LEN, WID, HGT))
         position_covs = p[:, :2, :2].copy()
+        unproven = self._unproven_structure(x, velocities)
         return [
             Track(
                 id=life.id,
@@ -613,7 +626,7 @@ class LidarTracker:
                 width=widths[j],
                 height=heights[j],
                 shape=kind,
-                confirmed=life.confirmed,
+                confirmed=life.confirmed and not unproven[j],
                 source="lidar",
                 position_cov=position_covs[j],
                 hits=life.hits,
