@@ -255,26 +255,10 @@ def test_a_spray_clump_in_front_of_a_boat_does_not_blind_its_track() -> None:
 
 
 def test_a_long_still_structure_is_not_a_vessel_but_a_long_ship_under_way_and_a_moored_boat_are() -> None:
-    """A 30 m stretch of quay (with its land) lying still, a 35 m ship passing at 2 m/s and a 10 m boat moored: after
-    3 s only the ship and the boat are confirmed tracks; the quay's later pieces get none either."""
-    rng = np.random.default_rng(7)
-    tracker = LidarTracker()
-    for k in range(40):
-        t = k * DT
-        quay = SyntheticObject((0.0, 40.0), 0.0, 30.0, 6.0, 1.5, ShapeKind.BOX)
-        ship = SyntheticObject((60.0, -40.0 + 2.0 * t), math.pi / 2, 35.0, 8.0, 6.0, ShapeKind.BOX)
-        boat = SyntheticObject((-25.0, -20.0), 0.3, 10.0, 3.5, 2.0, ShapeKind.BOX)
-        tracks = tracker.step(scan_objects([quay, ship, boat], ORIGIN, range_noise=0.02, rng=rng), t, ORIGIN, 0.0)
-    assert near(tracks, quay, 5.0) == []
-    assert len(near(tracks, ship, 5.0)) == 1
-    assert len(near(tracks, boat, 3.0)) == 1
-
-
-def test_a_still_structure_sized_track_is_never_reported_and_a_ship_under_way_is_once_it_moves() -> None:
-    """The same harbour, scan by scan: the quay stretch (30 m, still) was reported a confirmed vessel from 0.2 s until
-    the static rule ended it at 2 s. A track of structure size is now tentative until it has shown a speed: the
-    quay never appears, the 35 m ship at 2 m/s appears once its velocity is known (1.0 s here), the 10 m moored
-    boat (under the size) at once."""
+    """A 30 m stretch of quay (with its land) lying still, a 35 m ship passing at 2 m/s and a 10 m boat moored, scan
+    by scan. The quay was reported a confirmed vessel from 0.2 s until the static rule ended it at 2 s; a track of
+    structure size is now tentative until it has shown a speed: the quay never appears (nor its later pieces), the
+    ship appears once its velocity is known (1.0 s here), the boat (under the size) at once."""
     rng = np.random.default_rng(7)
     tracker = LidarTracker()
     quay = SyntheticObject((0.0, 40.0), 0.0, 30.0, 6.0, 1.5, ShapeKind.BOX)

@@ -498,20 +498,23 @@ class LidarTracker:
         cfg = self.config.structure
         if cfg.static_min_length_m <= 0 or cfg.memory_s <= 0 or self._cluster_result is None:
             return []
+        if not self._lives:
+            return []
+        x = self.bank.states()
+        still = self._structure_sized(x) & (np.hypot(x[:, VN], x[:, VE]) <= cfg.static_max_speed_mps)
         out = []
-        for i, (ekf, life) in enumerate(zip(self.bank.filters, self._lives, strict=True)):
-            x = ekf.x
-            if (
-                life.confirmed
-                and life.age >= cfg.static_min_age_s
-                and max(float(x[LEN]), float(x[WID])) >= cfg.static_min_length_m
-                and math.hypot(float(x[VN]), float(x[VE])) <= cfg.static_max_speed_mps
-            ):
+        for i in np.flatnonzero(still).tolist():
+            life = self._lives[i]
+            if life.confirmed and life.age >= cfg.static_min_age_s:
                 out.append(i)
                 mine = [k for k, tid in enumerate(self.last_cluster_track) if tid == life.id]
                 if mine:
                     self.structure.remember(t, np.concatenate([self._cluster_result.footprints[k] for k in mine]))
         return out
+
+    def _structure_sized(self, x: np.ndarray) -> np.ndarray:
+        """(T,) bool for states ``x`` (T, DIM_X): at least ``static_min_length_m`` long or wide."""
+        return np.maximum(x[:, LEN], x[:, WID]) >= self.config.structure.static_min_length_m
 
     def _duplicates(self, dying: set[int]) -> list[int]:
         """Tracks that share a hull with a confirmed track: of each pair where either centre lies in the other's
@@ -559,10 +562,9 @@ class LidarTracker:
         cfg = self.config.structure
         if cfg.static_min_length_m <= 0:
             return np.zeros(len(x), dtype=bool)
-        size = np.maximum(x[:, LEN], x[:, WID]) >= cfg.static_min_length_m
         with np.errstate(invalid="ignore"):
             moving = np.hypot(velocities[:, 0], velocities[:, 1]) > cfg.static_max_speed_mps
-        return size & ~moving
+        return self._structure_sized(x) & ~moving
 
     def _velocity_known(self, p: np.ndarray) -> np.ndarray:
         """(T,) bool for covariances ``p`` (T, DIM_X, DIM_X): the velocity is settled (both standard deviations at
