@@ -28,3 +28,30 @@ def test_each_lidar_track_takes_its_own_radar_tracks_and_the_rest_stay() -> None
     radar = [track(7, 20.0, 5.5, "radar"), track(8, 20.5, 0.5, "radar"), track(9, 60.0, 0.0, "radar")]
     out = fuse_tracks(lidar, radar, gate_m=3.0)
     assert [(t.id, t.source) for t in out] == [(1, "fused"), (2, "fused"), (9, "radar")]
+
+
+def test_a_radar_track_whose_extent_comes_within_the_gate_of_a_lidar_track_joins_it() -> None:
+    # Centres 8 m apart: the LiDAR track's half-size (4 m) and the gate (3 m) alone stop 1 m short; the radar
+    # track's own half-size (3 m: its scatterers spread along the hull) closes it. A 1 m radar track there stays.
+    lidar = [track(1, 20.0, 0.0, "lidar")]
+    assert [t.source for t in fuse_tracks(lidar, [track(7, 20.0, 8.0, "radar", 6.0, 2.0)], 3.0)] == ["fused"]
+    assert [t.source for t in fuse_tracks(lidar, [track(7, 20.0, 8.0, "radar", 1.0, 1.0)], 3.0)] == ["lidar", "radar"]
+
+
+def test_a_radar_track_in_the_shadow_of_a_lidar_track_is_the_same_hull() -> None:
+    """An 8.6 m boat end-on 40 m north: the LiDAR tracks its near end (3 x 1.6 m), the radar its middle 7 m farther.
+    In the shadow (behind it, within 1.5 + 10 m beyond and 1.5 + 3 m to the side) it joins; the same radar track
+    in front of the LiDAR track, beside it, or with shadow_m 0 stays apart."""
+    own = np.array([0.0, 0.0])
+    lidar = [track(1, 40.0, 0.0, "lidar", 3.0, 1.6)]
+
+    def sources(north: float, east: float, shadow_m: float = 10.0) -> list[str]:
+        radar = [track(7, north, east, "radar", 1.4, 2.0)]
+        return [t.source for t in fuse_tracks(lidar, radar, 3.0, own, shadow_m)]
+
+    assert sources(47.0, 0.0) == ["fused"]
+    assert sources(51.0, 4.0) == ["fused"]  # 11 m beyond, 4 m aside: the edge
+    assert sources(47.0, 0.0, shadow_m=0.0) == ["lidar", "radar"]
+    assert sources(33.0, 0.0) == ["lidar", "radar"]  # in front: a nearer boat the LiDAR would have seen
+    assert sources(53.0, 0.0) == ["lidar", "radar"]  # 13 m beyond
+    assert sources(47.0, 5.5) == ["lidar", "radar"]  # 5.5 m aside

@@ -342,6 +342,34 @@ def test_a_hull_tracked_around_an_earlier_piece_of_it_is_no_second_vessel() -> N
             assert on_hull[0].position == pytest.approx([30.5, 1.5], abs=0.3)  # the clump's centre
 
 
+def _bow_and_cabin_end_on(shadow_m: float) -> list[list[Track]]:
+    """A boat lying end-on 35 m north of the sensor: its low bow face (3 m wide, 0.8 m high) and, 5.5-7.5 m behind
+    it, its cabin standing above the bow (1.2-2.2 m up), beyond the clustering's reach of the bow's returns."""
+    config = LidarTrackerConfig()
+    config.association.duplicate_shadow_m = shadow_m
+    tracker = LidarTracker(config)
+    rng = np.random.default_rng(5)
+    bow = SyntheticObject((35.0, 0.0), 0.0, 1.0, 3.0, 0.8, ShapeKind.BOX)
+    history = []
+    for k in range(40):
+        cabin = np.column_stack([rng.uniform(40.5, 42.5, 40), rng.uniform(-1.2, 1.2, 40), rng.uniform(-2.2, -1.2, 40)])
+        history.append(tracker.step(np.concatenate([scan_objects([bow], ORIGIN), cabin]), k * DT, ORIGIN, 0.0))
+    return history
+
+
+def test_a_piece_of_a_hull_behind_a_tracked_piece_as_seen_from_the_boat_is_no_second_vessel() -> None:
+    """The cabin lies in the bow track's shadow (6.5 m beyond its centre, on its line of sight) and holds still with
+    it: the same hull. One confirmed track, on the bow, from the first confirmation on; with the shadow rule off
+    (duplicate_shadow_m 0) the cabin is a second confirmed "vessel"."""
+    for k, tracks in enumerate(_bow_and_cabin_end_on(10.0)):
+        confirmed = [tr for tr in tracks if tr.confirmed]
+        if k >= 5:
+            assert len(confirmed) == 1, f"scan {k}"
+            assert confirmed[0].position == pytest.approx([35.0, 0.0], abs=0.3)
+    confirmed = [tr for tr in _bow_and_cabin_end_on(0.0)[-1] if tr.confirmed]
+    assert sorted(round(float(tr.position[0])) for tr in confirmed) == [35, 42]
+
+
 def _wall_then_a_new_piece(config: LidarTrackerConfig) -> list[Track]:
     """A quay face 70 m long, 60 m north, seen whole for 1 s (structure by size, remembered); then the boat's view
     changes and only a 10 m stretch further along the same line comes back (never seen before), with a 10 m boat

@@ -172,3 +172,14 @@ def test_a_boat_both_sensors_confirm_adds_no_outline_where_the_lidars_beams_vouc
     d, tracks = boat_both_sensors_track(24.0)
     assert [tr.source for tr in tracks] == ["fused"]
     assert d[0] == UNKNOWN
+
+
+def test_a_radar_only_track_whose_motion_is_not_settled_is_an_obstacle_but_not_yet_a_vessel() -> None:
+    """The motion discriminator's "wait" (velocity NaN): clutter that confirms rarely settles a motion; the outline
+    stays an obstacle in the LiDAR's gap, the track is not sent until the radar knows how it moves."""
+    waiting = radar_track(40.0, 0.0)
+    waiting.velocity = np.full(2, np.nan)
+    d, tracks = run([waiting], lidar=True)
+    assert d[0] == 3900 and tracks == []
+    _, tracks = run([waiting], lidar=False)  # with the LiDAR blind the radar speaks alone, settled or not
+    assert [tr.source for tr in tracks] == ["radar"]

@@ -15,18 +15,35 @@ import numpy as np
 from tracker.types import Track
 
 
-def fuse_tracks(lidar: list[Track], radar: list[Track], gate_m: float = 3.0) -> list[Track]:
+def fuse_tracks(
+    lidar: list[Track],
+    radar: list[Track],
+    gate_m: float = 3.0,
+    sensor_ne: np.ndarray | None = None,
+    shadow_m: float = 0.0,
+) -> list[Track]:
     """LiDAR tracks (ids kept), each absorbing the confirmed radar tracks for which it is the nearest confirmed
-    LiDAR track whose footprint plus ``gate_m`` reaches them. Nearest, not first: a radar track between two moored
-    boats belongs to the one it lies on, whichever the LiDAR tracker listed first."""
+    LiDAR track that reaches them. Nearest, not first: a radar track between two moored boats belongs to the one it
+    lies on, whichever the LiDAR tracker listed first. A LiDAR track reaches a radar track when their extents (half
+    the larger side of each, around its centre) come within ``gate_m``, or when the radar track lies in its shadow
+    seen from ``sensor_ne`` (world north/east of the own boat): beyond its centre by at most its half-size plus
+    ``shadow_m`` and off its line of sight by at most its half-size plus ``gate_m``."""
     if not lidar or not radar:
         return [*lidar, *radar]
     lidar_pos = np.array([t.position for t in lidar]).reshape(-1, 2)
     radar_pos = np.array([r.position for r in radar]).reshape(-1, 2)
     d = np.hypot(*(radar_pos[None, :, :] - lidar_pos[:, None, :]).transpose(2, 0, 1))  # (L, R)
-    reach = np.array([0.5 * max(t.length, t.width) + gate_m for t in lidar])
-    ok = (d <= reach[:, None]) & np.array([t.confirmed for t in lidar])[:, None]
-    ok &= np.array([r.confirmed for r in radar])[None, :]
+    lidar_reach = np.array([0.5 * max(t.length, t.width) for t in lidar])
+    radar_reach = np.array([0.5 * max(r.length, r.width) for r in radar])
+    ok = d <= lidar_reach[:, None] + radar_reach[None, :] + gate_m
+    if sensor_ne is not None and shadow_m > 0:
+        los = lidar_pos - np.asarray(sensor_ne, float)[:2]  # (L, 2) world NE, own boat -> LiDAR track
+        los /= np.maximum(np.hypot(los[:, 0], los[:, 1]), 1e-6)[:, None]
+        rel = radar_pos[None, :, :] - lidar_pos[:, None, :]  # (L, R, 2)
+        behind = np.einsum("lrk,lk->lr", rel, los)
+        across = np.abs(rel[..., 0] * los[:, None, 1] - rel[..., 1] * los[:, None, 0])
+        ok |= (behind >= 0) & (behind <= lidar_reach[:, None] + shadow_m) & (across <= lidar_reach[:, None] + gate_m)
+    ok &= np.array([t.confirmed for t in lidar])[:, None] & np.array([r.confirmed for r in radar])[None, :]
     owner = np.where(ok.any(axis=0), np.argmin(np.where(ok, d, np.inf), axis=0), -1)  # (R,) LiDAR index or -1
     out: list[Track] = []
     for i, lt in enumerate(lidar):

@@ -361,10 +361,15 @@ class AssociationConfig:
     # track-frames 7.9 -> 7.1 %.
     duplicate_margin: float = 0.5
     duplicate_max_speed_diff: float = 1.5
+    # Seen from the own boat, a track lying behind another (beyond its centre by at most its half-size plus this, m,
+    # and off the line of sight by at most its half-size plus duplicate_margin) with the same motion is on the same
+    # hull too: a boat seen end-on returns its low near end and, above it, its cabin or far end. 0 turns it off.
+    # Ours; tuning seeds (HELD-OUT).
+    duplicate_shadow_m: float = 10.0
 
     def __post_init__(self) -> None:
         _positive(self, "gate", "max_distance", "duplicate_max_speed_diff")
-        _positive(self, "merge_margin", allow_zero=True)
+        _positive(self, "merge_margin", "duplicate_shadow_m", allow_zero=True)
 
 
 @dataclass

@@ -472,7 +472,7 @@ class LidarTracker:
             for ti in assignment.unmatched_rows:
                 self._lives[ti].miss(t, motion_known=bool(known[ti]))
         dead = [i for i, life in enumerate(self._lives) if not life.alive] + self._static_structure(t)
-        dead += self._duplicates(set(dead))
+        dead += self._duplicates(set(dead), own)
         dead = sorted(set(dead))
         if dead:
             self.bank.remove(dead)
@@ -516,7 +516,7 @@ class LidarTracker:
         """(T,) bool for states ``x`` (T, DIM_X): at least ``static_min_length_m`` long or wide."""
         return np.maximum(x[:, LEN], x[:, WID]) >= self.config.structure.static_min_length_m
 
-    def _duplicates(self, dying: set[int]) -> list[int]:
+    def _duplicates(self, dying: set[int], own: np.ndarray) -> list[int]:
         """Tracks that share a hull with a confirmed track: of each pair where either centre lies in the other's
         footprint, the one with fewer hits.
 
@@ -538,6 +538,13 @@ class LidarTracker:
         inside = (along <= 0.5 * x[:, [LEN]] + cfg.duplicate_margin) & (
             across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin
         )
+        if cfg.duplicate_shadow_m > 0:
+            half = 0.5 * np.maximum(x[:, LEN], x[:, WID])[:, None]
+            sight = x[:, [PN, PE]] - own  # (T, 2) world NE, own boat -> host centre
+            sight /= np.maximum(np.hypot(sight[:, 0], sight[:, 1]), 1e-6)[:, None]
+            behind = rel[..., 0] * sight[:, [0]] + rel[..., 1] * sight[:, [1]]
+            aside = np.abs(rel[..., 1] * sight[:, [0]] - rel[..., 0] * sight[:, [1]])
+            inside |= (behind >= 0) & (behind <= half + cfg.duplicate_shadow_m) & (aside <= half + cfg.duplicate_margin)
         velocity = x[:, [VN, VE]]
         known = self._velocity_known(self.bank.covariances())
         dv = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
