@@ -364,7 +364,9 @@ class AssociationConfig:
     # Seen from the own boat, a track lying behind another (beyond its centre by at most its half-size plus this, m,
     # and off the line of sight by at most its half-size plus duplicate_margin) with the same motion is on the same
     # hull too: a boat seen end-on returns its low near end and, above it, its cabin or far end. 0 turns it off.
-    # Ours; tuning seeds (HELD-OUT).
+    # Ours; tuning seeds 1-16 fused MOTA 0.908 -> 0.917, 17-48 0.899 -> 0.908; held out (random:1001-1050), with
+    # the fusion changes of the same stop: fused MOTA 0.880 -> 0.888, LiDAR only 0.882 -> 0.888, false track-frames
+    # 6.5 -> 5.2 % of matches.
     duplicate_shadow_m: float = 10.0
 
     def __post_init__(self) -> None:
