@@ -12,6 +12,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from tracker.line_of_sight import in_shadow
 from tracker.types import Track
 
 
@@ -37,12 +38,7 @@ def fuse_tracks(
     radar_reach = np.array([0.5 * max(r.length, r.width) for r in radar])
     ok = d <= lidar_reach[:, None] + radar_reach[None, :] + gate_m
     if sensor_ne is not None and shadow_m > 0:
-        los = lidar_pos - np.asarray(sensor_ne, float)[:2]  # (L, 2) world NE, own boat -> LiDAR track
-        los /= np.maximum(np.hypot(los[:, 0], los[:, 1]), 1e-6)[:, None]
-        rel = radar_pos[None, :, :] - lidar_pos[:, None, :]  # (L, R, 2)
-        behind = np.einsum("lrk,lk->lr", rel, los)
-        across = np.abs(rel[..., 0] * los[:, None, 1] - rel[..., 1] * los[:, None, 0])
-        ok |= (behind >= 0) & (behind <= lidar_reach[:, None] + shadow_m) & (across <= lidar_reach[:, None] + gate_m)
+        ok |= in_shadow(lidar_pos, lidar_reach, radar_pos, sensor_ne, shadow_m, gate_m)
     ok &= np.array([t.confirmed for t in lidar])[:, None] & np.array([r.confirmed for r in radar])[None, :]
     owner = np.where(ok.any(axis=0), np.argmin(np.where(ok, d, np.inf), axis=0), -1)  # (R,) LiDAR index or -1
     out: list[Track] = []

@@ -47,6 +47,7 @@ from tracker.lidar.shape_fit import (
 )
 from tracker.lidar.structure import StructureMemory
 from tracker.lifecycle import IdSource, Lifecycle, TrackLife
+from tracker.line_of_sight import in_shadow
 from tracker.types import Detection, ShapeKind, Track
 
 log = logging.getLogger(__name__)
@@ -518,7 +519,7 @@ class LidarTracker:
 
     def _duplicates(self, dying: set[int], own: np.ndarray) -> list[int]:
         """Tracks that share a hull with a confirmed track: of each pair where either centre lies in the other's
-        footprint, the one with fewer hits.
+        footprint or in its shadow seen from ``own`` (``duplicate_shadow_m``), the one with fewer hits.
 
         A hull seen end-on shows a short face, and its far end or superstructure can come back as a second cluster
         beyond it that no merge gate reaches; that cluster starts a track, and the two then share the hull's
@@ -539,12 +540,8 @@ class LidarTracker:
             across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin
         )
         if cfg.duplicate_shadow_m > 0:
-            half = 0.5 * np.maximum(x[:, LEN], x[:, WID])[:, None]
-            sight = x[:, [PN, PE]] - own  # (T, 2) world NE, own boat -> host centre
-            sight /= np.maximum(np.hypot(sight[:, 0], sight[:, 1]), 1e-6)[:, None]
-            behind = rel[..., 0] * sight[:, [0]] + rel[..., 1] * sight[:, [1]]
-            aside = np.abs(rel[..., 1] * sight[:, [0]] - rel[..., 0] * sight[:, [1]])
-            inside |= (behind >= 0) & (behind <= half + cfg.duplicate_shadow_m) & (aside <= half + cfg.duplicate_margin)
+            centres, half = x[:, [PN, PE]], 0.5 * np.maximum(x[:, LEN], x[:, WID])
+            inside |= in_shadow(centres, half, centres, own, cfg.duplicate_shadow_m, cfg.duplicate_margin)
         velocity = x[:, [VN, VE]]
         known = self._velocity_known(self.bank.covariances())
         dv = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
