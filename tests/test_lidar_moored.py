@@ -115,3 +115,38 @@ def test_a_carved_hull_where_the_memory_has_wall_is_still_a_vessel() -> None:
         tracks = tracker.step(scan_objects([WALL, BOAT], ORIGIN, range_noise=0.03, rng=rng), k * DT, ORIGIN, 0.0)
     confirmed = [t for t in tracks if t.confirmed]
     assert len(confirmed) == 1 and confirmed[0].position == pytest.approx(BOAT.center, abs=1.0)
+
+
+def boat_track_after_a_merged_scan(carved_first: bool) -> list:
+    """The boat tracked (carved off the wall) for a second or not, then one scan where it and the wall merge (the
+    carving off, as when a bend hid the face's line), then 4 s of the boat alone as its own small cluster (the
+    wall's near stretch not returned). Returns the confirmed tracks updated in the last scan."""
+    cfg = LidarTrackerConfig()
+    tracker = LidarTracker(cfg)
+    rng = np.random.default_rng(1)
+    k = 0
+    if carved_first:
+        for k in range(10):
+            tracker.step(scan_objects([WALL, BOAT], ORIGIN, range_noise=0.03, rng=rng), k * DT, ORIGIN, 0.0)
+    cfg.structure.moored_min_offset_m = 0.0
+    k += 1
+    tracker.step(scan_objects([WALL, BOAT], ORIGIN, range_noise=0.03, rng=rng), k * DT, ORIGIN, 0.0)
+    assert tracker.last_structure.all()  # the merged scan: all of it wall, remembered
+    cfg.structure.moored_min_offset_m = 0.8
+    tracks = []
+    for j in range(k + 1, k + 41):
+        tracks = tracker.step(scan_objects([BOAT], ORIGIN, range_noise=0.03, rng=rng), j * DT, ORIGIN, 0.0)
+    return [t for t in tracks if t.confirmed and t.time_since_update == 0.0]
+
+
+def test_a_hull_once_carved_off_its_wall_stays_a_vessel_after_a_scan_where_they_merged() -> None:
+    """Where a hull was carved off a wall, the structure memory holds no wall for memory_s (StructureMemory.
+    remember_hull), so a scan where boat and wall merge cannot turn the boat into remembered quay."""
+    tracks = boat_track_after_a_merged_scan(carved_first=True)
+    assert len(tracks) == 1 and tracks[0].position == pytest.approx(BOAT.center, abs=1.0)
+
+
+def test_a_boat_only_ever_seen_merged_with_its_wall_stays_structure() -> None:
+    """The other side of the rule: never carved, the boat's cells are remembered wall, and the boat alone on them
+    is structure (an obstacle, no track): the hull memory, not the boat's own look, made the difference above."""
+    assert boat_track_after_a_merged_scan(carved_first=False) == []

@@ -8,6 +8,12 @@ because the LiDAR tells structure apart by size whenever it sees it whole: every
 structure-sized cluster is remembered for ``memory_s``, and a later cluster lying mostly on remembered cells is
 structure too. Its returns still reach the obstacle map; it just gets no track.
 
+A boat moored on fenders merges with its wall in any scan where the wall's face is not straight enough to carve
+it from (tracker.lidar.moored), and such a scan put the boat's cells in the memory: every later scan of the boat
+alone, or carved, then lay on "wall" and the boat went untracked for ``memory_s`` (on the tuning scenes, fused,
+moored boats were 29 % of the vessel-ticks missed). So the cells under a carved hull, and the cells next to them,
+are no structure for ``memory_s`` after the carving, whatever a merged scan remembers there.
+
 The cost of the rule: a vessel larger than ``max_extent`` that moves leaves structure behind it for ``memory_s``;
 a small boat following in its track within that time is not tracked (its returns remain obstacles).
 
@@ -55,11 +61,15 @@ class StructureMemory:
         self.cfg = config or StructureConfig()
         self.cells = int(np.ceil(2 * self.cfg.half_size_m / self.cfg.cell_m))
         self.last_seen = np.full((self.cells, self.cells), -np.inf)
+        # When each cell last lay under a hull carved off a wall (tracker.lidar.moored): within memory_s of that,
+        # the cell is no structure whatever a scan whose hull and wall had merged left in last_seen.
+        self.hull_seen = np.full((self.cells, self.cells), -np.inf)
         self.origin: np.ndarray | None = None  # world (north, east) of cell (0, 0)'s corner
         self.newest = -np.inf  # no cell was last seen later than this
 
     def reset(self) -> None:
         self.last_seen.fill(-np.inf)
+        self.hull_seen.fill(-np.inf)
         self.origin = None
         self.newest = -np.inf
 
@@ -81,6 +91,7 @@ class StructureMemory:
         new_origin = np.floor((own - half) / self.cfg.cell_m) * self.cfg.cell_m
         shift = np.rint((new_origin - self.origin) / self.cfg.cell_m).astype(int)
         shift_in_place(self.last_seen, shift[0], shift[1], -np.inf)  # no new grid per move (tracker/grid_shift.py)
+        shift_in_place(self.hull_seen, shift[0], shift[1], -np.inf)
         self.origin = new_origin
 
     def _index(self, points_ne: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -96,6 +107,13 @@ class StructureMemory:
         i, j, inside = self._index(points_ne)
         self.last_seen[i[inside], j[inside]] = t
         self.newest = max(self.newest, t)
+
+    def remember_hull(self, t: float, points_ne: np.ndarray) -> None:
+        """Mark the cells under a hull carved off a wall at time ``t``: no structure while remembered."""
+        if self.origin is None or len(points_ne) == 0:
+            return
+        i, j, inside = self._index(points_ne)
+        self.hull_seen[i[inside], j[inside]] = t
 
     def known(self, t: float, points_ne: np.ndarray) -> np.ndarray:
         """(n,) bool: the point lies on, or next to, a cell seen under structure within ``memory_s`` of ``t``."""
@@ -119,8 +137,10 @@ class StructureMemory:
         ni, nj = i[:, None] + offsets[None, :, 0], j[:, None] + offsets[None, :, 1]
         on_grid = (ni >= 0) & (ni < self.cells) & (nj >= 0) & (nj < self.cells)
         flat = np.clip(ni, 0, self.cells - 1) * self.cells + np.clip(nj, 0, self.cells - 1)  # a 2-D gather costs 3x
-        recent = np.take(self.last_seen.ravel(), flat) >= t - self.cfg.memory_s
-        return np.any(recent & on_grid, axis=1)  # off the grid nothing is known
+        since = t - self.cfg.memory_s
+        structure = np.any((np.take(self.last_seen.ravel(), flat) >= since) & on_grid, axis=1)  # off the grid
+        hull = np.any((np.take(self.hull_seen.ravel(), flat) >= since) & on_grid, axis=1)  # nothing is known
+        return structure & ~hull
 
     def continues(self, t: float, footprints: list[np.ndarray]) -> np.ndarray:
         """(k,) bool: each footprint is a thin straight piece whose own line runs on into remembered structure.

@@ -200,6 +200,8 @@ class LidarTracker:
         # A hull carved off a wall stands in front of its face: where the memory has wall there, it is from a scan
         # whose hull and wall had merged; and its side runs along the wall's line without being the wall.
         carved = result.carved if result.carved is not None else np.zeros(big.size, dtype=bool)
+        if carved.any():  # a scan whose hull and wall merge must not make the hull structure for memory_s
+            self.structure.remember_hull(t, np.concatenate([result.footprints[k] for k in np.flatnonzero(carved)]))
         small = np.flatnonzero(~big & ~carved)
         if small.size:  # every cluster's footprint in one lookup, the share per cluster by reduceat
             sizes = np.array([len(result.footprints[k]) for k in small])
