@@ -66,12 +66,14 @@ class StructureMemory:
         self.hull_seen = np.full((self.cells, self.cells), -np.inf)
         self.origin: np.ndarray | None = None  # world (north, east) of cell (0, 0)'s corner
         self.newest = -np.inf  # no cell was last seen later than this
+        self.newest_hull = -np.inf  # nor under a carved hull
 
     def reset(self) -> None:
         self.last_seen.fill(-np.inf)
         self.hull_seen.fill(-np.inf)
         self.origin = None
         self.newest = -np.inf
+        self.newest_hull = -np.inf
 
     def _remembers_any(self, t: float) -> bool:
         """Whether any cell may have been seen within ``memory_s`` of ``t``: in open water none ever was, and the
@@ -100,20 +102,23 @@ class StructureMemory:
         i, j = ij[:, 0], ij[:, 1]
         return i, j, (i >= 0) & (i < self.cells) & (j >= 0) & (j < self.cells)
 
+    def _stamp(self, grid: np.ndarray, t: float, points_ne: np.ndarray) -> bool:
+        """Set ``grid``'s cells under the points to ``t``; False when there was nothing to stamp."""
+        if self.origin is None or len(points_ne) == 0:
+            return False
+        i, j, inside = self._index(points_ne)
+        grid[i[inside], j[inside]] = t
+        return True
+
     def remember(self, t: float, points_ne: np.ndarray) -> None:
         """Mark the cells under structure returns (or footprint cells) seen at time ``t``."""
-        if self.origin is None or len(points_ne) == 0:
-            return
-        i, j, inside = self._index(points_ne)
-        self.last_seen[i[inside], j[inside]] = t
-        self.newest = max(self.newest, t)
+        if self._stamp(self.last_seen, t, points_ne):
+            self.newest = max(self.newest, t)
 
     def remember_hull(self, t: float, points_ne: np.ndarray) -> None:
         """Mark the cells under a hull carved off a wall at time ``t``: no structure while remembered."""
-        if self.origin is None or len(points_ne) == 0:
-            return
-        i, j, inside = self._index(points_ne)
-        self.hull_seen[i[inside], j[inside]] = t
+        if self._stamp(self.hull_seen, t, points_ne):
+            self.newest_hull = max(self.newest_hull, t)
 
     def known(self, t: float, points_ne: np.ndarray) -> np.ndarray:
         """(n,) bool: the point lies on, or next to, a cell seen under structure within ``memory_s`` of ``t``."""
@@ -139,6 +144,8 @@ class StructureMemory:
         flat = np.clip(ni, 0, self.cells - 1) * self.cells + np.clip(nj, 0, self.cells - 1)  # a 2-D gather costs 3x
         since = t - self.cfg.memory_s
         structure = np.any((np.take(self.last_seen.ravel(), flat) >= since) & on_grid, axis=1)  # off the grid
+        if self.newest_hull < since:  # no hull carved within memory_s (most scans): the second gather is not needed
+            return structure
         hull = np.any((np.take(self.hull_seen.ravel(), flat) >= since) & on_grid, axis=1)  # nothing is known
         return structure & ~hull
 
