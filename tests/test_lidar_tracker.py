@@ -370,6 +370,79 @@ def test_a_piece_of_a_hull_behind_a_tracked_piece_as_seen_from_the_boat_is_no_se
     assert sorted(round(float(tr.position[0])) for tr in confirmed) == [35, 42]
 
 
+def _two_boats_at_anchor_coming_into_line(settled_s: float) -> tuple[list[list[Track]], np.ndarray]:
+    """A low 10 x 3 m boat at anchor broadside 30 m north, and 10 m beyond it a taller one whose cabin (3 x 2 m,
+    1.2-2.2 m up) the LiDAR sees over the near hull from anywhere. The own boat starts 30 m east, where they lie 8
+    deg apart in bearing, and after 8 s runs west at 5 m/s to stop at the origin: from there the far boat lies
+    square in the near one's shadow (10 m beyond its centre, on its line of sight), as a second piece of the near
+    hull would. Returns every scan's tracks and the far boat's centre."""
+    config = LidarTrackerConfig()
+    config.association.duplicate_shadow_settled_s = settled_s
+    tracker = LidarTracker(config)
+    near_boat = SyntheticObject((30.0, 0.0), math.pi / 2, 10.0, 3.0, 1.0, ShapeKind.BOX)
+    far_centre = np.array([40.0, 0.0])
+    rng = np.random.default_rng(11)
+    history = []
+    for k in range(200):
+        t = k * DT
+        own = np.array([0.0, 30.0 - 5.0 * min(max(t - 8.0, 0.0), 6.0)])
+        cabin = np.column_stack([rng.uniform(38.5, 41.5, 40), rng.uniform(-1.0, 1.0, 40), rng.uniform(-2.2, -1.2, 40)])
+        pts = np.concatenate([scan_objects([near_boat], own, range_noise=0.02, rng=rng), cabin])
+        history.append(tracker.step(pts, t, own, 0.0))
+    return history, far_centre
+
+
+def test_two_boats_at_anchor_that_come_into_line_as_the_own_boat_moves_stay_two() -> None:
+    """Both tracks are 14 s old when the far boat comes into the near one's shadow: the shadow test alone no longer
+    takes them for one hull (duplicate_shadow_settled_s). Before (0), the far boat's track ended once they lined
+    up, and every new track on it ended before it was confirmed."""
+    near_boat = SyntheticObject((30.0, 0.0), math.pi / 2, 10.0, 3.0, 1.0, ShapeKind.BOX)
+    history, far_centre = _two_boats_at_anchor_coming_into_line(5.0)
+    ids: dict[str, set[int]] = {"near": set(), "far": set()}
+    for k, tracks in enumerate(history):
+        if k * DT < 1.0:
+            continue
+        on_near = near(tracks, near_boat, 1.0)
+        on_far = [tr for tr in tracks if tr.confirmed and np.hypot(*(tr.position - far_centre)) < 1.0]
+        assert len(on_near) == 1 and len(on_far) == 1, f"t = {k * DT:.1f} s"
+        ids["near"].add(on_near[0].id)
+        ids["far"].add(on_far[0].id)
+    assert len(ids["near"]) == 1 and len(ids["far"]) == 1 and ids["near"] != ids["far"]
+    off, _ = _two_boats_at_anchor_coming_into_line(0.0)
+    assert len([tr for tr in off[-1] if tr.confirmed]) == 1
+
+
+def test_an_old_piece_that_drifts_into_an_old_hulls_footprint_still_goes() -> None:
+    """A 10 x 3 m boat broadside 30 m north (only its near face at 28.5 m returns) and, from 1.5 s, a clump of
+    returns 1 m up at 31 m north, 9 m east: off the hull's end and out of its shadow, a track of its own. From 8 s
+    (both tracks older than duplicate_shadow_settled_s) the clump drifts west at 0.5 m/s to 3 m east, inside the
+    hull's outline, 2.5 m behind its near face (beyond the clustering's reach of it): the footprint test is no
+    shadow test, and the piece's track ends while the hull's goes on."""
+    hull = SyntheticObject((30.0, 0.0), math.pi / 2, 10.0, 3.0, 1.0, ShapeKind.BOX)
+    tracker = LidarTracker()
+    rng = np.random.default_rng(3)
+    hull_id = piece_id = None
+    for k in range(200):
+        t = k * DT
+        pts = scan_objects([hull], ORIGIN)
+        if t >= 1.5:
+            east = 9.0 - 0.5 * min(max(t - 8.0, 0.0), 12.0)
+            clump = np.column_stack(
+                [rng.uniform(30.6, 31.4, 30), rng.uniform(east - 0.4, east + 0.4, 30), rng.uniform(-2.0, -1.2, 30)]
+            )
+            pts = np.concatenate([pts, clump])
+        tracks = tracker.step(pts, t, ORIGIN, 0.0)
+        confirmed = [tr for tr in tracks if tr.confirmed]
+        if hull_id is None and confirmed:
+            hull_id = confirmed[0].id
+        if abs(t - 7.9) < 1e-6:  # both settled, apart
+            assert len(confirmed) == 2
+            piece_id = next(tr.id for tr in confirmed if tr.id != hull_id)
+            assert next(tr for tr in confirmed if tr.id == piece_id).position == pytest.approx([31.0, 9.0], abs=0.5)
+    assert piece_id is not None
+    assert [tr.id for tr in tracks if tr.confirmed] == [hull_id]
+
+
 def _wall_then_a_new_piece(config: LidarTrackerConfig) -> list[Track]:
     """A quay face 70 m long, 60 m north, seen whole for 1 s (structure by size, remembered); then the boat's view
     changes and only a 10 m stretch further along the same line comes back (never seen before), with a 10 m boat

@@ -526,7 +526,9 @@ class LidarTracker:
         A hull seen end-on shows a short face, and its far end or superstructure can come back as a second cluster
         beyond it that no merge gate reaches; that cluster starts a track, and the two then share the hull's
         detections between them and both live on as two "vessels" in one place. Either can come first: a piece of
-        a far hull (its end, its cabin) is often tracked before the whole hull comes back around it."""
+        a far hull (its end, its cabin) is often tracked before the whole hull comes back around it. A piece is
+        caught within seconds of its birth, so two tracks both older than ``duplicate_shadow_settled_s`` are no
+        pair by the shadow alone (two boats at anchor that the own boat's motion brings into line)."""
         cfg = self.config.association
         n = len(self._lives)
         if cfg.duplicate_margin < 0 or n < 2:
@@ -541,9 +543,14 @@ class LidarTracker:
         inside = (along <= 0.5 * x[:, [LEN]] + cfg.duplicate_margin) & (
             across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin
         )
+        overlap = inside | inside.T
         if cfg.duplicate_shadow_m > 0:
             centres, half = x[:, [PN, PE]], 0.5 * np.maximum(x[:, LEN], x[:, WID])
-            inside |= in_shadow(centres, half, centres, own, cfg.duplicate_shadow_m, cfg.duplicate_margin)
+            shadow = in_shadow(centres, half, centres, own, cfg.duplicate_shadow_m, cfg.duplicate_margin)
+            if cfg.duplicate_shadow_settled_s > 0:
+                old = np.array([life.age >= cfg.duplicate_shadow_settled_s for life in self._lives])
+                shadow &= ~(old[:, None] & old[None, :])
+            overlap |= shadow | shadow.T
         velocity = x[:, [VN, VE]]
         known = self._velocity_known(self.bank.covariances())
         dv = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
@@ -553,7 +560,7 @@ class LidarTracker:
         stronger = (hits[:, None] > hits[None, :]) | (
             (hits[:, None] == hits[None, :]) & (order[:, None] < order[None, :])
         )
-        pair = (inside | inside.T) & same_motion & confirmed[:, None] & stronger
+        pair = overlap & same_motion & confirmed[:, None] & stronger
         np.fill_diagonal(pair, False)
         alive_host = np.array([i not in dying for i in range(n)])
         losers = np.flatnonzero((pair & alive_host[:, None]).any(axis=0))
