@@ -83,6 +83,7 @@ class TrackLife:
         self.cycles = 1
         self._window: deque[bool] = deque([True], maxlen=config.confirm_window)
         self.status = TrackStatus.CONFIRMED if config.confirm_hits <= 1 else TrackStatus.TENTATIVE
+        self.ever_confirmed = self.status is TrackStatus.CONFIRMED
 
     @property
     def alive(self) -> bool:
@@ -112,7 +113,14 @@ class TrackLife:
         reached_m = self.status is TrackStatus.TENTATIVE and sum(self._window) >= self.config.confirm_hits and proven
         if reached_m or self.status is TrackStatus.COASTING:
             self.status = TrackStatus.CONFIRMED
+            self.ever_confirmed = True
         return self.status
+
+    def reacquire(self, t: float) -> None:
+        """This deleted track's vessel is seen again at ``t``: confirmed, keeping its id, hits and age."""
+        self.t_now = self.t_last_hit = max(self.t_now, t)
+        self.hits += 1
+        self.status = TrackStatus.CONFIRMED
 
     def miss(self, t: float, occluded: bool = False, motion_known: bool = True) -> TrackStatus:
         """A cycle without a detection; ``occluded``: the tracker knows the track is hidden this cycle.

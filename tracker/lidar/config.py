@@ -374,10 +374,26 @@ class AssociationConfig:
     # footprint still goes, however old. 0 turns the exemption off. Ours; held out (random:1001-1050, fused)
     # against 0: MOTA 0.8997 -> 0.9018, IDF1 0.868 -> 0.875, 14 scenes better and none worse.
     duplicate_shadow_settled_s: float = 5.0
+    # A confirmed track its lifecycle deleted (unseen too long) less than this many s ago takes back a detection
+    # that starts no other track, when its centre lies within the lost track's half-size plus reacquire_margin_m of
+    # where it would be now (carried on from where it was last seen, at its velocity then if that was known): the
+    # vessel keeps its id and is confirmed at once, not after another 0.2-0.4 s tentative. 0 turns it off. Ours;
+    # tuning seeds 1-48 (fused): MOTA 0.924 -> 0.928, IDF1 0.880 -> 0.906, id switches 13.5 -> 8.5 a scene, false
+    # track-frames 3.7 -> 3.7 % of matches.
+    reacquire_s: float = 2.0
+    reacquire_margin_m: float = 2.0
 
     def __post_init__(self) -> None:
         _positive(self, "gate", "max_distance", "duplicate_max_speed_diff")
-        _positive(self, "merge_margin", "duplicate_shadow_m", "duplicate_shadow_settled_s", allow_zero=True)
+        _positive(
+            self,
+            "merge_margin",
+            "duplicate_shadow_m",
+            "duplicate_shadow_settled_s",
+            "reacquire_s",
+            "reacquire_margin_m",
+            allow_zero=True,
+        )
 
 
 @dataclass

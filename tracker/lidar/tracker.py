@@ -68,12 +68,15 @@ class LidarTracker:
         self.lifecycle = Lifecycle(self.config.lifecycle, ids)
         self.bank = EkfBank(self.config.ekf)
         self._lives: list[TrackLife] = []  # parallel to self.bank.filters
+        # (t deleted, life, t last seen, centre NE, velocity NE or zeros, half-size): see _remember_lost
+        self._lost: list[tuple[float, TrackLife, float, np.ndarray, np.ndarray, float]] = []
+        self._last_seen: dict[int, tuple[float, np.ndarray, np.ndarray, float]] = {}  # by track id, see _note_seen
         self._kinds: list[ShapeKind] = []
         self._t: float | None = None
         self.last_clusters: list[np.ndarray] = []  # (n, 3) world NED points per cluster, nearest first
         self.last_cluster_track: list[int | None] = []  # track id each cluster fed, None if none (or structure)
         self.last_detections: list[Detection] = []
-        self.stats = {"scans": 0, "out_of_order": 0, "degenerate_clusters": 0, "duplicates": 0}
+        self.stats = {"scans": 0, "out_of_order": 0, "degenerate_clusters": 0, "duplicates": 0, "reacquired": 0}
         self._cluster_result: ClusterResult | None = None
         self._detection_clusters: list[list[int]] = []  # cluster indices behind each detection
         self.structure = StructureMemory(self.config.structure)
@@ -465,6 +468,7 @@ class LidarTracker:
                 for ti, di in assignment.matches
             ]
         )
+        self._note_seen(t, [int(ti) for ti, _ in assignment.matches])
         for ti, di in assignment.matches:
             self._lives[ti].hit(t)
             self._kinds[ti] = measurements[di].kind
@@ -474,22 +478,61 @@ class LidarTracker:
             known = self._velocity_known(self.bank.covariances())
             for ti in assignment.unmatched_rows:
                 self._lives[ti].miss(t, motion_known=bool(known[ti]))
-        dead = [i for i, life in enumerate(self._lives) if not life.alive] + self._static_structure(t)
+        lapsed = [i for i, life in enumerate(self._lives) if not life.alive]
+        self._remember_lost(t, lapsed)
+        dead = lapsed + self._static_structure(t)
         dead += self._duplicates(set(dead), own)
         dead = sorted(set(dead))
         if dead:
             self.bank.remove(dead)
             dead_set = set(dead)
+            for i in dead:
+                self._last_seen.pop(self._lives[i].id, None)
             self._lives = [life for i, life in enumerate(self._lives) if i not in dead_set]
             self._kinds = [k for i, k in enumerate(self._kinds) if i not in dead_set]
         for di in assignment.unmatched_cols:
             self.bank.add(measurements[di])
-            life = self.lifecycle.start(t)
+            life = self._reacquired(t, measurements[di]) or self.lifecycle.start(t)
             self._lives.append(life)
             self._kinds.append(measurements[di].kind)
             for k in self._detection_clusters[di]:
                 self.last_cluster_track[k] = life.id
         return self.tracks()
+
+    def _note_seen(self, t: float, matched: list[int]) -> None:
+        """Where each track of ``matched`` was seen at ``t``, its velocity then if known (else zeros), its
+        half-size: what ``_reacquired`` predicts from once the track is lost."""
+        if self.config.association.reacquire_s <= 0 or not matched:
+            return
+        x, known = self.bank.states(), self._velocity_known(self.bank.covariances())
+        for i in matched:
+            velocity = x[i, [VN, VE]] if known[i] else np.zeros(2)
+            self._last_seen[self._lives[i].id] = (t, x[i, [PN, PE]], velocity, 0.5 * max(x[i, LEN], x[i, WID]))
+
+    def _remember_lost(self, t: float, lapsed: list[int]) -> None:
+        """Keep the confirmed tracks among ``lapsed`` (deleted by their lifecycle) for ``reacquire_s``."""
+        self._lost = [lost for lost in self._lost if t - lost[0] <= self.config.association.reacquire_s]
+        for i in lapsed:
+            life = self._lives[i]
+            seen = self._last_seen.get(life.id)
+            if life.ever_confirmed and seen is not None:
+                self._lost.append((t, life, *seen))
+
+    def _reacquired(self, t: float, m: Measurement) -> TrackLife | None:
+        """The lost track (``_remember_lost``) whose centre, carried on from where it was last seen at its
+        velocity then, lies nearest ``m``'s, within its half-size plus ``reacquire_margin_m``; confirmed again with
+        its id. None if there is none."""
+        best, best_d = None, math.inf
+        for k, (_, _, t_seen, centre, velocity, half) in enumerate(self._lost):
+            d = float(np.hypot(*(m.center - (centre + velocity * (t - t_seen)))))
+            if d <= half + self.config.association.reacquire_margin_m and d < best_d:
+                best, best_d = k, d
+        if best is None:
+            return None
+        life = self._lost.pop(best)[1]
+        life.reacquire(t)
+        self.stats["reacquired"] += 1
+        return life
 
     def _static_structure(self, t: float) -> list[int]:
         """Tracks that are quay, not vessel: confirmed, at least ``static_min_length_m`` long and slower than
