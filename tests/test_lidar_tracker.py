@@ -397,45 +397,46 @@ def test_a_piece_of_a_hull_behind_a_tracked_piece_as_seen_from_the_boat_is_no_se
     assert sorted(round(float(tr.position[0])) for tr in confirmed) == [35, 42]
 
 
-def _two_boats_at_anchor_coming_into_line(settled_s: float) -> tuple[list[list[Track]], np.ndarray]:
+ANCHORED_NEAR = SyntheticObject((30.0, 0.0), math.pi / 2, 10.0, 3.0, 1.0, ShapeKind.BOX)
+ANCHORED_FAR_CABIN = np.array([40.0, 0.0])  # centre of the far boat's cabin, the part the LiDAR sees
+
+
+def _two_boats_at_anchor_coming_into_line(settled_s: float) -> list[list[Track]]:
     """A low 10 x 3 m boat at anchor broadside 30 m north, and 10 m beyond it a taller one whose cabin (3 x 2 m,
     1.2-2.2 m up) the LiDAR sees over the near hull from anywhere. The own boat starts 30 m east, where they lie 8
     deg apart in bearing, and after 8 s runs west at 5 m/s to stop at the origin: from there the far boat lies
     square in the near one's shadow (10 m beyond its centre, on its line of sight), as a second piece of the near
-    hull would. Returns every scan's tracks and the far boat's centre."""
+    hull would. Returns every scan's tracks."""
     config = LidarTrackerConfig()
     config.association.duplicate_shadow_settled_s = settled_s
     tracker = LidarTracker(config)
-    near_boat = SyntheticObject((30.0, 0.0), math.pi / 2, 10.0, 3.0, 1.0, ShapeKind.BOX)
-    far_centre = np.array([40.0, 0.0])
     rng = np.random.default_rng(11)
     history = []
     for k in range(200):
         t = k * DT
         own = np.array([0.0, 30.0 - 5.0 * min(max(t - 8.0, 0.0), 6.0)])
         cabin = np.column_stack([rng.uniform(38.5, 41.5, 40), rng.uniform(-1.0, 1.0, 40), rng.uniform(-2.2, -1.2, 40)])
-        pts = np.concatenate([scan_objects([near_boat], own, range_noise=0.02, rng=rng), cabin])
+        pts = np.concatenate([scan_objects([ANCHORED_NEAR], own, range_noise=0.02, rng=rng), cabin])
         history.append(tracker.step(pts, t, own, 0.0))
-    return history, far_centre
+    return history
 
 
 def test_two_boats_at_anchor_that_come_into_line_as_the_own_boat_moves_stay_two() -> None:
     """Both tracks are 14 s old when the far boat comes into the near one's shadow: the shadow test alone no longer
     takes them for one hull (duplicate_shadow_settled_s). Before (0), the far boat's track ended once they lined
     up, and every new track on it ended before it was confirmed."""
-    near_boat = SyntheticObject((30.0, 0.0), math.pi / 2, 10.0, 3.0, 1.0, ShapeKind.BOX)
-    history, far_centre = _two_boats_at_anchor_coming_into_line(5.0)
+    history = _two_boats_at_anchor_coming_into_line(5.0)
     ids: dict[str, set[int]] = {"near": set(), "far": set()}
     for k, tracks in enumerate(history):
         if k * DT < 1.0:
             continue
-        on_near = near(tracks, near_boat, 1.0)
-        on_far = [tr for tr in tracks if tr.confirmed and np.hypot(*(tr.position - far_centre)) < 1.0]
+        on_near = near(tracks, ANCHORED_NEAR, 1.0)
+        on_far = [tr for tr in tracks if tr.confirmed and np.hypot(*(tr.position - ANCHORED_FAR_CABIN)) < 1.0]
         assert len(on_near) == 1 and len(on_far) == 1, f"t = {k * DT:.1f} s"
         ids["near"].add(on_near[0].id)
         ids["far"].add(on_far[0].id)
     assert len(ids["near"]) == 1 and len(ids["far"]) == 1 and ids["near"] != ids["far"]
-    off, _ = _two_boats_at_anchor_coming_into_line(0.0)
+    off = _two_boats_at_anchor_coming_into_line(0.0)
     assert len([tr for tr in off[-1] if tr.confirmed]) == 1
 
 

@@ -468,16 +468,16 @@ class LidarTracker:
                 for ti, di in assignment.matches
             ]
         )
-        self._note_seen(t, [int(ti) for ti, _ in assignment.matches])
+        # after the update: what each hit track is seen with, how long each missed one may coast
+        known = self._velocity_known(self.bank.covariances()) if self._lives else np.zeros(0, dtype=bool)
+        self._note_seen(t, [int(ti) for ti, _ in assignment.matches], known)
         for ti, di in assignment.matches:
             self._lives[ti].hit(t)
             self._kinds[ti] = measurements[di].kind
             for k in self._detection_clusters[di]:
                 self.last_cluster_track[k] = self._lives[ti].id
-        if len(assignment.unmatched_rows):
-            known = self._velocity_known(self.bank.covariances())
-            for ti in assignment.unmatched_rows:
-                self._lives[ti].miss(t, motion_known=bool(known[ti]))
+        for ti in assignment.unmatched_rows:
+            self._lives[ti].miss(t, motion_known=bool(known[ti]))
         lapsed = [i for i, life in enumerate(self._lives) if not life.alive]
         self._remember_lost(t, lapsed)
         dead = lapsed + self._static_structure(t)
@@ -499,12 +499,12 @@ class LidarTracker:
                 self.last_cluster_track[k] = life.id
         return self.tracks()
 
-    def _note_seen(self, t: float, matched: list[int]) -> None:
-        """Where each track of ``matched`` was seen at ``t``, its velocity then if known (else zeros), its
-        half-size: what ``_reacquired`` predicts from once the track is lost."""
+    def _note_seen(self, t: float, matched: list[int], known: np.ndarray) -> None:
+        """Where each track of ``matched`` was seen at ``t``, its velocity then if ``known`` (T,) says it is known
+        (else zeros), its half-size: what ``_reacquired`` predicts from once the track is lost."""
         if self.config.association.reacquire_s <= 0 or not matched:
             return
-        x, known = self.bank.states(), self._velocity_known(self.bank.covariances())
+        x = self.bank.states()
         for i in matched:
             velocity = x[i, [VN, VE]] if known[i] else np.zeros(2)
             self._last_seen[self._lives[i].id] = (t, x[i, [PN, PE]], velocity, 0.5 * max(x[i, LEN], x[i, WID]))
