@@ -13,6 +13,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+import tracker.lidar.preprocess as preprocess_module
 from drivers.mount import Mount
 from tests.sea_geometry import SteadyEgo, chop, lidar_pipeline, revolution_over_water, scan_of
 from tracker.lidar.preprocess import REASON_NAMES
@@ -277,6 +278,46 @@ def test_a_low_pontoon_met_by_one_beam_stays_out_of_the_water_fit_and_is_an_obst
         assert np.all(np.abs(out.distances_cm[abeam] / 100.0 - expected) <= tolerance)
         assert np.all(out.distances_cm[abeam] / 100.0 >= expected - 0.05)  # never nearer: no crest in front of it
         assert set(np.flatnonzero(out.distances_cm <= 10000).tolist()) == set(abeam.tolist())
+
+
+@pytest.mark.parametrize("below", [True, False], ids=["judged-by-the-steeper-lasers", "judged-alone"])
+def test_a_low_pier_met_at_its_foot_by_the_one_laser_the_heel_brings_down_is_an_obstacle(
+    below: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A pier 0.6 m high and 240 m long lies 22 m off to starboard in the chop above, the boat heeled 2.5 deg to
+    starboard; the sea returns 10 % of the firings meeting it within 20 m and 1 % beyond. The -1 deg laser comes
+    down to the water only on the heeled side (in 40 of the 72 bins) and meets the pier 0.1-0.3 m above the mean
+    water, inside the sea margin (0.49 m); the lasers above pass over it, those below meet the water first. So the
+    pier's foot is more than half of that laser's returns in the margin: judged alone, its sea looked full, none of
+    its lines was trusted and the pier was unknown in all 23 of its bins. The lasers below it return a tenth of
+    their firings from the water, and a laser grazing the sea 2 deg more flatly cannot return more of it."""
+    roll = math.radians(2.5)
+
+    def heeled(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.full(np.shape(t), roll), np.zeros(np.shape(t))
+
+    pipeline = lidar_pipeline(MOUNT)
+    ego = SteadyEgo(heeled, 0.0)
+    pier = (((-120.0, 22.0), (120.0, 22.0), 0.6),)
+    if not below:  # each laser's fill its own, as before the steeper lasers were asked
+        monkeypatch.setattr(preprocess_module, "_fill_below", lambda fill, wet_bins: fill)
+    for k in range(3):
+        ret = revolution_over_water(
+            MOUNT, heeled, yaw=0.0, elevation=chop, t0=0.1 * k, walls=pier, water_share=(0.1, 20 + k, 20.0, 0.01)
+        )
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+    pre = pipeline.last_preprocess
+    assert pre.water.measured and pre.water.margin > 0.4  # the pier's foot lies inside the sea margin
+    d = out.distances_cm
+    abeam = np.arange(7, 30)
+    if not below:
+        assert pre.n_grazing == 0 and np.all(d == UNKNOWN)
+        return
+    # each bin 22 m / cos(the bin's bearing nearest abeam) off, never nearer: no crest in front of it
+    expected = 22.0 / np.cos(np.radians(np.maximum(np.abs(abeam - 18) * 5.0 - 2.5, 0.0)))
+    assert np.all(d[abeam] / 100.0 >= expected - 0.05)
+    assert np.all(d[abeam] / 100.0 <= expected + 0.3)
+    assert set(np.flatnonzero(d <= 10000).tolist()) == set(abeam.tolist())
 
 
 def _level_boat_in_chop(walls: tuple, **preprocess: float) -> tuple[np.ndarray, object, object]:

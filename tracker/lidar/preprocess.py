@@ -383,7 +383,8 @@ def _grazing_lines(
     draws its returns into runs along the crests, which the first measure then misses). The fill is judged over the
     laser's whole water, near and far: where a sea returns every firing, a laser coming down to it at 18 m returns
     mostly short of 20 m, and the few firings reaching a trough beyond draw lines there; judged by its firings
-    beyond 20 m alone, that laser looked sparse.
+    beyond 20 m alone, that laser looked sparse. A laser's fill is never judged above a steeper laser's that met
+    the water as widely (_fill_below): the sea returns less to a flatter beam, so the excess is its solids.
 
     The firings that met the water are counted from the beams' geometry (``sea``: the water estimate and where the
     beams pointed): those in the bins where the laser came down through the sea margin within the range judged and
@@ -417,12 +418,30 @@ def _grazing_lines(
     alone = runs < cfg.grazing_line_min_run
     met_firings = np.maximum(np.count_nonzero(met, axis=1) * firings_per_bin, 1.0)
     sporadic = np.bincount(far_rings[alone], minlength=RINGS) / met_firings
-    wet_firings = np.maximum(np.count_nonzero(met_wet, axis=1) * firings_per_bin, 1.0)
-    fill = np.bincount(wet_rings, minlength=RINGS) / wet_firings
+    wet_bins = np.count_nonzero(met_wet, axis=1)
+    wet_firings = np.maximum(wet_bins * firings_per_bin, 1.0)
+    fill = _fill_below(np.bincount(wet_rings, minlength=RINGS) / wet_firings, wet_bins)
     sporadic_sea = (sporadic <= cfg.grazing_line_max_sporadic) & (fill <= cfg.grazing_line_max_fill)
     line = far.copy()
     line[far_idx[alone | ~sporadic_sea[far_rings]]] = False
     return line
+
+
+def _fill_below(fill: np.ndarray, wet_bins: np.ndarray) -> np.ndarray:
+    """(16,) each laser's fill, or the smallest fill of a steeper laser (a lower ring) that met the water in at least
+    as many bins, where that is smaller.
+
+    The sea returns less the more flatly a beam grazes it, so a laser meeting the water 2 deg flatter than the one
+    below it cannot return it more densely: a fill above the steeper lasers' is solids along it. The highest laser
+    that comes down to the water at all meets it only in the bins the boat's heel tips it into, far out, where a
+    quay or a hull often stands; its foot in the margin, a run along the whole bin, filled that laser's few water
+    bins past grazing_line_max_fill while the lasers below returned a tenth of their firings (tuning seeds 10 and
+    12, sea state 3: quays 25-70 m off met by the -1 or +1 deg laser alone, unknown in bin after bin).
+    """
+    lower = np.tri(RINGS, RINGS, -1, dtype=bool)  # [r, r']: r' is a steeper laser than r
+    support = wet_bins[None, :] >= wet_bins[:, None]
+    below = np.where(lower & support, fill[None, :], np.inf).min(axis=1)
+    return np.minimum(fill, below)
 
 
 def _feet_of_solid_lines(
