@@ -224,3 +224,44 @@ def test_a_scan_with_a_wild_timestamp_gets_a_pose_per_point() -> None:
     (pos, _, _, yaw), index = sample_poses(h, t)
     assert index is None and pos.shape == (3, 3)
     assert pos[:2, 0] == pytest.approx([1.0, 1.5]) and np.isnan(yaw[2])
+
+
+def test_one_instant_gives_to_the_bit_what_the_batch_gives() -> None:
+    """`at` takes a path of its own for one instant (the cycle asks for single poses several times); a recorded run
+    replayed must place everything exactly as before, so it must agree with `at_many`'s arithmetic bit for bit:
+    between samples, on them, across the yaw wrap, in a gap longer than max_gap, extrapolated before the first and
+    after the last sample within max_extrapolation, and out of reach beyond it."""
+    rng = np.random.default_rng(7)
+    h = PoseHistory(max_extrapolation=0.3, max_gap=1.0)
+    times = np.concatenate([np.cumsum(rng.uniform(0.01, 0.05, 60)), 10.0 + np.cumsum(rng.uniform(0.01, 0.05, 60))])
+    for t in times:  # a gap of several seconds between the two runs of samples
+        h.add(
+            pose(
+                float(t),
+                pos=rng.normal(0, 50, 3),
+                vel=rng.normal(0, 3, 3),
+                roll=rng.uniform(-0.2, 0.2),
+                pitch=rng.uniform(-0.2, 0.2),
+                yaw=rng.uniform(-math.pi, math.pi),  # neighbours often either side of the wrap
+                yaw_rate=rng.normal(0, 0.3),
+            )
+        )
+    queries = np.concatenate(
+        [
+            rng.uniform(times[0] - 0.5, times[59] + 0.5, 200),
+            rng.uniform(times[60] - 0.5, times[-1] + 0.5, 200),
+            rng.uniform(times[59], times[60], 50),  # the gap: extrapolated near its ends, out of reach between
+            times[::7],  # on a sample
+            [times[0] - 0.29, times[0] - 0.31, times[59] + 0.2, times[59] + 0.5, times[-1] + 0.29, times[-1] + 0.31],
+        ]
+    )
+    pos, vel, att, yaw_rate, ok = h._evaluate(queries)
+    assert ok.sum() > 300 and (~ok).sum() > 20  # both kinds of answer are exercised
+    for k, q in enumerate(queries):
+        p = h.at(float(q))
+        assert (p is not None) == ok[k], q
+        if p is None:
+            continue
+        assert np.array_equal(p.position, pos[k]) and np.array_equal(p.velocity, vel[k]), q
+        assert (p.roll, p.pitch, p.yaw, p.yaw_rate) == (att[k, 0], att[k, 1], att[k, 2], yaw_rate[k]), q
+    assert h.at(math.nan) is None and h.at(math.inf) is None
