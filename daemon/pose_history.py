@@ -182,18 +182,17 @@ class PoseHistory:
         """Pose at host time ``t``, or None when ``t`` is further than the extrapolation limit from any data."""
         if self.no_ego_pose:
             return identity_pose(float(t))
-        one = self._evaluate_one(float(t))
-        if one is None:
+        pos, vel, att, yaw_rate, ok = self._evaluate(np.array([float(t)], dtype=float))
+        if not ok[0]:
             return None
-        pos, vel, att, yaw_rate = one
         return EgoPose(
             t=float(t),
-            position=pos,
-            velocity=vel,
-            roll=float(att[0]),
-            pitch=float(att[1]),
-            yaw=float(att[2]),
-            yaw_rate=yaw_rate,
+            position=pos[0],
+            velocity=vel[0],
+            roll=float(att[0, 0]),
+            pitch=float(att[0, 1]),
+            yaw=float(att[0, 2]),
+            yaw_rate=float(yaw_rate[0]),
         )
 
     def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -208,36 +207,6 @@ class PoseHistory:
             return np.zeros((times.shape[0], 3)), z, z.copy(), z.copy()
         pos, _vel, att, _yr, _ok = self._evaluate(times)
         return pos, att[:, 0].copy(), att[:, 1].copy(), att[:, 2].copy()
-
-    def _evaluate_one(self, q: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float] | None:
-        """``_evaluate`` for one instant, the same arithmetic on the two rows it needs: the cycle asks for single
-        poses several times (the tick, the sweep's end, each radar frame), and the masked passes over one-element
-        arrays cost 0.18 ms a call here. Returns (position, velocity, attitude, yaw rate) or None out of reach."""
-        ts, pos, vel, att, yr = self._snapshot()
-        n = ts.shape[0]
-        if n == 0 or not math.isfinite(q):
-            return None
-        hi = int(np.searchsorted(ts, q, side="left"))  # ts[hi-1] < q <= ts[hi]
-        hi_c, lo_c = min(hi, n - 1), min(max(hi - 1, 0), n - 1)
-        t_lo, t_hi = ts[lo_c], ts[hi_c]
-        exact = t_hi == q
-        if exact or (0 < hi < n and (t_hi - t_lo) <= self.max_gap):
-            span = t_hi - t_lo if t_hi > t_lo else 1.0
-            frac = 1.0 if exact else min(max((q - t_lo) / span, 0.0), 1.0)
-            d_att = wrap_angle(att[hi_c] - att[lo_c])
-            return (
-                pos[lo_c] + (pos[hi_c] - pos[lo_c]) * frac,
-                vel[lo_c] + (vel[hi_c] - vel[lo_c]) * frac,
-                np.asarray(wrap_angle(att[lo_c] + d_att * frac)),
-                float(yr[lo_c] + (yr[hi_c] - yr[lo_c]) * frac),
-            )
-        near = lo_c if abs(q - t_lo) <= abs(t_hi - q) else hi_c
-        dt = q - ts[near]
-        if not abs(dt) <= self.max_extrapolation:
-            return None
-        a = att[near].copy()
-        a[2:] = wrap_angle(a[2:] + yr[near] * dt)  # a one-element array: the array arithmetic _evaluate uses
-        return pos[near] + vel[near] * dt, vel[near].copy(), a, float(yr[near])
 
     def _evaluate(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Vectorised core: interpolate between neighbours, else extrapolate from the nearer one, else NaN."""
