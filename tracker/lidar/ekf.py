@@ -34,7 +34,7 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
 from tracker.coordinated_turn import coordinated_turn
-from tracker.kalman_update import joseph_update, joseph_update_selected
+from tracker.kalman_update import joseph_update
 from tracker.lidar.config import EkfConfig
 from tracker.types import ShapeKind
 
@@ -199,74 +199,39 @@ def faces_seen(
     return side_angle >= min_angle, end_angle >= min_angle
 
 
-def _kalman_update_full(ekf: ExtendedKalmanFilter, m: Measurement) -> None:
-    """:func:`_kalman_update` for eq. 7's measurement, whose H only picks states: products become indexing."""
-    x, p = ekf.x, ekf.P
-    y = np.array([m.center[0], m.center[1], m.heading, m.length, m.width, m.height]) - x[_Z_STATES]
-    y[Z_PSI] = (y[Z_PSI] + math.pi) % (2.0 * math.pi) - math.pi
-    ekf.x, ekf.P, s, k = joseph_update_selected(x, p, _Z_STATES, y, m.r)
-    ekf.y, ekf.S, ekf.K = y, s, k
-
-
-def _kalman_update_full_many(filters: list[ExtendedKalmanFilter], ms: list[Measurement]) -> None:
-    """:func:`_kalman_update_full` for many tracks at once, as stacked arrays (same formulas)."""
+def _update_full(filters: list[ExtendedKalmanFilter], ms: list[Measurement]) -> None:
+    """Eq. 7's update of each filter with its measurement (all six components), stacked."""
     x = np.array([f.x for f in filters])
-    p = np.array([f.P for f in filters])
-    r = np.array([m.r for m in ms])
     y = np.array([[m.center[0], m.center[1], m.heading, m.length, m.width, m.height] for m in ms]) - x[:, _Z_STATES]
     y[:, Z_PSI] = (y[:, Z_PSI] + math.pi) % (2.0 * math.pi) - math.pi
-    pht = p[:, :, _Z_STATES]  # (k, 9, 6)
-    s = pht[:, _Z_STATES, :] + r
-    k = np.linalg.solve(s, pht.transpose(0, 2, 1)).transpose(0, 2, 1)  # (k, 9, 6)
-    x = x + np.einsum("kij,kj->ki", k, y)
-    i_kh = np.broadcast_to(np.eye(DIM_X), p.shape).copy()
-    i_kh[:, :, _Z_STATES] -= k
-    p = i_kh @ p @ i_kh.transpose(0, 2, 1) + k @ r @ k.transpose(0, 2, 1)
+    h = np.broadcast_to(H_FULL, (len(ms), DIM_Z, DIM_X))
+    _apply(filters, x, h, y, np.array([m.r for m in ms]))
+
+
+def _apply(filters: list[ExtendedKalmanFilter], x: np.ndarray, h: np.ndarray, y: np.ndarray, r: np.ndarray) -> None:
+    """tracker.kalman_update.joseph_update of ``filters`` (states ``x``), written back to them."""
+    x, p, s, k = joseph_update(x, np.array([f.P for f in filters]), h, y, r)
     for j, f in enumerate(filters):
         f.x, f.P, f.y, f.S, f.K = x[j], p[j], y[j], s[j], k[j]
 
 
-def _kalman_update(ekf: ExtendedKalmanFilter, z: np.ndarray, h: np.ndarray, r: np.ndarray, psi_row: int) -> None:
-    """Linear(ised) Kalman update (tracker.kalman_update.joseph_update).
-
-    ``psi_row`` is the row of ``z`` that is a heading (its residual is wrapped), -1 for none.
-    """
-    x, p = ekf.x, ekf.P
-    y = z - h @ x
-    if psi_row >= 0:
-        y[psi_row] = wrap_angle(float(y[psi_row]))
-    ekf.x, ekf.P, s, k = joseph_update(x, p, h, y, r)
-    ekf.y, ekf.S, ekf.K = y, s, k
-
-
-def _kalman_update_many(
-    filters: list[ExtendedKalmanFilter], rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+def _update_rows(
+    filters: list[ExtendedKalmanFilter],
+    rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    heading_row: int | None = 2,
 ) -> None:
-    """:func:`_kalman_update` (heading in row 2) for many tracks, one (z, H, R) each, stacked by row count.
-
-    A stacked matmul or solve runs the same BLAS / LAPACK call on each slice as the single one, so the results are
-    bit-identical to one call per track; only the per-call overhead goes.
-    """
+    """Linear(ised) Kalman update, Joseph form, of each filter with its own (z, H, R), stacked by row count; the
+    residual of row ``heading_row`` (None: no heading measured) is wrapped to (-pi, pi]."""
     by_size: dict[int, list[int]] = {}
     for j, (z, _, _) in enumerate(rows):
         by_size.setdefault(z.shape[0], []).append(j)
     for group in by_size.values():
         x = np.array([filters[j].x for j in group])
-        p = np.array([filters[j].P for j in group])
-        z = np.array([rows[j][0] for j in group])
         h = np.array([rows[j][1] for j in group])
-        r = np.array([rows[j][2] for j in group])
-        y = z - (h @ x[:, :, None])[:, :, 0]
-        y[:, 2] = (y[:, 2] + math.pi) % (2.0 * math.pi) - math.pi
-        pht = p @ h.transpose(0, 2, 1)
-        s = h @ pht + r
-        k = np.linalg.solve(s, pht.transpose(0, 2, 1)).transpose(0, 2, 1)
-        i_kh = np.eye(DIM_X) - k @ h
-        x = x + (k @ y[:, :, None])[:, :, 0]
-        p = i_kh @ p @ i_kh.transpose(0, 2, 1) + k @ r @ k.transpose(0, 2, 1)
-        for n, j in enumerate(group):
-            f = filters[j]
-            f.x, f.P, f.y, f.S, f.K = x[n], p[n], y[n], s[n], k[n]
+        y = np.array([rows[j][0] for j in group]) - (h @ x[:, :, None])[:, :, 0]
+        if heading_row is not None:
+            y[:, heading_row] = (y[:, heading_row] + math.pi) % (2.0 * math.pi) - math.pi
+        _apply([filters[j] for j in group], x, h, y, np.array([rows[j][2] for j in group]))
 
 
 class EkfBank:
@@ -363,40 +328,15 @@ class EkfBank:
         ``seen`` says whether the track's (length, width) extents are fully in view; a size that may be cut short
         only counts against an alias when it comes out larger than the track's.
         """
-        if m.kind is ShapeKind.POINT:
-            return m
-        ekf = self.filters[i]
-        x = ekf.x
-        s = ekf.P[_ALIAS_STATE, _ALIAS_STATE.T] + m.r[_ALIAS_MEAS, _ALIAS_MEAS.T]
-        heading = m.heading + _QUARTERS
-        length = np.where(_ODD, m.width, m.length)
-        width = np.where(_ODD, m.length, m.width)
-        y = np.empty((3, 4))  # columns: the four aliases
-        y[0] = (heading - x[PSI] + math.pi) % (2.0 * math.pi) - math.pi
-        y[1] = length - x[LEN]
-        y[2] = width - x[WID]
-        for row, full in ((1, seen[0]), (2, seen[1])):
-            if not full:
-                np.maximum(y[row], 0.0, out=y[row])
-        d = (y * np.linalg.solve(s, y)).sum(axis=0)
-        best = int(np.argmin(d))
-        if best == 0:
-            return m
-        return Measurement(
-            m.center,
-            float(wrap_angle(heading[best])),
-            float(length[best]),
-            float(width[best]),
-            m.height,
-            m.kind,
-            m.r,
-            m.sensor,
-            m.completed,
-        )
+        return m if m.kind is ShapeKind.POINT else self.choose_aliases([(i, m)], [seen])[0]
 
     def choose_aliases(self, pairs: list[tuple[int, Measurement]], seen: list[tuple[bool, bool]]) -> list[Measurement]:
-        """:meth:`choose_alias` for many (track, measurement) pairs at once (box or ellipse kinds only)."""
+        """:meth:`choose_alias` for many (track, measurement) pairs at once (box or ellipse kinds only): the four
+        quarter turns of each measurement, residuals in (heading, length, width), the size rows of an extent not
+        in view counted only where the alias comes out larger than the track."""
         k = len(pairs)
+        if k == 0:
+            return []
         x = np.array([self.filters[i].x for i, _ in pairs])
         p = np.array([self.filters[i].P for i, _ in pairs])
         r = np.array([m.r for _, m in pairs])
@@ -439,15 +379,18 @@ class EkfBank:
 
     def update_many(self, pairs: list[tuple[int, Measurement]]) -> None:
         """Update several tracks, one measurement each; the plain eq. 7 updates run as one stacked solve."""
-        full: list[tuple[int, Measurement]] = []
-        aware: list[tuple[int, Measurement]] = []
-        for i, m in pairs:
-            if m.kind is ShapeKind.POINT:
-                _kalman_update(self.filters[i], m.center, H_POSITION, m.r[:2, :2], -1)
-            elif self.config.view_aware and m.sensor is not None:
-                aware.append((i, m))
-            else:
-                full.append((i, self.choose_alias(i, m)))
+        points = [(i, m) for i, m in pairs if m.kind is ShapeKind.POINT]
+        shaped = [(i, m) for i, m in pairs if m.kind is not ShapeKind.POINT]
+        if points:
+            _update_rows(
+                [self.filters[i] for i, _ in points],
+                [(m.center, H_POSITION, m.r[:2, :2]) for _, m in points],
+                heading_row=None,
+            )
+        view_aware = self.config.view_aware
+        aware = [(i, m) for i, m in shaped if view_aware and m.sensor is not None]
+        plain = [(i, m) for i, m in shaped if not (view_aware and m.sensor is not None)]
+        full = list(zip([i for i, _ in plain], self.choose_aliases(plain, [(True, True)] * len(plain)), strict=True))
         if aware:
             seen = [self._seen(i, m) for i, m in aware]
             partial: list[int] = []
@@ -460,11 +403,9 @@ class EkfBank:
                     partial.append(i)
                     partial_rows.append(rows)
             if partial:
-                _kalman_update_many([self.filters[i] for i in partial], partial_rows)
-        if len(full) == 1:
-            _kalman_update_full(self.filters[full[0][0]], full[0][1])
-        elif full:
-            _kalman_update_full_many([self.filters[i] for i, _ in full], [m for _, m in full])
+                _update_rows([self.filters[i] for i in partial], partial_rows)
+        if full:
+            _update_full([self.filters[i] for i, _ in full], [m for _, m in full])
         for i, _ in pairs:
             x = self.filters[i].x
             x[PSI] = wrap_angle(float(x[PSI]))

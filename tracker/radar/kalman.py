@@ -25,7 +25,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from tracker.coordinated_turn import coordinated_turn
-from tracker.kalman_update import joseph_update, joseph_update_selected
+from tracker.kalman_update import joseph_update, selection_matrix
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.velocity_profile import VelocityEstimate, VelocityStatus
 
@@ -300,14 +300,10 @@ def fused_update(
         assert vel is not None
         z[4:] = vel.velocity
         r[4:, 4:] = r_v
+    h = selection_matrix(rows, kf.dim_x)
     if with_v and turn_gain is not None and kf.dim_x > TURN:
-        # The velocity rows also read the turn rate (velocity_rows): H no longer only picks states.
-        h = np.zeros((m, kf.dim_x))
-        h[np.arange(4), rows[:4]] = 1.0
-        h[4:] = h_v
-        _update(kf, h, z, r)
-    else:
-        _update_selected(kf, rows, z, r)
+        h[4:] = h_v  # the velocity rows also read the turn rate (velocity_rows)
+    _update(kf, h, z, r)
     kf.x[SIZE, 0] = np.maximum(kf.x[SIZE, 0], cfg.min_box_size_m)
     if kf.dim_x > TURN:
         kf.x[TURN, 0] = min(max(float(kf.x[TURN, 0]), -cfg.max_turn_rate), cfg.max_turn_rate)
@@ -318,18 +314,11 @@ _Z_POS_SIZE = np.array([0, 1, 6, 7])
 _Z_POS_SIZE_VEL = np.array([0, 1, 6, 7, 2, 3])
 
 
-def _update_selected(kf: KalmanFilter, rows: np.ndarray, z: np.ndarray, r: np.ndarray) -> None:
-    """filterpy's Joseph-form update for an H that picks the states ``rows`` (tracker.kalman_update)."""
-    x = kf.x[:, 0]
-    x, kf.P, _, _ = joseph_update_selected(x, kf.P, rows, z - x[rows], r)
-    kf.x = x.reshape(-1, 1)
-
-
 def _update(kf: KalmanFilter, h: np.ndarray, z: np.ndarray, r: np.ndarray) -> None:
-    """filterpy's Joseph-form update for any H (tracker.kalman_update)."""
+    """The Joseph-form update both trackers take (tracker.kalman_update), for one filter."""
     x = kf.x[:, 0]
-    x, kf.P, _, _ = joseph_update(x, kf.P, h, z - h @ x, r)
-    kf.x = x.reshape(-1, 1)
+    x1, p1, _, _ = joseph_update(x[None], kf.P[None], h[None], (z - h @ x)[None], r[None])
+    kf.x, kf.P = x1[0].reshape(-1, 1), p1[0]
 
 
 def box_of(kf: KalmanFilter) -> np.ndarray:
