@@ -109,35 +109,11 @@ def _point_fit(xy: np.ndarray, origin: np.ndarray) -> ShapeFit | None:
     return ShapeFit(origin.copy(), heading, length, 0.0, 0.0, ShapeKind.POINT, n, "point")
 
 
-def _edge_mse(uv: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
-    """Mean squared distance to the nearest box edge, each edge refit to the mean line of the points nearest to it.
-
-    Per edge k with points at distances d: sum (d - mean d)^2 = sum d^2 - (sum d)^2 / count.
-    """
-    n = uv.shape[1]
-    dist = np.concatenate((uv - lo[:, None], hi[:, None] - uv))
-    owner = dist.argmin(axis=0)
-    dmin = dist[owner, np.arange(n)]
-    count = np.bincount(owner, minlength=4)
-    per_edge = np.bincount(owner, weights=dmin, minlength=4)
-    return max(float(dmin @ dmin - (per_edge * per_edge / np.maximum(count, 1)).sum()), 0.0) / n
-
-
 def box_from_heading(xy: np.ndarray, theta: float, method: str, origin: np.ndarray) -> ShapeFit:
-    """Bounding rectangle of centred (2, n) points with a side along ``theta``; heading along the longest side."""
-    c, s = math.cos(theta), math.sin(theta)
-    x, y = xy
-    uv = np.stack((c * x + s * y, c * y - s * x))  # elementwise, as boxes_from_headings: the same rounding
-    lo, hi = uv.min(axis=1), uv.max(axis=1)
-    mu, mv = 0.5 * float(lo[0] + hi[0]), 0.5 * float(lo[1] + hi[1])
-    center = np.array([origin[0] + mu * c - mv * s, origin[1] + mu * s + mv * c])
-    length, width = float(hi[0] - lo[0]), float(hi[1] - lo[1])
-    if length == 0.0 and width == 0.0:  # all points identical
-        return ShapeFit(origin.copy(), 0.0, 0.0, 0.0, 0.0, ShapeKind.POINT, xy.shape[1], "point")
-    if width > length:
-        length, width, theta = width, length, theta + HALF_PI
-    mse = _edge_mse(uv, lo, hi)
-    return ShapeFit(center, _axis_angle(theta), length, width, mse, ShapeKind.BOX, xy.shape[1], method)
+    """Bounding rectangle of centred (2, n) points with a side along ``theta``; heading along the longest side
+    (:func:`boxes_from_headings` of one)."""
+    pad, mask = _pad([xy])
+    return boxes_from_headings(pad, mask, np.array([theta]), method, [origin])[0]
 
 
 # ---------------------------------------------------------------------------------------------------------------------
@@ -209,29 +185,10 @@ def fit_lshape_corner(points: np.ndarray, min_offset: float = 0.15) -> ShapeFit:
     the ends of an L without an O(n^2) search. The heading follows the longer leg from the corner; a corner
     closer than ``min_offset`` to the diagonal means only one side is visible, and the heading follows the diagonal.
     """
-    xy, origin = _prepare(points)
-    degenerate = _point_fit(xy, origin)
-    if degenerate is not None:
-        return degenerate
-    x, y = xy
-    proj = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, -1.0]]) @ xy
-    cand = np.concatenate([proj.argmin(axis=1), proj.argmax(axis=1)])
-    cp = xy[:, cand]  # (2, 8)
-    dist2 = (cp[0][:, None] - cp[0]) ** 2 + (cp[1][:, None] - cp[1]) ** 2
-    flat = int(dist2.argmax())
-    p1, p2 = cp[:, flat // cand.size], cp[:, flat % cand.size]
-    diag = p2 - p1
-    diag_len = math.hypot(diag[0], diag[1])
-    offset = np.abs(diag[0] * (p1[1] - y) - diag[1] * (p1[0] - x))  # distance to the diagonal times its length
-    k = int(offset.argmax())
-    if offset[k] <= min_offset * diag_len:
-        theta = math.atan2(diag[1], diag[0])
-    else:
-        p3 = xy[:, k]
-        leg1, leg2 = p1 - p3, p2 - p3
-        leg = leg1 if leg1 @ leg1 >= leg2 @ leg2 else leg2
-        theta = math.atan2(leg[1], leg[0])
-    return box_from_heading(xy, theta, "corner", origin)
+    fit = fit_lshape_corners([points], min_offset)[0]
+    if isinstance(fit, DegenerateClusterError):
+        raise fit
+    return fit
 
 
 _CORNER_DIRS = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, -1.0]])
@@ -265,9 +222,9 @@ def fit_lshape_corners(
     min_offset: float = 0.15,
     prepared: list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError] | None = None,
 ) -> list[ShapeFit | DegenerateClusterError]:
-    """:func:`fit_lshape_corner` for many clusters at once (the same steps on stacked, padded arrays).
+    """Algorithm 3 (:func:`fit_lshape_corner`) for many clusters at once, on stacked, padded arrays.
 
-    Each entry is the fit, or the :class:`DegenerateClusterError` :func:`fit_lshape_corner` would have raised.
+    Each entry is the fit, or the :class:`DegenerateClusterError` that makes the cluster unfit.
     ``prepared``: :func:`prepare_all` of ``clouds``, if already at hand.
     """
     out: list[ShapeFit | DegenerateClusterError] = [DegenerateClusterError("corner: not fitted")] * len(clouds)
@@ -307,7 +264,6 @@ def fit_lshape_corners(
     leg1, leg2 = p1 - p3, p2 - p3
     leg = np.where(((leg1 * leg1).sum(axis=1) >= (leg2 * leg2).sum(axis=1))[:, None], leg1, leg2)
     one_side = offset[rows, k3] <= min_offset * diag_len
-    # Angles with math.atan2, as the one-cluster fitter: identical rounding gives identical boxes.
     direction = np.where(one_side[:, None], diag, leg)
     theta = np.array([math.atan2(float(d[1]), float(d[0])) for d in direction])
     boxes = boxes_from_headings(pad, mask, theta, "corner", [origin for _, _, origin in batch])
@@ -319,7 +275,8 @@ def fit_lshape_corners(
 def boxes_from_headings(
     pad: np.ndarray, mask: np.ndarray, theta: np.ndarray, method: str, origins: list[np.ndarray]
 ) -> list[ShapeFit]:
-    """:func:`box_from_heading` for padded point sets (see :func:`_pad`), one heading each."""
+    """Bounding rectangles of padded centred point sets (see :func:`_pad`), each with a side along its ``theta``,
+    heading along the longest side, with the MSE of the points to their nearest edge."""
     c = np.array([math.cos(float(t)) for t in theta])[:, None]
     s = np.array([math.sin(float(t)) for t in theta])[:, None]
     x, y = pad[:, 0], pad[:, 1]
@@ -329,7 +286,8 @@ def boxes_from_headings(
     mu, mv = 0.5 * (lo_u + hi_u), 0.5 * (lo_v + hi_v)
     cn, ce = mu * c[:, 0] - mv * s[:, 0], mu * s[:, 0] + mv * c[:, 0]
     length, width = hi_u - lo_u, hi_v - lo_v
-    # Edge MSE as _edge_mse: each point's nearest edge, each edge refit to the mean line of its points.
+    # Edge MSE: each point's nearest edge, each edge refit to the mean line of its points; per edge k with points
+    # at distances d: sum (d - mean d)^2 = sum d^2 - (sum d)^2 / count.
     dist = np.stack([u - lo_u[:, None], v - lo_v[:, None], hi_u[:, None] - u, hi_v[:, None] - v], axis=1)
     owner = dist.argmin(axis=1)  # (k, n)
     dmin = np.where(mask, np.take_along_axis(dist, owner[:, None, :], axis=1)[:, 0], 0.0)
@@ -355,38 +313,6 @@ def boxes_from_headings(
 # Ellipse fitting
 
 
-def _conic_fit(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Halir & Flusser's stable direct least-squares ellipse for normalised (2, n) points.
-
-    Returns the conic [a, b, c, d, e, f] and the (6, n) design matrix of monomials [x^2, xy, y^2, x, y, 1] (its
-    rows evaluate the conic and its gradient without recomputing them).
-    """
-    x, y = q
-    design = np.empty((6, x.shape[0]))
-    np.multiply(x, x, out=design[0])
-    np.multiply(x, y, out=design[1])
-    np.multiply(y, y, out=design[2])
-    design[3], design[4], design[5] = x, y, 1.0
-    scatter = design @ design.T
-    try:
-        t = -np.linalg.solve(scatter[3:, 3:], scatter[3:, :3])
-    except np.linalg.LinAlgError as exc:
-        raise DegenerateClusterError("ellipse: points are collinear") from exc
-    m = scatter[:3, :3] + scatter[:3, 3:] @ t
-    # Premultiply by the inverse of the constraint matrix C1 = [[0, 0, 2], [0, -1, 0], [2, 0, 0]].
-    m = np.array([m[2] / 2.0, -m[1], m[0] / 2.0])
-    if not np.all(np.isfinite(m)):
-        raise DegenerateClusterError("ellipse: ill-conditioned scatter matrix")
-    _, vecs = np.linalg.eig(m)
-    vecs = np.real(vecs)
-    cond = 4.0 * vecs[0] * vecs[2] - vecs[1] ** 2
-    ok = np.flatnonzero(cond > 0)
-    if ok.size == 0:
-        raise DegenerateClusterError("ellipse: no elliptic solution")
-    a1 = vecs[:, ok[np.argmax(cond[ok])]]
-    return np.concatenate([a1, t @ a1]), design
-
-
 def ellipse_sampson_sq(conic: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Squared Sampson distance of (2, n) points to a conic: F^2 / |grad F|^2, a first-order geometric distance."""
     a, b, c, d, e, f = conic
@@ -398,83 +324,24 @@ def ellipse_sampson_sq(conic: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 def fit_ellipse(points: np.ndarray) -> ShapeFit:
-    """Direct least-squares ellipse, cut to the points' extent along its major axis (sec. 2.2.2)."""
-    xy, origin = _prepare(points)
-    n = xy.shape[1]
-    if n < 5:
-        raise DegenerateClusterError(f"ellipse: needs 5 points, got {n}")
-    x, y = xy
-    sxx, syy, sxy = float(x @ x) / n, float(y @ y) / n, float(x @ y) / n
-    tr = sxx + syy
-    if not tr > 0:
-        raise DegenerateClusterError("ellipse: all points coincide")
-    # Collinear points (smallest principal spread ~ 0) admit no ellipse.
-    if sxx * syy - sxy * sxy < 1e-10 * tr * tr:
-        raise DegenerateClusterError("ellipse: points are collinear")
-    scale = math.sqrt(tr)
-    conic, design = _conic_fit(xy / scale)
-    mse = _sampson_mse(conic / np.linalg.norm(conic), design, scale)
-    return _cut_ellipse(xy, origin, scale, conic, mse, n)
-
-
-def _cut_ellipse(xy: np.ndarray, origin: np.ndarray, scale: float, conic: np.ndarray, mse: float, n: int) -> ShapeFit:
-    """The ellipse of a fitted (normalised) conic, cut to the points' extent along its major axis (sec. 2.2.2)."""
-    if conic[0] + conic[2] < 0.0:  # eigenvectors have no sign; make the quadratic form positive definite
-        conic = -conic
-    a, b, c, d, e, f = (float(v) for v in conic)
-    den = 4.0 * a * c - b * b
-    if not den > 0:
-        raise DegenerateClusterError("ellipse: conic is not an ellipse")
-    x0 = (b * e - 2.0 * c * d) / den
-    y0 = (b * d - 2.0 * a * e) / den
-    f0 = f + 0.5 * (d * x0 + e * y0)
-    # Eigen-decomposition of [[a, b/2], [b/2, c]] in closed form: the major axis (smaller eigenvalue) lies a
-    # quarter turn from the direction 0.5 atan2(b, a - c) along which the quadratic form grows fastest.
-    mean, half = 0.5 * (a + c), math.hypot(0.5 * (a - c), 0.5 * b)
-    lam_small, lam_big = mean - half, mean + half
-    if not (lam_small > 0.0 and f0 < 0.0):
-        raise DegenerateClusterError("ellipse: imaginary ellipse")
-    semi_minor = math.sqrt(-f0 / lam_big) * scale
-    theta = 0.5 * math.atan2(b, a - c) + HALF_PI
-    # Cut: coordinates along the major (u) and minor (v) axis, relative to the fitted centre.
-    ct, st = math.cos(theta), math.sin(theta)
-    cx, cy = x0 * scale, y0 * scale
-    uv = np.array([[ct, st], [-st, ct]]) @ (xy - np.array([[cx], [cy]]))
-    lo, hi = uv.min(axis=1), uv.max(axis=1)
-    length = float(hi[0] - lo[0])
-    mid_u = 0.5 * float(lo[0] + hi[0])
-    # The minor axis is only as trustworthy as the hull's curvature: keep the fitted width unless it exceeds the
-    # visible length (an almost straight side fits a huge ellipse); then keep the visible side and shrink inward.
-    spread_v, full_v = float(hi[1] - lo[1]), 2.0 * semi_minor
-    if spread_v >= full_v:
-        width, mid_v = spread_v, 0.5 * float(lo[1] + hi[1])
-    elif full_v <= length:
-        width, mid_v = full_v, 0.0
-    else:
-        width = max(spread_v, length)
-        mid_v = float(lo[1]) + 0.5 * width if float(uv[1].mean()) < 0.0 else float(hi[1]) - 0.5 * width
-    center = np.array([origin[0] + cx + mid_u * ct - mid_v * st, origin[1] + cy + mid_u * st + mid_v * ct])
-    if width > length:
-        length, width, theta = width, length, theta + HALF_PI
-    return ShapeFit(center, _axis_angle(theta), length, width, mse, ShapeKind.ELLIPSE, n, "ellipse")
-
-
-def _sampson_mse(conic: np.ndarray, design: np.ndarray, scale: float) -> float:
-    """Mean squared Sampson distance, m^2, of the points behind a (6, n) design matrix to a normalised conic."""
-    a, b, c, d, e, _ = conic
-    val = conic @ design
-    gx = np.array([2.0 * a, b, d]) @ design[3:]
-    gy = np.array([b, 2.0 * c, e]) @ design[3:]
-    return float(np.mean(val * val / np.maximum(gx * gx + gy * gy, 1e-300))) * scale * scale
+    """Direct least-squares ellipse, cut to the points' extent along its major axis (sec. 2.2.2): :func:`fit_ellipses`
+    of one."""
+    fit = fit_ellipses([points])[0]
+    if isinstance(fit, DegenerateClusterError):
+        raise fit
+    return fit
 
 
 def fit_ellipses(
     clouds: list[np.ndarray], prepared: list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError] | None = None
 ) -> list[ShapeFit | DegenerateClusterError]:
-    """:func:`fit_ellipse` for many clusters at once: the least-squares systems of all of them are built and
-    solved as stacked arrays, so a scan's twenty boats cost about what a few cost one at a time.
+    """Direct least-squares ellipses (Halir & Flusser's stable form, on points normalised by their spread), each
+    cut to its points' extent along its major axis (sec. 2.2.2), with the mean squared Sampson distance as MSE.
+    The least-squares systems of all clusters are built and solved as stacked arrays, so a scan's twenty boats
+    cost about what a few cost one at a time.
 
-    Each entry is the fit, or the :class:`DegenerateClusterError` :func:`fit_ellipse` would have raised.
+    Each entry is the fit, or the :class:`DegenerateClusterError` that makes the cluster unfit (fewer than 5
+    points, collinear or coincident points, no real ellipse).
     ``prepared``: :func:`prepare_all` of ``clouds``, if already at hand.
     """
     out: list[ShapeFit | DegenerateClusterError] = [DegenerateClusterError("ellipse: not fitted")] * len(clouds)
@@ -510,6 +377,7 @@ def fit_ellipses(
     s3[flat] = np.eye(3)  # keeps the stacked solve regular; these clusters are reported below
     t = -np.linalg.solve(s3, scatter[:, 3:, :3])
     m = scatter[:, :3, :3] + scatter[:, :3, 3:] @ t
+    # Premultiply by the inverse of the constraint matrix C1 = [[0, 0, 2], [0, -1, 0], [2, 0, 0]].
     m = np.stack([m[:, 2] / 2.0, -m[:, 1], m[:, 0] / 2.0], axis=1)
     finite = np.isfinite(m).all(axis=(1, 2))
     m[~finite] = np.eye(3)
@@ -520,7 +388,8 @@ def fit_ellipses(
     pick = np.argmax(np.where(elliptic, cond, -np.inf), axis=1)
     a1 = vecs[np.arange(k), :, pick]  # (k, 3)
     conics = np.concatenate([a1, np.einsum("kij,kj->ki", t, a1)], axis=1)
-    # From here on as _cut_ellipse, for all clusters at once (the same formulas, as arrays).
+    # The Sampson MSE of the normalised conic; then its centre and axes, the quadratic form made positive definite
+    # (eigenvectors have no sign).
     norm = np.linalg.norm(conics, axis=1, keepdims=True)
     cn = conics / np.where(norm > 0.0, norm, 1.0)
     val = np.einsum("kj,kjn->kn", cn, design)
@@ -549,7 +418,8 @@ def fit_ellipses(
     mean_v = (v * ones).sum(axis=1) / n
     length = hi_u - lo_u
     mid_u = 0.5 * (lo_u + hi_u)
-    # The minor axis is only as trustworthy as the hull's curvature (see _cut_ellipse).
+    # The minor axis is only as trustworthy as the hull's curvature: keep the fitted width unless it exceeds the
+    # visible length (an almost straight side fits a huge ellipse); then keep the visible side and shrink inward.
     spread_v, full_v = hi_v - lo_v, 2.0 * semi_minor
     wide = spread_v >= full_v
     fits = ~wide & (full_v <= length)
@@ -671,61 +541,16 @@ def complete_symmetric_hull(
     A square end as deep as the box means the whole width is in view already. Cabin faces amidships are ignored.
     Returns ``fit`` itself when nothing applies; otherwise a copy with ``completed`` set.
     """
-    cfg = config or ShapeConfig()
-    if fit.kind is not ShapeKind.BOX or fit.n_points < 6 or fit.length <= 0.0:
-        return fit
-    c, s = math.cos(fit.heading), math.sin(fit.heading)
-    pts = np.asarray(points, dtype=float)[:, :2]
-    pts = pts[np.isfinite(pts).all(axis=1)]
-    d = pts - fit.center
-    u = d[:, 0] * c + d[:, 1] * s
-    v = d[:, 1] * c - d[:, 0] * s
-    rel = np.asarray(sensor_position, dtype=float)[:2] - fit.center
-    sv = float(rel[1] * c - rel[0] * s)
-    half_w, half_l = 0.5 * fit.width, 0.5 * fit.length
-    if abs(sv) <= half_w:  # the sensor is not beside the box: no one-sided view across the width
-        return fit
-    near = 1.0 if sv > 0.0 else -1.0
-    depth = half_w - near * v  # 0 on the near side, fit.width on the far edge
-    zone = half_l - cfg.taper_end_zone * fit.length
-    tip_depth = 0.0
-    for end in (1.0, -1.0):
-        at_end = u * end >= zone
-        if np.count_nonzero(at_end) < 3:
-            continue
-        de, ue = depth[at_end], u[at_end]
-        tip = float(de.max())
-        if tip < cfg.taper_min_depth:
-            continue
-        band = float(np.max(half_l - end * ue[de > 0.5 * tip]))  # how far back the deeper half reaches
-        if band > cfg.taper_band_max_ratio * tip:
-            continue  # too gentle for a stem: a straight side the box is slightly turned against
-        if band > max(cfg.taper_min_band, cfg.taper_band_ratio * tip):
-            tip_depth = max(tip_depth, tip)
-        elif tip >= 0.9 * fit.width:
-            return fit  # a square end across the whole box: the width is seen
-    if tip_depth <= 0.0 or 2.0 * tip_depth < fit.width:
-        return fit  # no taper, or one too shallow to hold what was seen beyond it
-    # The centreline is tip_depth behind the near side; the beam is twice that.
-    width = 2.0 * tip_depth
-    shift = near * (half_w - tip_depth)  # new centre's v in the old box frame
-    center = fit.center + shift * np.array([-s, c])
-    length, heading = fit.length, fit.heading
-    if width > length:
-        length, width, heading = width, length, _axis_angle(heading + HALF_PI)
-    return ShapeFit(center, heading, length, width, fit.mse, fit.kind, fit.n_points, fit.method, completed=True)
+    return complete_symmetric_hulls([fit], [points], sensor_position, config)[0]
 
 
 def complete_symmetric_hulls(
     fits: list[ShapeFit], clouds: list[np.ndarray], sensor_position: np.ndarray, config: ShapeConfig | None = None
 ) -> list[ShapeFit]:
     """:func:`complete_symmetric_hull` for many fits at once (each with its cluster's points): the per-point steps
-    run on stacked, padded arrays, the few per-fit decisions in Python, each with the same arithmetic as the
-    one-fit function, so the results are the same."""
+    run on stacked, padded arrays, the few per-fit decisions in Python."""
     cfg = config or ShapeConfig()
     out = list(fits)
-    if cfg.taper_min_depth <= 0.0:  # a zero tip can leave an end's deeper half empty: only the one-fit form copes
-        return [complete_symmetric_hull(f, c, sensor_position, cfg) for f, c in zip(fits, clouds, strict=True)]
     sensor = np.asarray(sensor_position, dtype=float)[:2]
     batch: list[tuple[int, float, float, float]] = []  # (index, cos, sin, which side the sensor is on)
     for i, fit in enumerate(fits):

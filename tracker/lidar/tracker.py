@@ -37,7 +37,6 @@ from tracker.lidar.shape_fit import (
     DegenerateClusterError,
     ShapeFit,
     cluster_height,
-    complete_symmetric_hull,
     complete_symmetric_hulls,
     fit_ellipses,
     fit_lshape_corners,
@@ -278,9 +277,9 @@ class LidarTracker:
         The configured fit (paper sec. 2.2-2.3), then, as configured, the heading guard and (mode "adaptive") the
         hull symmetry completion. Raises :class:`DegenerateClusterError` for a footprint without finite points.
         """
-        fit = self._guarded_fit(footprint, own, ellipse, box)
-        if self._completes_hulls():
-            fit = complete_symmetric_hull(fit, footprint, own, self.config.shape)
+        fit = self.fit_footprints([footprint], own, [ellipse], [box])[0]
+        if isinstance(fit, DegenerateClusterError):
+            raise fit
         return fit
 
     def fit_footprints(
