@@ -26,7 +26,8 @@ import numpy as np
 
 
 def spreads(columns: np.ndarray, quantile: float) -> np.ndarray:
-    """(m,) ``spread`` of each column of ``columns`` (n, m), with one sort for all of them."""
+    """(m,) width between the ``quantile`` and ``1 - quantile`` quantiles of each column of ``columns`` (n, m):
+    np.quantile's linear interpolation without its overhead, one sort for all columns (this runs every frame)."""
     n = columns.shape[0]
     if n < 2:
         return np.zeros(columns.shape[1])
@@ -39,16 +40,9 @@ def spreads(columns: np.ndarray, quantile: float) -> np.ndarray:
 
 
 def spread(values: np.ndarray, quantile: float) -> float:
-    """Width between the ``quantile`` and ``1 - quantile`` quantiles (robust extent of a sparse outline)."""
-    n = values.size
-    if n < 2:
-        return 0.0
-    v = np.sort(values)  # np.quantile's linear interpolation, without its overhead (this runs per track per frame)
-    pos = np.array([quantile, 1.0 - quantile]) * (n - 1)
-    lo = np.floor(pos).astype(np.int64)
-    hi = np.minimum(lo + 1, n - 1)
-    q = v[lo] + (pos - lo) * (v[hi] - v[lo])
-    return float(q[1] - q[0])
+    """Width between the ``quantile`` and ``1 - quantile`` quantiles (robust extent of a sparse outline):
+    :func:`spreads` of one column."""
+    return float(spreads(np.asarray(values, dtype=float).reshape(-1, 1), quantile)[0])
 
 
 def visible_side_centre(
