@@ -64,41 +64,31 @@ def occluders(result: ClusterResult, min_points: int) -> np.ndarray:
 
 
 def occluded_by_nearer(
-    members: list[int], result: ClusterResult, margin: float, depth: float = 1.0, min_points: int = 1
-) -> bool:
-    """Whether the object made of clusters ``members`` touches, in bearing, a cluster clearly in front of it.
+    groups: list[list[int]], result: ClusterResult, margin: float, depth: float = 1.0, min_points: int = 1
+) -> np.ndarray:
+    """(g,) bool: whether each object, made of the clusters of one of ``groups``, touches in bearing a cluster
+    clearly in front of it.
 
     Such an object may extend into the nearer one's shadow: its visible extent, and so its fitted centre and size,
     are cut short. ``margin`` (rad) widens the test for the gap the shadow edge leaves; ``depth`` (m) is how much
-    nearer an occluder must be; an occluder has at least ``min_points`` returns.
+    nearer an occluder must be; an occluder has at least ``min_points`` returns (:func:`occluders`). All objects
+    against all clusters at once.
     """
-    if result.bearing is None or result.bearing_lo is None or result.bearing_hi is None:
-        return False
-    ref = float(result.bearing[members[0]])
-
-    def span(idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        shift = (result.bearing[idx] - ref + np.pi) % (2.0 * np.pi) - np.pi
-        return shift + result.bearing_lo[idx], shift + result.bearing_hi[idx]
-
-    own_lo, own_hi = span(np.asarray(members))
-    lo, hi = float(own_lo.min()), float(own_hi.max())
-    r = float(result.min_range[members].min())
-    others = np.setdiff1d(np.flatnonzero((result.min_range < r - depth) & occluders(result, min_points)), members)
-    if others.size == 0:
-        return False
-    o_lo, o_hi = span(others)
-    return bool(np.any((o_lo <= hi + margin) & (o_hi >= lo - margin)))
-
-
-def occluded_clusters(result: ClusterResult, margin: float, depth: float = 1.0, min_points: int = 1) -> np.ndarray:
-    """:func:`occluded_by_nearer` for every single cluster at once: (k,) bool."""
-    k = len(result.clusters)
-    if k == 0 or result.bearing is None or result.bearing_lo is None or result.bearing_hi is None:
-        return np.zeros(k, dtype=bool)
+    g = len(groups)
+    if g == 0 or result.bearing is None or result.bearing_lo is None or result.bearing_hi is None:
+        return np.zeros(g, dtype=bool)
     b, lo, hi = result.bearing, result.bearing_lo, result.bearing_hi
-    shift = (b[None, :] - b[:, None] + np.pi) % (2.0 * np.pi) - np.pi  # [i, j]: j's centre seen from i's
-    nearer = (result.min_range[None, :] < result.min_range[:, None] - depth) & occluders(result, min_points)[None, :]
-    touch = (shift + lo[None, :] <= hi[:, None] + margin) & (shift + hi[None, :] >= lo[:, None] - margin)
+    first = np.array([m[0] for m in groups])
+    member = np.zeros((g, len(result.clusters)), dtype=bool)
+    for row, m in enumerate(groups):
+        member[row, m] = True
+    shift = (b[None, :] - b[first][:, None] + np.pi) % (2.0 * np.pi) - np.pi  # [o, j]: j's centre seen from o's
+    span_lo, span_hi = shift + lo[None, :], shift + hi[None, :]
+    own_lo = np.where(member, span_lo, np.inf).min(axis=1)
+    own_hi = np.where(member, span_hi, -np.inf).max(axis=1)
+    own_range = np.where(member, result.min_range[None, :], np.inf).min(axis=1)
+    nearer = (result.min_range[None, :] < own_range[:, None] - depth) & occluders(result, min_points)[None, :] & ~member
+    touch = (span_lo <= own_hi[:, None] + margin) & (span_hi >= own_lo[:, None] - margin)
     return np.any(nearer & touch, axis=1)
 
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from tracker.assignment import Assignment
 from tracker.lidar.association import associate, footprint_covariance
-from tracker.lidar.clustering import ClusterResult, cluster_points, occluded_by_nearer, occluded_clusters
+from tracker.lidar.clustering import ClusterResult, cluster_points, occluded_by_nearer
 from tracker.lidar.config import LidarTrackerConfig
 from tracker.lidar.ekf import (
     HGT,
@@ -453,11 +453,7 @@ class LidarTracker:
         margin, result = self.config.cluster.occlusion_margin, self._cluster_result
         assert result is not None  # set by detect()
         min_points = self.config.cluster.occluder_min_points
-        single = occluded_clusters(result, margin, min_points=min_points)
-        occluded = [
-            bool(single[m[0]]) if len(m) == 1 else occluded_by_nearer(m, result, margin, min_points=min_points)
-            for m in self._detection_clusters
-        ]
+        occluded = occluded_by_nearer(self._detection_clusters, result, margin, min_points=min_points).tolist()
         measurements = self.measurements(detections, own, own_yaw, occluded)
         assignment = self._associate(measurements)
 
