@@ -117,18 +117,15 @@ def visibility(
 
 
 def measurement_noise(p_vis: np.ndarray | None, config: EkfConfig) -> np.ndarray:
-    """Eq. 11: R_k = R_full + r (1 - p)(1 - p)^T (or its diagonal, see ``EkfConfig.inflation_form``); eq. 12."""
-    r_full = np.diag(np.square(np.asarray(config.r_full_std, dtype=float)))
-    if p_vis is None or not config.adaptive_r:
-        return r_full
-    miss = 1.0 - np.clip(np.asarray(p_vis, dtype=float), 0.0, 1.0)
-    if config.inflation_form == "outer":
-        return r_full + config.r_inflation * np.outer(miss, miss)
-    return r_full + config.r_inflation * np.diag(miss * miss)
+    """Eq. 11 for one visibility vector (:func:`measurement_noises` of one); ``p_vis`` None: R_full (eq. 12)."""
+    if p_vis is None:
+        return np.diag(np.square(np.asarray(config.r_full_std, dtype=float)))
+    return measurement_noises(np.asarray(p_vis, dtype=float)[None], config)[0]
 
 
 def measurement_noises(p_vis: np.ndarray, config: EkfConfig) -> np.ndarray:
-    """:func:`measurement_noise` for (k, 6) visibilities at once: (k, 6, 6), the same elementwise formulas."""
+    """Eq. 11 for (k, 6) visibilities: (k, 6, 6) R_k = R_full + r (1 - p)(1 - p)^T, or its diagonal (see
+    ``EkfConfig.inflation_form``); R_full alone without ``adaptive_r`` (eq. 12)."""
     p_vis = np.asarray(p_vis, dtype=float).reshape(-1, DIM_Z)
     r_full = np.diag(np.square(np.asarray(config.r_full_std, dtype=float)))
     if not config.adaptive_r:

@@ -17,8 +17,9 @@ squared point-to-shape distance (m^2) and the kind.
 
 Ours, not in the paper, used by the tracker's detection step: :func:`guard_heading` (a cabin's faces inside the
 outline break the L-shape assumption; the outline's own edges are tried too), :func:`complete_symmetric_hull` (a
-boat seen from abeam shows its stem on the centreline: the beam is twice its depth), and batch forms of the corner
-and ellipse fits (:func:`fit_lshape_corners`, :func:`fit_ellipses`) with the same results for a whole scan at once.
+boat seen from abeam shows its stem on the centreline: the beam is twice its depth). The corner and ellipse fits and
+the completion run a whole scan's clusters at once as stacked arrays (:func:`fit_lshape_corners`,
+:func:`fit_ellipses`, :func:`complete_symmetric_hulls`); one cluster is a batch of one.
 
 Degenerate input: non-finite rows are dropped; no finite point at all raises :class:`DegenerateClusterError`;
 one or two distinct points give a POINT fit; collinear points give a BOX of width 0. The ellipse fit raises
