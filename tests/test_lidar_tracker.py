@@ -499,3 +499,32 @@ def test_without_the_line_rule_the_new_piece_of_wall_is_tracked() -> None:
     confirmed = [tr for tr in _wall_then_a_new_piece(config) if tr.confirmed]
     assert len(confirmed) == 2
     assert min(np.hypot(*(tr.position - np.array([61.0, 45.0]))) for tr in confirmed) < 1.5
+
+
+def test_a_long_hull_cut_by_a_passing_boats_shadow_keeps_its_length_place_and_track() -> None:
+    """A 45 m ship broadside 80 m north, steaming east at 1.5 m/s, and a 6 m boat 30 m north crossing at 4 m/s:
+    the boat's shadow sweeps along the ship for 7 s, first over its west end, then cutting it in two, then over its
+    east end. The shadowed end is not the hull's (EkfBank._view_aware_plan measures the lit end), so the ship's
+    track keeps its length and stays on the ship, and no second track forms on it. Before, the track shrank to the
+    lit piece (to 33 m), slid with it along the hull (up to 34 m) and the other piece started a track of its own (26
+    track-scans). (Across the hull the centre stays where the one side seen puts it, 3.4 m short, before, during
+    and after the shadow: a one-sided view's error, not this test's.)"""
+    rng = np.random.default_rng(5)
+    tracker = LidarTracker()
+    worst_along, shortest, second_tracks = 0.0, np.inf, 0
+    for k in range(220):
+        t = k * DT
+        ship = SyntheticObject((80.0, -20.0 + 1.5 * t), math.pi / 2, 45.0, 8.0, 6.0, ShapeKind.BOX)
+        boat = SyntheticObject((30.0, -40.0 + 4.0 * t), math.pi / 2, 6.0, 2.5, 2.5, ShapeKind.BOX)
+        tracks = tracker.step(scan_objects([ship, boat], ORIGIN, range_noise=0.02, rng=rng), t, ORIGIN, 0.0)
+        if t < 4.0:
+            continue
+        on_ship = [tr for tr in near(tracks, ship, 26.0) if abs(tr.position[0] - 80.0) < 6.0]
+        assert on_ship, f"t = {t:.1f} s"
+        second_tracks += len(on_ship) - 1
+        best = min(on_ship, key=lambda tr: abs(tr.position[1] - ship.center[1]))
+        worst_along = max(worst_along, abs(float(best.position[1]) - ship.center[1]))  # east: along the hull
+        shortest = min(shortest, best.length)
+    assert second_tracks == 0
+    assert worst_along < 0.5  # m
+    assert shortest > 43.0  # m, of 45

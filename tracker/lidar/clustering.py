@@ -237,3 +237,31 @@ def cluster_points(
         span_lo[candidates],
         span_hi[candidates],
     )
+
+
+def shadowed_ends(
+    members: list[int], result: ClusterResult, margin: float, depth: float = 1.0, min_points: int = 1
+) -> tuple[bool, bool]:
+    """Which ends, in bearing, of the object made of clusters ``members`` a nearer cluster's shadow reaches: (the
+    low-bearing end, the high-bearing end). A shadow over an end hides where the hull goes on; one that falls
+    within the object's span (a cabin seen over a nearer hull, a gap between two pieces) leaves both ends seen.
+    ``margin``, ``depth``, ``min_points`` as :func:`occluded_by_nearer`."""
+    if result.bearing is None or result.bearing_lo is None or result.bearing_hi is None:
+        return False, False
+    ref = float(result.bearing[members[0]])
+
+    def span(idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        shift = (result.bearing[idx] - ref + np.pi) % (2.0 * np.pi) - np.pi
+        return shift + result.bearing_lo[idx], shift + result.bearing_hi[idx]
+
+    own_lo, own_hi = span(np.asarray(members))
+    lo, hi = float(own_lo.min()), float(own_hi.max())
+    r = float(result.min_range[members].min())
+    others = np.setdiff1d(np.flatnonzero((result.min_range < r - depth) & occluders(result, min_points)), members)
+    if others.size == 0:
+        return False, False
+    o_lo, o_hi = span(others)
+    return (
+        bool(np.any((o_lo <= lo + margin) & (o_hi >= lo - margin))),
+        bool(np.any((o_lo <= hi + margin) & (o_hi >= hi - margin))),
+    )

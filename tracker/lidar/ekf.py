@@ -27,6 +27,7 @@ width outgrows its length is re-expressed a quarter turn on (:meth:`EkfBank._can
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -152,6 +153,9 @@ class Measurement:
     # Own boat (north, east) when the cluster was seen; enables the view-aware update (EkfConfig.view_aware).
     sensor: np.ndarray | None = None
     completed: bool = False  # width doubled by hull symmetry (shape_fit.complete_symmetric_hull): whole
+    # Ends, in bearing from the sensor (low, high), that a nearer object's shadow reaches (clustering.shadowed_ends):
+    # the hull may go on there, so the view-aware update measures the other end, or neither.
+    shadowed: tuple[bool, bool] = (False, False)
 
     def vector(self) -> np.ndarray:
         return np.array([self.center[0], self.center[1], self.heading, self.length, self.width, self.height])
@@ -213,20 +217,18 @@ def _apply(filters: list[ExtendedKalmanFilter], x: np.ndarray, h: np.ndarray, y:
 
 
 def _update_rows(
-    filters: list[ExtendedKalmanFilter],
-    rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
-    heading_row: int | None = 2,
+    filters: list[ExtendedKalmanFilter], rows: list[tuple[np.ndarray, np.ndarray, np.ndarray, int]]
 ) -> None:
-    """Linear(ised) Kalman update, Joseph form, of each filter with its own (z, H, R), stacked by row count; the
-    residual of row ``heading_row`` (None: no heading measured) is wrapped to (-pi, pi]."""
-    by_size: dict[int, list[int]] = {}
-    for j, (z, _, _) in enumerate(rows):
-        by_size.setdefault(z.shape[0], []).append(j)
-    for group in by_size.values():
+    """Linear(ised) Kalman update, Joseph form, of each filter with its own (z, H, R, heading row), stacked by row
+    count and heading row; the residual of the heading row (-1: no heading measured) is wrapped to (-pi, pi]."""
+    groups: dict[tuple[int, int], list[int]] = {}
+    for j, (z, _, _, heading_row) in enumerate(rows):
+        groups.setdefault((z.shape[0], heading_row), []).append(j)
+    for (_, heading_row), group in groups.items():
         x = np.array([filters[j].x for j in group])
         h = np.array([rows[j][1] for j in group])
         y = np.array([rows[j][0] for j in group]) - (h @ x[:, :, None])[:, :, 0]
-        if heading_row is not None:
+        if heading_row >= 0:
             y[:, heading_row] = (y[:, heading_row] + math.pi) % (2.0 * math.pi) - math.pi
         _apply([filters[j] for j in group], x, h, y, np.array([rows[j][2] for j in group]))
 
@@ -356,16 +358,8 @@ class EkfBank:
                 out.append(m)
                 continue
             out.append(
-                Measurement(
-                    m.center,
-                    float(wrap_angle(heading[j, b])),
-                    float(length[j, b]),
-                    float(width[j, b]),
-                    m.height,
-                    m.kind,
-                    m.r,
-                    m.sensor,
-                    m.completed,
+                dataclasses.replace(
+                    m, heading=float(wrap_angle(heading[j, b])), length=float(length[j, b]), width=float(width[j, b])
                 )
             )
         return out
@@ -380,9 +374,7 @@ class EkfBank:
         shaped = [(i, m) for i, m in pairs if m.kind is not ShapeKind.POINT]
         if points:
             _update_rows(
-                [self.filters[i] for i, _ in points],
-                [(m.center, H_POSITION, m.r[:2, :2]) for _, m in points],
-                heading_row=None,
+                [self.filters[i] for i, _ in points], [(m.center, H_POSITION, m.r[:2, :2], -1) for _, m in points]
             )
         view_aware = self.config.view_aware
         aware = [(i, m) for i, m in shaped if view_aware and m.sensor is not None]
@@ -391,7 +383,7 @@ class EkfBank:
         if aware:
             seen = [self._seen(i, m) for i, m in aware]
             partial: list[int] = []
-            partial_rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+            partial_rows: list[tuple[np.ndarray, np.ndarray, np.ndarray, int]] = []
             for (i, m), aliased, s in zip(aware, self.choose_aliases(aware, seen), seen, strict=True):
                 aliased, rows = self._view_aware_plan(i, m, aliased, s)
                 if rows is None:
@@ -420,7 +412,7 @@ class EkfBank:
 
     def _view_aware_plan(
         self, i: int, m: Measurement, aliased: Measurement, seen: tuple[bool, bool]
-    ) -> tuple[Measurement, tuple[np.ndarray, np.ndarray, np.ndarray] | None]:
+    ) -> tuple[Measurement, tuple[np.ndarray, np.ndarray, np.ndarray, int] | None]:
         """Eq. 7's update, with the centre measured from the visible edge where the far one may be missing.
 
         In the track's frame (u along its heading, v across), per axis, with d = measured extent - track size:
@@ -433,10 +425,14 @@ class EkfBank:
           missing (out of view, or too sparse to show), so the axis measures the coordinate of its near edge,
           h = p.e + side * size / 2, not the centre.
         * otherwise the size itself is measured only when seen, so a one-sided view never shrinks it.
+        * a shadow over an end (``m.shadowed``), on the axis that runs more across the line of sight: that end is
+          not the hull's; the axis measures the other end's coordinate (both shadowed: no coordinate along it), and
+          its size only if it came out longer. A ship behind a passing boat keeps its length and its place instead
+          of shrinking to, and sliding with, its lit piece.
 
         The heading and height update as usual; directions are the predicted heading's. ``aliased`` is ``m``'s
         alias chosen with ``seen`` (:meth:`choose_alias`). Returns the aliased measurement and, unless it is
-        eq. 7's plain update, the rows (z, H, R) to apply.
+        eq. 7's plain update, the rows (z, H, R, heading row) to apply.
         """
         cfg = self.config
         ekf = self.filters[i]
@@ -468,37 +464,50 @@ class EkfBank:
             # (a shadow, a sparse far part), so the centre stays the measurement.
             beyond = abs(float(rel[a])) - 0.5 * sizes[a] > 0.2 * abs(float(rel[1 - a]))
             edge[a] = beyond and (not seen[a] or d < -cfg.partial_tolerance)
-        if measured[0] and measured[1] and not (edge[0] or edge[1]):
+        side = [(1.0 if rel[a] > 0.0 else -1.0) if edge[a] else 0.0 for a in (0, 1)]  # 0: the centre
+        located = [True, True]
+        if m.shadowed[0] or m.shadowed[1]:
+            los = m.center - m.sensor
+            across = axes @ np.array([-los[1], los[0]])  # > 0: the axis runs toward higher bearings
+            cut = int(np.argmax(np.abs(across)))
+            plus_cut, minus_cut = m.shadowed[::-1] if across[cut] > 0.0 else m.shadowed
+            measured[cut] = sizes[cut] - float(x[LEN + cut]) > cfg.partial_tolerance
+            located[cut] = not (plus_cut and minus_cut)
+            side[cut] = -1.0 if plus_cut else (1.0 if minus_cut else 0.0)
+        if measured[0] and measured[1] and side == [0.0, 0.0] and located[0] and located[1]:
             return m, None
-        return m, self._partial_rows(m, axes, rel, edge, measured)
+        return m, self._partial_rows(m, axes, side, measured, located)
 
     @staticmethod
     def _partial_rows(
-        m: Measurement, axes: np.ndarray, rel: np.ndarray, edge: list[bool], measured: list[bool]
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(z, H, R) of the view-aware update: the centre (or near edge) along and across the track's axes, the
-        heading, the measured sizes and the height; built at their final size (no 6-row table cut down)."""
+        m: Measurement, axes: np.ndarray, side: list[float], measured: list[bool], located: list[bool]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """(z, H, R, heading row) of the view-aware update: along each ``located`` track axis its centre, or with
+        ``side`` +-1 the coordinate of that edge; then the heading, the ``measured`` sizes and the height; built at
+        their final size (no 6-row table cut down)."""
+        along = [a for a in (0, 1) if located[a]]
         others = [(PSI, m.heading, Z_PSI)]
         others += [(LEN + a, (m.length, m.width)[a], Z_LEN + a) for a in (0, 1) if measured[a]]
         others.append((HGT, m.height, Z_HGT))
-        n = 2 + len(others)
+        k = len(along)
+        n = k + len(others)
         rows = np.zeros((n, DIM_X))
         z = np.empty(n)
         r = np.zeros((n, n))
-        r[:2, :2] = axes @ m.r[:2, :2] @ axes.T
-        rows[:2, PN : PE + 1] = axes
+        picked = axes[along]
+        r[:k, :k] = picked @ m.r[:2, :2] @ picked.T
+        rows[:k, PN : PE + 1] = picked
         sizes = (m.length, m.width)
-        for a in (0, 1):
-            z[a] = float(axes[a] @ m.center)
-            if edge[a]:
-                side = 1.0 if rel[a] > 0.0 else -1.0
-                rows[a, LEN + a] = 0.5 * side
-                z[a] += 0.5 * side * sizes[a]
-        for j, (state, value, comp) in enumerate(others, start=2):
+        for row, a in enumerate(along):
+            z[row] = float(axes[a] @ m.center)
+            if side[a]:
+                rows[row, LEN + a] = 0.5 * side[a]
+                z[row] += 0.5 * side[a] * sizes[a]
+        for j, (state, value, comp) in enumerate(others, start=k):
             rows[j, state] = 1.0
             z[j] = value
             r[j, j] = m.r[comp, comp]
-        return z, rows, r
+        return z, rows, r, k
 
     def _canonical(self, i: int) -> None:
         """Keep length >= width: a track whose width has outgrown its length is the same box turned 90 deg.

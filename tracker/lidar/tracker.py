@@ -6,6 +6,7 @@ the scan's time and the own boat's pose; nothing here reads a clock or does I/O.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -14,7 +15,7 @@ import numpy as np
 
 from tracker.assignment import Assignment
 from tracker.lidar.association import associate, footprint_covariance
-from tracker.lidar.clustering import ClusterResult, cluster_points, occluded_by_nearer
+from tracker.lidar.clustering import ClusterResult, cluster_points, occluded_by_nearer, shadowed_ends
 from tracker.lidar.config import LidarTrackerConfig
 from tracker.lidar.ekf import (
     HGT,
@@ -455,6 +456,13 @@ class LidarTracker:
         min_points = self.config.cluster.occluder_min_points
         occluded = occluded_by_nearer(self._detection_clusters, result, margin, min_points=min_points).tolist()
         measurements = self.measurements(detections, own, own_yaw, occluded)
+        for j, (members, occ) in enumerate(zip(self._detection_clusters, occluded, strict=True)):
+            if occ:  # which of its ends the shadow reaches (EkfBank._view_aware_plan)
+                # only another hull's shadow: an occluder nearer than this one's whole depth along the line of sight
+                d = np.hypot(*(detections[j].points[:, :2] - own).T)
+                depth = max(1.0, float(d.max() - d.min()) + 1.0)
+                shadowed = shadowed_ends(members, result, margin, depth=depth, min_points=min_points)
+                measurements[j] = dataclasses.replace(measurements[j], shadowed=shadowed)
         assignment = self._associate(measurements)
 
         self.bank.update_many(
@@ -631,7 +639,7 @@ class LidarTracker:
         if not self._velocity_known(ekf.P[None])[0]:
             return m  # velocity not known yet: moving the detection would only add noise
         shifted = m.center + lag * ekf.x[[VN, VE]]
-        return Measurement(shifted, m.heading, m.length, m.width, m.height, m.kind, m.r, m.sensor, m.completed)
+        return dataclasses.replace(m, center=shifted)
 
     def _associate(self, measurements: list[Measurement]) -> Assignment:
         x, p = self.bank.states(), self.bank.covariances()
