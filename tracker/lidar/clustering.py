@@ -20,6 +20,7 @@ mostly downwards: two hulls at 60 m (tolerance 2.6 m) now stay apart from a gap 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.sparse import csr_matrix
@@ -63,20 +64,32 @@ def occluders(result: ClusterResult, min_points: int) -> np.ndarray:
     return np.array([len(c) >= min_points for c in result.clusters], dtype=bool)
 
 
-def occluded_by_nearer(
-    groups: list[list[int]], result: ClusterResult, margin: float, depth: float = 1.0, min_points: int = 1
-) -> np.ndarray:
-    """(g,) bool: whether each object, made of the clusters of one of ``groups``, touches in bearing a cluster
-    clearly in front of it.
+class Shadows(NamedTuple):
+    """Per object (a group of clusters), what the shadows of clusters clearly in front of it do to it."""
 
-    Such an object may extend into the nearer one's shadow: its visible extent, and so its fitted centre and size,
-    are cut short. ``margin`` (rad) widens the test for the gap the shadow edge leaves; ``depth`` (m) is how much
-    nearer an occluder must be; an occluder has at least ``min_points`` returns (:func:`occluders`). All objects
-    against all clusters at once.
+    touched: np.ndarray  # (g,) bool: one touches its bearing span; its visible extent may be cut short
+    low_end: np.ndarray  # (g,) bool: one reaches its low-bearing end: the hull may go on beyond it
+    high_end: np.ndarray  # (g,) bool: the same at its high-bearing end
+
+
+def shadows(
+    groups: list[list[int]],
+    result: ClusterResult,
+    margin: float,
+    depth: float | np.ndarray = 1.0,
+    min_points: int = 1,
+) -> Shadows:
+    """The bearing shadows that fall on each object made of the clusters of one of ``groups``.
+
+    ``margin`` (rad) widens the test for the gap a shadow edge leaves; ``depth`` (m, one for all or (g,) one per
+    object) is how much nearer than the object an occluder must be; an occluder has at least ``min_points``
+    returns (:func:`occluders`). A shadow that falls within an object's span (a cabin seen over a nearer hull, a gap
+    between two pieces) touches it but reaches neither end. All objects against all clusters at once.
     """
     g = len(groups)
     if g == 0 or result.bearing is None or result.bearing_lo is None or result.bearing_hi is None:
-        return np.zeros(g, dtype=bool)
+        none = np.zeros(g, dtype=bool)
+        return Shadows(none, none.copy(), none.copy())
     b, lo, hi = result.bearing, result.bearing_lo, result.bearing_hi
     first = np.array([m[0] for m in groups])
     member = np.zeros((g, len(result.clusters)), dtype=bool)
@@ -84,12 +97,16 @@ def occluded_by_nearer(
         member[row, m] = True
     shift = (b[None, :] - b[first][:, None] + np.pi) % (2.0 * np.pi) - np.pi  # [o, j]: j's centre seen from o's
     span_lo, span_hi = shift + lo[None, :], shift + hi[None, :]
-    own_lo = np.where(member, span_lo, np.inf).min(axis=1)
-    own_hi = np.where(member, span_hi, -np.inf).max(axis=1)
-    own_range = np.where(member, result.min_range[None, :], np.inf).min(axis=1)
-    nearer = (result.min_range[None, :] < own_range[:, None] - depth) & occluders(result, min_points)[None, :] & ~member
-    touch = (span_lo <= own_hi[:, None] + margin) & (span_hi >= own_lo[:, None] - margin)
-    return np.any(nearer & touch, axis=1)
+    own_lo = np.where(member, span_lo, np.inf).min(axis=1)[:, None]
+    own_hi = np.where(member, span_hi, -np.inf).max(axis=1)[:, None]
+    own_range = np.where(member, result.min_range[None, :], np.inf).min(axis=1)[:, None]
+    solid = occluders(result, min_points)[None, :]
+    nearer = (result.min_range[None, :] < own_range - np.reshape(depth, (-1, 1))) & solid & ~member
+    return Shadows(
+        np.any(nearer & (span_lo <= own_hi + margin) & (span_hi >= own_lo - margin), axis=1),
+        np.any(nearer & (span_lo <= own_lo + margin) & (span_hi >= own_lo - margin), axis=1),
+        np.any(nearer & (span_lo <= own_hi + margin) & (span_hi >= own_hi - margin), axis=1),
+    )
 
 
 def range_tolerance(range_m: np.ndarray, config: ClusterConfig) -> np.ndarray:
@@ -236,32 +253,4 @@ def cluster_points(
         centre[candidates],
         span_lo[candidates],
         span_hi[candidates],
-    )
-
-
-def shadowed_ends(
-    members: list[int], result: ClusterResult, margin: float, depth: float = 1.0, min_points: int = 1
-) -> tuple[bool, bool]:
-    """Which ends, in bearing, of the object made of clusters ``members`` a nearer cluster's shadow reaches: (the
-    low-bearing end, the high-bearing end). A shadow over an end hides where the hull goes on; one that falls
-    within the object's span (a cabin seen over a nearer hull, a gap between two pieces) leaves both ends seen.
-    ``margin``, ``depth``, ``min_points`` as :func:`occluded_by_nearer`."""
-    if result.bearing is None or result.bearing_lo is None or result.bearing_hi is None:
-        return False, False
-    ref = float(result.bearing[members[0]])
-
-    def span(idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        shift = (result.bearing[idx] - ref + np.pi) % (2.0 * np.pi) - np.pi
-        return shift + result.bearing_lo[idx], shift + result.bearing_hi[idx]
-
-    own_lo, own_hi = span(np.asarray(members))
-    lo, hi = float(own_lo.min()), float(own_hi.max())
-    r = float(result.min_range[members].min())
-    others = np.setdiff1d(np.flatnonzero((result.min_range < r - depth) & occluders(result, min_points)), members)
-    if others.size == 0:
-        return False, False
-    o_lo, o_hi = span(others)
-    return (
-        bool(np.any((o_lo <= lo + margin) & (o_hi >= lo - margin))),
-        bool(np.any((o_lo <= hi + margin) & (o_hi >= hi - margin))),
     )

@@ -153,7 +153,7 @@ class Measurement:
     # Own boat (north, east) when the cluster was seen; enables the view-aware update (EkfConfig.view_aware).
     sensor: np.ndarray | None = None
     completed: bool = False  # width doubled by hull symmetry (shape_fit.complete_symmetric_hull): whole
-    # Ends, in bearing from the sensor (low, high), that a nearer object's shadow reaches (clustering.shadowed_ends):
+    # Ends, in bearing from the sensor (low, high), that a nearer object's shadow reaches (clustering.shadows):
     # the hull may go on there, so the view-aware update measures the other end, or neither.
     shadowed: tuple[bool, bool] = (False, False)
 

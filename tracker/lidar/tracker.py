@@ -15,7 +15,7 @@ import numpy as np
 
 from tracker.assignment import Assignment
 from tracker.lidar.association import associate, footprint_covariance
-from tracker.lidar.clustering import ClusterResult, cluster_points, occluded_by_nearer, shadowed_ends
+from tracker.lidar.clustering import ClusterResult, cluster_points, shadows
 from tracker.lidar.config import LidarTrackerConfig
 from tracker.lidar.ekf import (
     HGT,
@@ -454,14 +454,15 @@ class LidarTracker:
         margin, result = self.config.cluster.occlusion_margin, self._cluster_result
         assert result is not None  # set by detect()
         min_points = self.config.cluster.occluder_min_points
-        occluded = occluded_by_nearer(self._detection_clusters, result, margin, min_points=min_points).tolist()
+        groups = self._detection_clusters
+        occluded = shadows(groups, result, margin, min_points=min_points).touched.tolist()
         measurements = self.measurements(detections, own, own_yaw, occluded)
-        for j, (members, occ) in enumerate(zip(self._detection_clusters, occluded, strict=True)):
-            if occ:  # which of its ends the shadow reaches (EkfBank._view_aware_plan)
-                # only another hull's shadow: an occluder nearer than this one's whole depth along the line of sight
-                d = np.hypot(*(detections[j].points[:, :2] - own).T)
-                depth = max(1.0, float(d.max() - d.min()) + 1.0)
-                shadowed = shadowed_ends(members, result, margin, depth=depth, min_points=min_points)
+        if any(occluded):  # which of their ends the shadows reach (EkfBank._view_aware_plan)
+            # only another hull's shadow: an occluder nearer than this one's whole depth along the line of sight
+            depth = np.array([np.ptp(np.hypot(*(det.points[:, :2] - own).T)) + 1.0 for det in detections])
+            ends = shadows(groups, result, margin, depth=depth, min_points=min_points)
+            for j in np.flatnonzero(occluded).tolist():
+                shadowed = (bool(ends.low_end[j]), bool(ends.high_end[j]))
                 measurements[j] = dataclasses.replace(measurements[j], shadowed=shadowed)
         assignment = self._associate(measurements)
 
