@@ -83,9 +83,10 @@ def test_choppy_heaving_sea_gives_no_obstacle_and_a_low_hull_in_it_still_does() 
             assert len(pipeline.lidar_tracker.last_clusters) == 1
 
 
-def _hull_in_chop(grow_m: float) -> tuple[int, int, int]:
+def _hull_in_chop(grow_m: float) -> tuple[int, int, int, int]:
     """Eight revolutions of a 6 m hull face 1.2 m high, 25 m off on the 45 deg bearing, in the chop of the test
-    above; (solid returns, within-margin returns on the face, within-margin returns off it) of the last one."""
+    above; of the last one: solid returns, within-margin returns on the face (within 0.3 m of it), those on
+    it or at its foot (0.5 m in front of it, or its ends), and those elsewhere."""
     pipeline = lidar_pipeline(MOUNT)
     pipeline.settings = replace(pipeline.settings, hull_margin_grow_m=grow_m)
     ego = SteadyEgo(rolling, YAW)
@@ -100,19 +101,61 @@ def _hull_in_chop(grow_m: float) -> tuple[int, int, int]:
         out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
     low = pipeline.last_preprocess.within_margin_world[:, :2]
     rel = low - centre
-    on_face = (np.abs(rel @ np.array([math.cos(bearing), math.sin(bearing)])) <= 0.3) & (np.abs(rel @ along) <= 3.0)
+    radial = np.abs(rel @ np.array([math.cos(bearing), math.sin(bearing)]))
+    on_face = (radial <= 0.3) & (np.abs(rel @ along) <= 3.0)
+    at_foot = (radial <= 0.5) & (np.abs(rel @ along) <= 3.5)
     assert [t.confirmed for t in out.tracks] == [True]
-    return out.n_lidar_points, int(np.count_nonzero(on_face)), int(np.count_nonzero(~on_face))
+    n_face, n_foot = int(np.count_nonzero(on_face)), int(np.count_nonzero(at_foot))
+    return out.n_lidar_points, n_face, n_foot, int(np.count_nonzero(~at_foot))
 
 
 def test_a_tracked_hulls_returns_within_the_sea_margin_are_obstacles_and_the_crests_around_it_are_not() -> None:
     """The margin over the crests (0.3-0.48 m) hides the face's foot; once the face is a confirmed track, its own
-    returns in that band are solid again (tracker/lidar/hull_gate.py), and the crests beyond its box stay water."""
-    gated, on_face, off_face = _hull_in_chop(0.5)
-    plain, on_face_plain, _ = _hull_in_chop(-1.0)
+    returns in that band (and the crests at its foot, within 0.5 m in front of it) are solid again
+    (tracker/lidar/hull_gate.py), and the crests beyond its box stay water."""
+    gated, on_face, at_foot, off_face = _hull_in_chop(0.5)
+    plain, on_face_plain, _, _ = _hull_in_chop(-1.0)
     assert on_face == on_face_plain and on_face >= 10  # the face's foot, met by the low beams
     assert off_face > 100  # crests in the band everywhere else
-    assert gated == plain + on_face
+    assert on_face <= gated - plain <= at_foot
+
+
+def _face_margin_heights(range_m: float, **preprocess: float) -> np.ndarray:
+    """Heights above the fitted sea of the within-margin returns on the face of ``_hull_in_chop`` moved ``range_m``
+    off, after eight revolutions; ``preprocess`` overrides the shipped PreprocessConfig."""
+    pipeline = lidar_pipeline(MOUNT)
+    pipeline.lidar_preprocess_config = replace(pipeline.lidar_preprocess_config, **preprocess)
+    ego = SteadyEgo(rolling, YAW)
+    bearing = math.radians(45.0) + YAW
+    radial = np.array([math.cos(bearing), math.sin(bearing)])
+    along = np.array([-math.sin(bearing), math.cos(bearing)])
+    wall = (tuple(range_m * radial - 3.0 * along), tuple(range_m * radial + 3.0 * along), 1.2)
+    for k in range(8):
+        ret = revolution_over_water(
+            MOUNT, rolling, yaw=YAW, origin_height=0.2, elevation=chop, t0=0.1 * k, walls=(wall,)
+        )
+        pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+    pre = pipeline.last_preprocess
+    low = pre.within_margin_world
+    rel = low[:, :2] - range_m * radial
+    on_face = (np.abs(rel @ radial) <= 0.3) & (np.abs(rel @ along) <= 3.0)
+    origin_height = pipeline.lidar_preprocess_config.origin_height_above_water
+    height = origin_height - low[:, 2] - pre.water.surface(low[:, 0], low[:, 1])
+    return height[on_face]
+
+
+def test_a_hulls_waterline_below_the_calm_floor_is_offered_to_the_hull_gate_beyond_20_m_only() -> None:
+    """35 m off the -3 deg beam meets the face 0-10 cm above the sea, as low as a crest's top and below the calm
+    floor (0.15 m): beyond waterline_gate_range (20 m) such returns go to the hull gate (within_margin_world), which
+    makes those inside a tracked hull's box obstacles. 14 m off the face is met above the floor, and nothing nearer
+    than 20 m below the floor is offered: there it was crests beside false tracks."""
+    floor = lidar_pipeline(MOUNT).lidar_preprocess_config.water.margin_floor
+    far = _face_margin_heights(35.0)
+    assert np.count_nonzero(far <= floor) >= 5 and np.all(far >= -0.05)  # the waterline, not the sea below it
+    far_off = _face_margin_heights(35.0, waterline_gate_range=100.0)
+    assert np.all(far_off > floor) and far_off.size == np.count_nonzero(far > floor)
+    near = _face_margin_heights(14.0)
+    assert near.size >= 20 and np.all(near > floor)
 
 
 @pytest.mark.parametrize(

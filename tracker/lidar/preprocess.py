@@ -42,8 +42,9 @@ class PreprocessResult:
     n_isolated: int = 0  # alone in the range image: rain drops, spray droplets
     n_grazing: int = 0  # within the sea margin but solid: a solid's foot in calm water (see preprocess)
     water: WaterEstimate = field(default_factory=WaterEstimate)
-    # (L, 3) world NED: returns within the sea margin yet above its floor, not alone in the range image and beyond
-    # the spray range: a crest's top or a hull's lower strakes; only a known hull around them can tell which
+    # (L, 3) world NED: returns within the sea margin yet above its floor (at any height in it beyond the config's
+    # waterline_gate_range), not alone in the range image and beyond the spray range: a crest's top or a hull's
+    # lower strakes or waterline; only a known hull around them can tell which
     within_margin_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     # (F, 3) world NED: returns within the sea margin on a line along one laser with a kept return (config
     # solid_line_min_run): a solid's foot for the obstacle array, not evidence for the tracker, which the kept part
@@ -329,7 +330,9 @@ def preprocess(
         keep = good.copy()
     else:
         keep[idx[~good]] = False
-    undecided = in_band & ~solid & (height > cfg.water.margin_floor) & (r2_kept >= cfg.spray_near_range**2)
+    # Below the calm floor only far out, where one beam meets a hull at its waterline (config: waterline_gate_range).
+    low_enough = (height > cfg.water.margin_floor) | (r2_kept >= cfg.waterline_gate_range**2)
+    undecided = in_band & ~solid & (r2_kept >= cfg.spray_near_range**2) & low_enough
     if image is not None:
         undecided &= neighbours > 0
     n_nonfinite = n - n_finite
