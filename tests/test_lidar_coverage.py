@@ -126,3 +126,21 @@ def test_a_low_hull_at_50_m_caught_by_one_beam_is_an_obstacle() -> None:
     assert pipeline.last_preprocess.n_isolated == 0
     d = out.distances_cm
     assert abs(int(d[0]) - 5000) <= 30, int(d[0])
+
+
+def test_a_low_wall_met_by_one_beam_at_grazing_incidence_is_an_obstacle_though_its_returns_are_alone() -> None:
+    # A wall 1 m high along the bow's line 5 m to starboard, 50-80 m ahead: only the -1 deg beam meets it, at 3.6-5.7
+    # deg of grazing, so its range steps 1.5-3.5 m between firings and no return has a neighbour at its range (the
+    # rain rule's test); three firings in a row on a straight line are a face, not drops. It goes to the obstacle
+    # array (not to the tracker), in bin 1 (2.5-7.5 deg) at the nearest firing that met it.
+    out, ret, pipeline = _one_revolution((((50.0, 5.0), (80.0, 5.0), 1.0),))
+    on_wall = ret.wall >= 0
+    assert set(np.unique(ret.ring[on_wall]).tolist()) == {7} and np.count_nonzero(on_wall) >= 10
+    pre = pipeline.last_preprocess
+    assert pre.n_isolated >= 0.8 * np.count_nonzero(on_wall)  # alone in the range image, as drops are
+    assert pre.points_world.shape[0] == 0  # nothing of it reaches the tracker
+    nearest = np.hypot(*ret.xyz_body[on_wall, :2].T).min()
+    assert 50.0 <= nearest <= 52.0  # the first firing past the wall's end
+    d = out.distances_cm
+    assert abs(int(d[1]) - nearest * 100) <= 5, (int(d[1]), nearest)
+    assert np.all(d[np.r_[0, 2:72]] > 10000)  # clear or unknown elsewhere: nothing else returned

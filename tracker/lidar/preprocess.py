@@ -250,13 +250,20 @@ def preprocess(
         n_water -= n_grazing
         solid |= foot
     # Rain and spray: alone in the range image (no firing beside it returned at its range).
-    isolated = None
+    isolated = grazing_face = None
     if image is not None and cfg.continuity_min_neighbours > 0:
         need = cfg.continuity_min_neighbours + (r2_kept < cfg.continuity_near_range**2)
         alone = solid & (neighbours < need)
         n_isolated = int(np.count_nonzero(alone))
         solid &= ~alone
         isolated = alone
+        if cfg.grazing_face_array_only:
+            far_alone = np.flatnonzero(alone & (r2_kept >= cfg.continuity_near_range**2))
+            on_line = image.on_ring_line(
+                idx[far_alone], horizontal[idx[far_alone]], cfg.continuity_abs_tol, cfg.continuity_rel_tol
+            )
+            grazing_face = np.zeros(idx.size, dtype=bool)
+            grazing_face[far_alone[on_line]] = True
         # Calm water is a mirror: a firing that meets it does not return. So while the water is not returning (no
         # surface measured, and fewer water-like returns than a fit needs), a return within the sea margin in a
         # line of returns at its range is the foot of a solid the beam met just before the water: a RIB at 41 m
@@ -326,6 +333,8 @@ def preprocess(
         if image is not None and cfg.solid_line_min_run > 0
         else np.zeros(idx.size, dtype=bool)
     )
+    if grazing_face is not None:
+        feet |= grazing_face
     if everything:
         keep = good.copy()
     else:

@@ -157,6 +157,25 @@ class RangeImage:
         range (within abs_tol + rel_tol * r): the return lies on a vertical face."""
         return self._count(r, VERTICAL_OFFSETS, abs_tol, rel_tol) > 0
 
+    def on_ring_line(self, members: np.ndarray, r: np.ndarray, abs_tol: float, rel_tol: float) -> np.ndarray:
+        """(M,) bool for each of the returns ``members`` (ranges ``r``): it is one of three firings in a row on its
+        ring (it and the two before, after, or either side) that returned on a straight line in range (the second
+        difference within abs_tol + rel_tol * the middle one's range). A flat face met at grazing incidence steps
+        its range by metres between firings, so no neighbour lies at its range, yet its firings fall on a line;
+        drops beside a drop do not."""
+        width = self.image.shape[1]
+        cell = (self.seq[members] + 1) * width + (self.ring[members] + 2)
+        flat = self.image.ravel()
+        # beyond the image's ends: its padding rows (NaN)
+        around = {k: np.take(flat, cell + k * width, mode="clip") for k in (-2, -1, 1, 2)}
+        around[0] = r
+        line = np.zeros(len(members), dtype=bool)
+        with np.errstate(invalid="ignore"):
+            for lo in (-2, -1, 0):
+                a, mid, b = around[lo], around[lo + 1], around[lo + 2]
+                line |= np.abs(a + b - 2.0 * mid) <= abs_tol + rel_tol * mid
+        return line
+
     def ring_runs(self, members: np.ndarray, r: np.ndarray, abs_tol: float, rel_tol: float) -> np.ndarray:
         """(M,) for each of the returns ``members`` (indices of this image's returns, ranges ``r``): the length of
         the run it belongs to among the members: consecutive firings of its laser each within abs_tol + rel_tol * r
