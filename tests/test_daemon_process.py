@@ -61,7 +61,10 @@ def test_run_process_notifies_systemd_and_stops_on_sigterm(tmp_path: Path) -> No
             notify.close()
         _, err = proc.communicate()
     assert rc == 0, err
-    assert took < 1.0, f"stopping took {took:.2f} s"  # the 1 s, process exit included (about 0.4 s here)
+    # Within systemd's TimeoutStopSec (5 s, systemd/usv-tracker.service) with margin: no thread or port is waited
+    # out. The 1 s goal is a benchmark figure (bench/soak.py: 0.32 s, process exit included); here, with four busy
+    # loops on the 2 cores, the same stop took 1.2 s, and a wall-clock 1 s bound failed one run in three.
+    assert took < 3.0, f"stopping took {took:.2f} s"
     assert "SIGTERM received: stopping" in err and "stopped" in err
 
 
