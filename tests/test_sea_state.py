@@ -18,6 +18,7 @@ from drivers.mount import Mount
 from tests.sea_geometry import SteadyEgo, chop, lidar_pipeline, revolution_over_water, scan_of
 from tracker.lidar.preprocess import REASON_NAMES
 from tracker.obstacle_map import UNKNOWN
+from tracker.pipeline import PerceptionOutput, PerceptionPipeline
 
 ROLL, PITCH, YAW = math.radians(5.0), math.radians(3.0), 0.3
 MOUNT = Mount(z=-1.6)
@@ -83,27 +84,37 @@ def test_choppy_heaving_sea_gives_no_obstacle_and_a_low_hull_in_it_still_does() 
             assert len(pipeline.lidar_tracker.last_clusters) == 1
 
 
-def _hull_in_chop(grow_m: float) -> tuple[int, int, int, int]:
-    """Eight revolutions of a 6 m hull face 1.2 m high, 25 m off on the 45 deg bearing, in the chop of the test
-    above; of the last one: solid returns, within-margin returns on the face (within 0.3 m of it), those on
-    it or at its foot (0.5 m in front of it, or its ends), and those elsewhere."""
+def _face_in_chop(
+    range_m: float, grow_m: float = 0.5, **preprocess: float
+) -> tuple[PerceptionPipeline, PerceptionOutput, np.ndarray, np.ndarray]:
+    """Eight revolutions of a 6 m hull face 1.2 m high, ``range_m`` off on the 45 deg bearing, in the chop of the
+    test above (hull gate grown by ``grow_m``; ``preprocess`` overrides the shipped PreprocessConfig). Returns the
+    pipeline, the last output, and each within-margin return's (radial, along) offset from the face's centre."""
     pipeline = lidar_pipeline(MOUNT)
     pipeline.settings = replace(pipeline.settings, hull_margin_grow_m=grow_m)
+    pipeline.lidar_preprocess_config = replace(pipeline.lidar_preprocess_config, **preprocess)
     ego = SteadyEgo(rolling, YAW)
     bearing = math.radians(45.0) + YAW
-    centre = 25.0 * np.array([math.cos(bearing), math.sin(bearing)])
+    radial = np.array([math.cos(bearing), math.sin(bearing)])
     along = np.array([-math.sin(bearing), math.cos(bearing)])
+    centre = range_m * radial
     wall = (tuple(centre - 3.0 * along), tuple(centre + 3.0 * along), 1.2)
     for k in range(8):
         ret = revolution_over_water(
             MOUNT, rolling, yaw=YAW, origin_height=0.2, elevation=chop, t0=0.1 * k, walls=(wall,)
         )
         out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
-    low = pipeline.last_preprocess.within_margin_world[:, :2]
-    rel = low - centre
-    radial = np.abs(rel @ np.array([math.cos(bearing), math.sin(bearing)]))
-    on_face = (radial <= 0.3) & (np.abs(rel @ along) <= 3.0)
-    at_foot = (radial <= 0.5) & (np.abs(rel @ along) <= 3.5)
+    rel = pipeline.last_preprocess.within_margin_world[:, :2] - centre
+    return pipeline, out, np.abs(rel @ radial), np.abs(rel @ along)
+
+
+def _hull_in_chop(grow_m: float) -> tuple[int, int, int, int]:
+    """The face of ``_face_in_chop`` 25 m off; of the last revolution: solid returns, within-margin returns on the
+    face (within 0.3 m of it), those on it or at its foot (0.5 m in front of it, or its ends), and those
+    elsewhere."""
+    _, out, radial, along = _face_in_chop(25.0, grow_m)
+    on_face = (radial <= 0.3) & (along <= 3.0)
+    at_foot = (radial <= 0.5) & (along <= 3.5)
     assert [t.confirmed for t in out.tracks] == [True]
     n_face, n_foot = int(np.count_nonzero(on_face)), int(np.count_nonzero(at_foot))
     return out.n_lidar_points, n_face, n_foot, int(np.count_nonzero(~at_foot))
@@ -121,27 +132,13 @@ def test_a_tracked_hulls_returns_within_the_sea_margin_are_obstacles_and_the_cre
 
 
 def _face_margin_heights(range_m: float, **preprocess: float) -> np.ndarray:
-    """Heights above the fitted sea of the within-margin returns on the face of ``_hull_in_chop`` moved ``range_m``
-    off, after eight revolutions; ``preprocess`` overrides the shipped PreprocessConfig."""
-    pipeline = lidar_pipeline(MOUNT)
-    pipeline.lidar_preprocess_config = replace(pipeline.lidar_preprocess_config, **preprocess)
-    ego = SteadyEgo(rolling, YAW)
-    bearing = math.radians(45.0) + YAW
-    radial = np.array([math.cos(bearing), math.sin(bearing)])
-    along = np.array([-math.sin(bearing), math.cos(bearing)])
-    wall = (tuple(range_m * radial - 3.0 * along), tuple(range_m * radial + 3.0 * along), 1.2)
-    for k in range(8):
-        ret = revolution_over_water(
-            MOUNT, rolling, yaw=YAW, origin_height=0.2, elevation=chop, t0=0.1 * k, walls=(wall,)
-        )
-        pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+    """Heights above the fitted sea of the within-margin returns on the face of ``_face_in_chop`` at ``range_m``."""
+    pipeline, _, radial, along = _face_in_chop(range_m, **preprocess)
     pre = pipeline.last_preprocess
     low = pre.within_margin_world
-    rel = low[:, :2] - range_m * radial
-    on_face = (np.abs(rel @ radial) <= 0.3) & (np.abs(rel @ along) <= 3.0)
     origin_height = pipeline.lidar_preprocess_config.origin_height_above_water
     height = origin_height - low[:, 2] - pre.water.surface(low[:, 0], low[:, 1])
-    return height[on_face]
+    return height[(radial <= 0.3) & (along <= 3.0)]
 
 
 def test_a_hulls_waterline_below_the_calm_floor_is_offered_to_the_hull_gate_beyond_20_m_only() -> None:
