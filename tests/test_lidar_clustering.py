@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
-from tracker.lidar.clustering import cluster_points, range_tolerance
+from tracker.lidar.clustering import candidate_pairs, cluster_points, link_cells, pool_link_cells, range_tolerance
 from tracker.lidar.config import ClusterConfig
 
 CFG = ClusterConfig(base_tolerance=0.5, tolerance_per_metre=0.035, max_tolerance=3.0, grid_cell=0.15)
@@ -93,3 +95,51 @@ def test_own_position_sets_the_range() -> None:
 def test_empty_input() -> None:
     res = cluster_points(np.zeros((0, 3)), OWN, CFG)
     assert res.clusters == [] and res.labels.shape == (0,)
+
+
+def _cells(points_ne: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Grid-cell centroids (north, east) and return counts of ``points_ne``, as cluster_points pools them."""
+    ij = np.floor(points_ne / CFG.grid_cell).astype(np.int64)
+    _, inverse, counts = np.unique(ij, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
+    sums = np.column_stack([np.bincount(inverse, weights=points_ne[:, k]) for k in (0, 1)])
+    return sums / counts[:, None], counts.astype(float)
+
+
+def _pair_set(a: np.ndarray, c: np.ndarray) -> set[tuple[int, int]]:
+    return set(zip(np.minimum(a, c).tolist(), np.maximum(a, c).tolist(), strict=True))
+
+
+def test_one_far_return_does_not_widen_the_search_near_the_boat() -> None:
+    # 6 x 5 m of deck and spray 1-7 m off (tolerance up to 0.75 m) and one return at 95 m (tolerance 3 m). One
+    # search with the far return's reach for every link cell found 3-4 times the deck's pairs (issue 12); each
+    # range band now searches with its own reach, so the deck's candidate pairs are the same with it or without.
+    rng = np.random.default_rng(3)
+    deck = np.column_stack([rng.uniform(1.0, 7.0, 20000), rng.uniform(-2.5, 2.5, 20000)])
+    alone = pool_link_cells(*_cells(deck), OWN, CFG)
+    with_far = pool_link_cells(*_cells(np.vstack([deck, [[95.0, 0.0]]])), OWN, CFG)
+    assert with_far.x.size == alone.x.size + 1
+    a0, c0 = candidate_pairs(alone, CFG)
+    a1, c1 = candidate_pairs(with_far, CFG)
+    assert a0.size > 10_000  # a dense deck: the search has work to do
+    far = int(np.argmax(with_far.range_m))
+    assert with_far.range_m[far] == pytest.approx(95.0, abs=0.1)
+    deck_index = np.delete(np.arange(with_far.x.size), far)  # deck link k of the first pooling is deck_index[k]
+    assert _pair_set(a1, c1) == _pair_set(deck_index[a0], deck_index[c0])
+
+
+def test_banded_search_finds_every_neighbour_pair() -> None:
+    # Returns scattered from the deck out to 100 m: the labels must be those of the exact rule applied to every pair
+    # of link cells (tolerance at the pair's mean range), whatever band each cell fell into.
+    rng = np.random.default_rng(11)
+    r = np.concatenate([rng.uniform(0.5, 100.0, 3000), rng.uniform(5.0, 9.0, 1500), rng.uniform(33.0, 36.0, 1500)])
+    az = rng.uniform(-np.pi, np.pi, r.size)
+    points = np.column_stack([r * np.cos(az), r * np.sin(az)])
+    cell_xy, weight = _cells(points)
+    links = pool_link_cells(cell_xy, weight, OWN, CFG)
+    d = np.hypot(links.x[:, None] - links.x[None, :], links.y[:, None] - links.y[None, :])
+    tol = range_tolerance(0.5 * (links.range_m[:, None] + links.range_m[None, :]), CFG)
+    n_ref, ref = connected_components(csr_matrix(d <= tol), directed=False)
+    labels = link_cells(cell_xy, weight, OWN, CFG)
+    assert np.unique(labels).size == n_ref
+    assert np.unique(np.column_stack([labels, ref[links.of_cell]]), axis=0).shape[0] == n_ref  # same partition
