@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tracker.fusion import fuse_tracks
+from tracker.fusion import PublishedIds, fuse_track_groups
 from tracker.types import Track
 
 
@@ -14,19 +14,24 @@ def track(tid: int, north: float, east: float, source: str, length: float = 8.0,
     )
 
 
+def fuse_tracks(lidar: list[Track], radar: list[Track], *args: object) -> list[Track]:
+    """The fused objects without their members."""
+    return [tr for tr, _ in fuse_track_groups(lidar, radar, *args)]  # type: ignore[arg-type]
+
+
 def test_a_radar_track_joins_the_nearest_lidar_track_that_reaches_it() -> None:
     # Two boats moored 6 m apart (centres east 0 and 6); a radar track at east 4.5 lies on the second. Both LiDAR
     # tracks reach it (4 + 3 m of gate), the first listed is the farther.
     lidar = [track(1, 20.0, 0.0, "lidar"), track(2, 20.0, 6.0, "lidar")]
     radar = [track(7, 20.0, 4.5, "radar")]
-    out = fuse_tracks(lidar, radar, gate_m=3.0)
+    out = fuse_tracks(lidar, radar, 3.0)
     assert [(t.id, t.source) for t in out] == [(1, "lidar"), (2, "fused")]
 
 
 def test_each_lidar_track_takes_its_own_radar_tracks_and_the_rest_stay() -> None:
     lidar = [track(1, 20.0, 0.0, "lidar"), track(2, 20.0, 6.0, "lidar")]
     radar = [track(7, 20.0, 5.5, "radar"), track(8, 20.5, 0.5, "radar"), track(9, 60.0, 0.0, "radar")]
-    out = fuse_tracks(lidar, radar, gate_m=3.0)
+    out = fuse_tracks(lidar, radar, 3.0)
     assert [(t.id, t.source) for t in out] == [(1, "fused"), (2, "fused"), (9, "radar")]
 
 
@@ -55,3 +60,42 @@ def test_a_radar_track_in_the_shadow_of_a_lidar_track_is_the_same_hull() -> None
     assert sources(33.0, 0.0) == ["lidar", "radar"]  # in front: a nearer boat the LiDAR would have seen
     assert sources(53.0, 0.0) == ["lidar", "radar"]  # 13 m beyond
     assert sources(47.0, 5.5) == ["lidar", "radar"]  # 5.5 m aside
+
+
+def test_a_boat_keeps_its_id_when_the_lidar_picks_up_what_the_radar_held_alone_and_loses_it_again() -> None:
+    # A boat in the LiDAR's blind gap: the radar alone holds it as track 7 for 2 s; the LiDAR's track 12 picks it
+    # up (fused) for 2 s, then the radar loses it and the LiDAR carries on alone. One vessel: one id throughout.
+    ids = PublishedIds(forget_s=5.0)
+    sent = []
+    for k in range(60):
+        t = 0.1 * k
+        lidar = [track(12, 40.0, 0.0, "lidar")] if k >= 20 else []
+        radar = [track(7, 40.5, 0.5, "radar")] if k < 40 else []
+        out = ids.publish(t, fuse_track_groups(lidar, radar, 3.0))
+        sent.append([(tr.id, tr.source) for tr in out])
+    assert sent[0] == [(7, "radar")] and sent[25] == [(7, "fused")] and sent[59] == [(7, "lidar")]
+    assert {tid for cycle in sent for tid, _ in cycle} == {7}
+
+
+def test_a_track_that_leaves_an_object_does_not_take_the_id_of_a_live_one() -> None:
+    # LiDAR track 1 (sent first) absorbs radar track 9 on the same hull; then they part: two boats that had moored
+    # side by side. The LiDAR track keeps 1; the radar track, whose alias is 1, goes back to its own id.
+    ids = PublishedIds()
+    for k in range(10):
+        ids.publish(0.1 * k, fuse_track_groups([track(1, 20.0, 0.0, "lidar")], [], 3.0))
+    out = ids.publish(1.0, fuse_track_groups([track(1, 20.0, 0.0, "lidar")], [track(9, 20.0, 1.0, "radar")], 3.0))
+    assert [(tr.id, tr.source) for tr in out] == [(1, "fused")]
+    out = ids.publish(1.1, fuse_track_groups([track(1, 20.0, 0.0, "lidar")], [track(9, 60.0, 0.0, "radar")], 3.0))
+    assert [(tr.id, tr.source) for tr in out] == [(1, "lidar"), (9, "radar")]
+
+
+def test_an_id_unseen_for_longer_than_the_memory_is_forgotten() -> None:
+    # Radar track 7 fused into LiDAR track 12 and sent as 7; the radar track ends, the LiDAR's stays 7. Once 7's
+    # object has been gone for forget_s, a new object that happens to hold track 12 is sent as 12.
+    ids = PublishedIds(forget_s=1.0)
+    ids.publish(0.0, fuse_track_groups([], [track(7, 40.0, 0.0, "radar")], 3.0))
+    out = ids.publish(0.1, fuse_track_groups([track(12, 40.0, 0.0, "lidar")], [track(7, 40.0, 0.0, "radar")], 3.0))
+    assert [tr.id for tr in out] == [7]
+    assert [tr.id for tr in ids.publish(0.2, fuse_track_groups([track(12, 40.0, 0.0, "lidar")], [], 3.0))] == [7]
+    ids.publish(0.3, [])
+    assert [tr.id for tr in ids.publish(1.5, fuse_track_groups([track(12, 40.0, 0.0, "lidar")], [], 3.0))] == [12]

@@ -16,21 +16,21 @@ from tracker.line_of_sight import in_shadow
 from tracker.types import Track
 
 
-def fuse_tracks(
+def fuse_track_groups(
     lidar: list[Track],
     radar: list[Track],
     gate_m: float = 3.0,
     sensor_ne: np.ndarray | None = None,
     shadow_m: float = 0.0,
-) -> list[Track]:
-    """LiDAR tracks (ids kept), each absorbing the confirmed radar tracks for which it is the nearest confirmed
+) -> list[tuple[Track, tuple[int, ...]]]:
+    """Each object with the ids of the tracks it is made of (its own first). LiDAR tracks (ids kept), each absorbing the confirmed radar tracks for which it is the nearest confirmed
     LiDAR track that reaches them. Nearest, not first: a radar track between two moored boats belongs to the one it
     lies on, whichever the LiDAR tracker listed first. A LiDAR track reaches a radar track when their extents (half
     the larger side of each, around its centre) come within ``gate_m``, or when the radar track lies in its shadow
     seen from ``sensor_ne`` (world north/east of the own boat): beyond its centre by at most its half-size plus
     ``shadow_m`` and off its line of sight by at most its half-size plus ``gate_m``."""
     if not lidar or not radar:
-        return [*lidar, *radar]
+        return [(t, (t.id,)) for t in (*lidar, *radar)]
     lidar_pos = np.array([t.position for t in lidar]).reshape(-1, 2)
     radar_pos = np.array([r.position for r in radar]).reshape(-1, 2)
     d = np.hypot(*(radar_pos[None, :, :] - lidar_pos[:, None, :]).transpose(2, 0, 1))  # (L, R)
@@ -41,11 +41,11 @@ def fuse_tracks(
         ok |= in_shadow(lidar_pos, lidar_reach, radar_pos, sensor_ne, shadow_m, gate_m)
     ok &= np.array([t.confirmed for t in lidar])[:, None] & np.array([r.confirmed for r in radar])[None, :]
     owner = np.where(ok.any(axis=0), np.argmin(np.where(ok, d, np.inf), axis=0), -1)  # (R,) LiDAR index or -1
-    out: list[Track] = []
+    out: list[tuple[Track, tuple[int, ...]]] = []
     for i, lt in enumerate(lidar):
         mine = np.flatnonzero(owner == i)
         if mine.size == 0:
-            out.append(lt)
+            out.append((lt, (lt.id,)))
             continue
         fused = replace(lt, source="fused")
         if not lt.speed_valid:
@@ -53,6 +53,59 @@ def fuse_tracks(
             best = int(mine[np.argmin(d[i, mine])])
             if radar[best].speed_valid:
                 fused = replace(fused, velocity=radar[best].velocity.copy())
-        out.append(fused)
-    out.extend(r for r, o in zip(radar, owner, strict=True) if o < 0)
+        out.append((fused, (lt.id, *(radar[k].id for k in mine.tolist()))))
+    out.extend((r, (r.id,)) for r, o in zip(radar, owner, strict=True) if o < 0)
     return out
+
+
+class PublishedIds:
+    """The id each object is published under, kept while the other sensor's track joins it or leaves it.
+
+    The LiDAR and radar trackers number their tracks from one id source, and a fused object carries its LiDAR
+    track's id. A boat seen first by the radar alone (in the LiDAR's blind gap, or beyond its range in rain) and
+    then by both would change id at the hand-over, and again when the LiDAR lost it: to the autopilot and to a
+    track-level scorer, a new vessel each time. So every member id of an object maps to the id the object was
+    first sent under as a confirmed track; an object takes the oldest such id among its members, and a track that
+    leaves the object keeps that id while no other object holds it."""
+
+    def __init__(self, forget_s: float = 5.0) -> None:
+        self.forget_s = forget_s
+        self._alias: dict[int, int] = {}  # member track id -> the id its object is published under
+        self._since: dict[int, float] = {}  # published id -> when it was first sent confirmed
+        self._seen: dict[int, float] = {}  # member track id or published id -> when last seen
+
+    def reset(self) -> None:
+        self._alias.clear()
+        self._since.clear()
+        self._seen.clear()
+
+    def publish(self, t: float, groups: list[tuple[Track, tuple[int, ...]]]) -> list[Track]:
+        """The objects of one cycle, in order, each with the id it is published under."""
+        for i in [i for i, seen in self._seen.items() if t - seen > self.forget_s]:
+            del self._seen[i]
+            self._alias.pop(i, None)
+            self._since.pop(i, None)
+        inf = float("inf")
+        own = {track.id for track, _ in groups}
+        choices: list[list[int]] = []
+        for track, members in groups:
+            # Another object's own track id stays that object's: an old alias never takes it from a live track.
+            ids = [i for i in dict.fromkeys(self._alias.get(m, m) for m in members) if i == track.id or i not in own]
+            ids.sort(key=lambda i: (self._since.get(i, inf), i != track.id))  # sent longest ago first; then its own
+            choices.append(ids)
+        taken: set[int] = set()
+        out: list[Track] = [track for track, _ in groups]
+        # Objects holding the oldest ids choose first, so that a track leaving an object does not take its id.
+        for k in sorted(range(len(groups)), key=lambda k: self._since.get(choices[k][0], inf) if choices[k] else inf):
+            track, members = groups[k]
+            pub = next((i for i in choices[k] if i not in taken), track.id)  # its own id: no other object's
+            taken.add(pub)
+            for m in members:
+                self._alias[m] = pub
+                self._seen[m] = t
+            self._seen[pub] = t
+            if track.confirmed:
+                self._since.setdefault(pub, t)
+            if pub != track.id:
+                out[k] = replace(track, id=pub)
+        return out

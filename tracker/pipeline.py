@@ -21,7 +21,7 @@ import numpy as np
 from drivers.frames import EgoPose, LidarScan, RadarFrame
 from drivers.mount import Mount
 from tracker.ego import sample_poses, world_to_body_2d
-from tracker.fusion import fuse_tracks
+from tracker.fusion import PublishedIds, fuse_track_groups
 from tracker.lidar.coverage import (
     BIN_CENTRES,
     SUB_BEARINGS,
@@ -125,6 +125,10 @@ class PipelineSettings:
     # track-frames 8.0 -> 7.9 %, scenes where fused is below the LiDAR alone 17 -> 11; bins unchanged. The motion
     # rule: tuning seeds 1-16 fused MOTA 0.9059 -> 0.9074; held out together with fusion_shadow_m, see there.
     radar_alone_min_age_s: float = 1.0
+    # An object keeps the id it was first sent under while the other sensor's track joins or leaves it
+    # (tracker.fusion.PublishedIds): a boat the radar alone held in the LiDAR's gap is not a new vessel when the
+    # LiDAR picks it up. False sends each object under its LiDAR track's id, or its radar track's when alone.
+    keep_published_ids: bool = True
     lidar_mount: Mount = field(default_factory=Mount)
     # Coverage (tracker/lidar/coverage.py): "clear" is sent only for a bin where a solid this tall above the water
     # would have been returned all the way from clear_inner_m (None: min_distance_m) out to max_distance_m.
@@ -210,6 +214,7 @@ class PerceptionPipeline:
         self.radar_tracker = self.radar_tracker_factory() if self.radar_tracker_factory else None
         self._lidar_tracks: list[Track] = []
         self._radar_tracks: list[Track] = []
+        self._published = PublishedIds()
         self.skipped_no_pose = 0
         cfg = self.lidar_preprocess_config
         # The water surface is a body-relative estimate: it survives a change of world frame.
@@ -237,6 +242,7 @@ class PerceptionPipeline:
         if self.radar_tracker_factory:
             self.radar_tracker = self.radar_tracker_factory()
         self._lidar_tracks, self._radar_tracks = [], []
+        self._published.reset()
         points, at_sweep_end = self._lidar_solid
         if at_sweep_end is not None:  # kept in the body frame of the sweep's end, both in the old world frame
             self._lidar_solid = (world_to_body_2d(points, *at_sweep_end), None)
@@ -291,13 +297,14 @@ class PerceptionPipeline:
 
         # A sensor that stopped delivering takes its tracks with it: a LiDAR track frozen at its last update would
         # otherwise absorb the radar's live track of the same boat, and the boat would drop out of the array.
-        tracks = fuse_tracks(
+        groups = fuse_track_groups(
             self._lidar_tracks if lidar_fresh else [],
             self._radar_tracks if radar_fresh else [],
             s.fusion_gate_m,
             None if own is None else own[0],
             s.fusion_shadow_m,
         )
+        tracks = [tr for tr, _ in groups]
         # radar-only tracks on structure the LiDAR saw, or too young to be sent alone: obstacles, not vessels
         outline_only: list[Track] = []
         if own is not None and lidar_fresh and any(tr.source == "radar" for tr in tracks):
@@ -357,6 +364,9 @@ class PerceptionPipeline:
             "obstacle_map",
             lambda: build_obstacle_distances(solid, clear_to, s.min_distance_m, s.max_distance_m),
         )
+        if s.keep_published_ids:
+            members = {id(tr): m for tr, m in groups}
+            tracks = self._published.publish(t, [(tr, members[id(tr)]) for tr in tracks])
         return PerceptionOutput(
             t=t,
             tracks=tracks,
