@@ -422,7 +422,7 @@ def test_radar_cli_error_runs_lidar_only_when_not_required() -> None:
 def test_a_rolling_boat_in_a_rough_sea_reports_only_the_box() -> None:
     """The issue's waves, live: the boat rolls 5 deg and pitches 3 deg (ATTITUDE at 50 Hz carries it), heaves
     0.2 m (which the autopilot's position does not help with), crests stand 0.3 m and the tilted beams' water
-    returns come back. Over 3 s of what the simulated ArduPilot received, only the box's bins hold obstacles."""
+    returns come back. Over 30 ticks of what the simulated ArduPilot received, only the box's bins hold obstacles."""
     scene = one_box_scene()
     scene.own = OwnBoat(
         Trajectory.stationary((0.0, 0.0), 0.0),
@@ -440,9 +440,11 @@ def test_a_rolling_boat_in_a_rough_sea_reports_only_the_box() -> None:
             assert ap is not None
             assert wait_for(lambda: len(ap.obstacle_distances()) >= 10, timeout=8.0)
             start = len(ap.obstacle_distances())
-            time.sleep(3.0)
+            # 30 ticks of what the autopilot received, however long a busy machine takes to send them: the rate is
+            # test_obstacle_distance_reaches_autopilot_at_10_hz's to hold (here 18 came in 3 s where 30 were due,
+            # with both cores taken by other work)
+            assert wait_for(lambda: len(ap.obstacle_distances()) >= start + 30, timeout=12.0)
             msgs = ap.obstacle_distances()[start:]
-            assert len(msgs) >= 20
             for m in msgs:
                 d = np.asarray(m.distances)
                 obstacle = set(np.flatnonzero(d <= 10000).tolist())
