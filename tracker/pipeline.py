@@ -127,7 +127,9 @@ class PipelineSettings:
     radar_alone_min_age_s: float = 1.0
     # An object keeps the id it was first sent under while the other sensor's track joins or leaves it
     # (tracker.fusion.PublishedIds): a boat the radar alone held in the LiDAR's gap is not a new vessel when the
-    # LiDAR picks it up. False sends each object under its LiDAR track's id, or its radar track's when alone.
+    # LiDAR picks it up. False sends each object under its LiDAR track's id, or its radar track's when alone. Ours;
+    # held out (random:1001-1050, fused) against False: id switches 9.3 -> 8.6 a scene, IDF1 0.908 -> 0.910, MOTA
+    # 0.91205 -> 0.91226, 16 scenes better and none worse; bins unchanged.
     keep_published_ids: bool = True
     lidar_mount: Mount = field(default_factory=Mount)
     # Coverage (tracker/lidar/coverage.py): "clear" is sent only for a bin where a solid this tall above the water
