@@ -63,8 +63,8 @@ class PublishedIds:
 
     The LiDAR and radar trackers number their tracks from one id source, and a fused object carries its LiDAR
     track's id. A boat seen first by the radar alone (in the LiDAR's blind gap, or beyond its range in rain) and
-    then by both would change id at the hand-over, and again when the LiDAR lost it: to the autopilot and to a
-    track-level scorer, a new vessel each time. So every member id of an object maps to the id the object was
+    then by both would change id at the hand-over, and again when the LiDAR lost it: to whatever reads the tracks
+    (the track file, the live view) and to a track-level scorer, a new vessel each time. So every member id of an object maps to the id the object was
     first sent under as a confirmed track; an object takes the oldest such id among its members, and a track that
     leaves the object keeps that id while no other object holds it."""
 
