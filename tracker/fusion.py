@@ -23,12 +23,13 @@ def fuse_track_groups(
     sensor_ne: np.ndarray | None = None,
     shadow_m: float = 0.0,
 ) -> list[tuple[Track, tuple[int, ...]]]:
-    """Each object with the ids of the tracks it is made of (its own first). LiDAR tracks (ids kept), each absorbing the confirmed radar tracks for which it is the nearest confirmed
-    LiDAR track that reaches them. Nearest, not first: a radar track between two moored boats belongs to the one it
-    lies on, whichever the LiDAR tracker listed first. A LiDAR track reaches a radar track when their extents (half
-    the larger side of each, around its centre) come within ``gate_m``, or when the radar track lies in its shadow
-    seen from ``sensor_ne`` (world north/east of the own boat): beyond its centre by at most its half-size plus
-    ``shadow_m`` and off its line of sight by at most its half-size plus ``gate_m``."""
+    """Each object with the ids of the tracks it is made of (its own first). LiDAR tracks (ids kept), each absorbing the
+    confirmed radar tracks for which it is the nearest confirmed LiDAR track that reaches them. Nearest, not first: a
+    radar track between two moored boats belongs to the one it lies on, whichever the LiDAR tracker listed first. A
+    LiDAR track reaches a radar track when their extents (half the larger side of each, around its centre) come within
+    ``gate_m``, or when the radar track lies in its shadow seen from ``sensor_ne`` (world north/east of the own boat):
+    beyond its centre by at most its half-size plus ``shadow_m`` and off its line of sight by at most its half-size plus
+    ``gate_m``."""
     if not lidar or not radar:
         return [(t, (t.id,)) for t in (*lidar, *radar)]
     lidar_pos = np.array([t.position for t in lidar]).reshape(-1, 2)
@@ -64,9 +65,9 @@ class PublishedIds:
     The LiDAR and radar trackers number their tracks from one id source, and a fused object carries its LiDAR
     track's id. A boat seen first by the radar alone (in the LiDAR's blind gap, or beyond its range in rain) and
     then by both would change id at the hand-over, and again when the LiDAR lost it: to whatever reads the tracks
-    (the track file, the live view) and to a track-level scorer, a new vessel each time. So every member id of an object maps to the id the object was
-    first sent under as a confirmed track; an object takes the oldest such id among its members, and a track that
-    leaves the object keeps that id while no other object holds it."""
+    (the track file, the live view) and to a track-level scorer, a new vessel each time. So every member id of an
+    object maps to the id the object was first sent under as a confirmed track; an object takes the oldest such id
+    among its members, and a track that leaves the object keeps that id while no other object holds it."""
 
     def __init__(self, forget_s: float = 5.0) -> None:
         self.forget_s = forget_s
