@@ -24,7 +24,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from bench._common import no_options, save
-from tracker.lidar.clustering import candidate_pairs, cluster_points, pool_link_cells
+from tracker.lidar.clustering import candidate_pairs, cluster_points, grid_cells, pool_link_cells
 from tracker.lidar.config import ClusterConfig
 
 ROUNDS = 100
@@ -57,10 +57,7 @@ def hulls(rng: np.random.Generator) -> np.ndarray:
 
 def pairs_of(points: np.ndarray, cfg: ClusterConfig) -> int:
     """Candidate pairs of link cells, pooled as cluster_points pools them."""
-    ij = np.floor(points[:, :2] / cfg.grid_cell).astype(np.int64)
-    _, inverse, counts = np.unique(ij, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
-    cells = np.column_stack([np.bincount(inverse, weights=points[:, k]) for k in (0, 1)]) / counts[:, None]
+    _, _, counts, cells = grid_cells(points[:, 0], points[:, 1], cfg.grid_cell)
     a, _ = candidate_pairs(pool_link_cells(cells, counts.astype(float), OWN, cfg), cfg)
     return int(a.size)
 

@@ -7,7 +7,14 @@ import pytest
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
-from tracker.lidar.clustering import candidate_pairs, cluster_points, link_cells, pool_link_cells, range_tolerance
+from tracker.lidar.clustering import (
+    candidate_pairs,
+    cluster_points,
+    grid_cells,
+    link_cells,
+    pool_link_cells,
+    range_tolerance,
+)
 from tracker.lidar.config import ClusterConfig
 
 CFG = ClusterConfig(base_tolerance=0.5, tolerance_per_metre=0.035, max_tolerance=3.0, grid_cell=0.15)
@@ -99,11 +106,8 @@ def test_empty_input() -> None:
 
 def _cells(points_ne: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Grid-cell centroids (north, east) and return counts of ``points_ne``, as cluster_points pools them."""
-    ij = np.floor(points_ne / CFG.grid_cell).astype(np.int64)
-    _, inverse, counts = np.unique(ij, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
-    sums = np.column_stack([np.bincount(inverse, weights=points_ne[:, k]) for k in (0, 1)])
-    return sums / counts[:, None], counts.astype(float)
+    _, _, counts, centroids = grid_cells(points_ne[:, 0], points_ne[:, 1], CFG.grid_cell)
+    return centroids, counts.astype(float)
 
 
 def _pair_set(a: np.ndarray, c: np.ndarray) -> set[tuple[int, int]]:
