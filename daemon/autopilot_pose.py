@@ -27,7 +27,7 @@ import numpy as np
 
 from daemon.autopilot_geo import LocalTangentPlane
 from daemon.pose_history import PoseHistory
-from drivers.frames import EgoPose
+from drivers.frames import EgoPose, body_rates_to_euler
 
 log = logging.getLogger(__name__)
 
@@ -64,9 +64,9 @@ class PoseAssembler:
             self.skipped_no_position += 1
             return None
         t_pos, pos, vel = self._pos
-        cos_pitch = math.cos(pitch)
-        # body rates (p, q, r) -> Euler yaw rate; ATTITUDE.yawspeed alone is the body z rate
-        yaw_rate = (q * math.sin(roll) + r * math.cos(roll)) / cos_pitch if abs(cos_pitch) > 1e-6 else r
+        # ATTITUDE carries body rates; the history extrapolates Euler angles, so it needs their rates (a rolling
+        # boat's roll held still for the 0.3 s the history may extrapolate tilts the water by metres at range)
+        roll_rate, pitch_rate, yaw_rate = body_rates_to_euler(roll, pitch, p, q, r)
         pose = EgoPose(
             t=t,
             position=pos + vel * (t - t_pos),
@@ -75,6 +75,8 @@ class PoseAssembler:
             pitch=pitch,
             yaw=yaw,
             yaw_rate=yaw_rate,
+            roll_rate=roll_rate,
+            pitch_rate=pitch_rate,
         )
         if self.history.add(pose):
             self.samples += 1

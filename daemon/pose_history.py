@@ -7,7 +7,8 @@ Interpolation: position and velocity linearly; roll, pitch and yaw each along th
 (so 359 deg -> 1 deg passes through 0, not 180). Interpolating Euler angles one by one is not a rotation slerp,
 but for a boat (roll and pitch of a few degrees) the difference is far below the sensors' angular resolution.
 Outside the stored samples, and across gaps longer than ``max_gap``, the nearest sample is extrapolated with
-its velocity and yaw rate for at most ``max_extrapolation`` seconds; beyond that the answer is "unknown"
+its velocity and its roll, pitch and yaw rates for at most ``max_extrapolation`` seconds (holding roll and
+pitch instead would tilt the water by range x rate x age: 0.6 m at 20 m for a 6 deg/s roll 0.3 s old); beyond that the answer is "unknown"
 (None, or NaN rows in ``at_many``) because a stale pose puts points in the wrong place with full confidence.
 
 "No ego pose" mode (``no_ego_pose=True``): when no autopilot answers, the body frame at start is the world,
@@ -65,7 +66,7 @@ class PoseHistory:
         self._pos = np.empty((n, 3))
         self._vel = np.empty((n, 3))
         self._att = np.empty((n, 3))  # roll, pitch, yaw
-        self._yaw_rate = np.empty(n)
+        self._rates = np.empty((n, 3))  # their rates, rad/s
         self._start = 0
         self._end = 0
         self.rejected = 0  # samples with NaN/inf, or fed in no-ego-pose mode
@@ -82,14 +83,14 @@ class PoseHistory:
         pos = np.asarray(pose.position, dtype=float).reshape(3)
         vel = np.asarray(pose.velocity, dtype=float).reshape(3)
         att = np.array([pose.roll, pose.pitch, pose.yaw], dtype=float)
-        yaw_rate = float(pose.yaw_rate)
+        rates = np.array([pose.roll_rate, pose.pitch_rate, pose.yaw_rate], dtype=float)
         t = float(pose.t)
         if self.no_ego_pose or not (
             math.isfinite(t)
             and np.isfinite(pos).all()
             and np.isfinite(vel).all()
             and np.isfinite(att).all()
-            and math.isfinite(yaw_rate)
+            and np.isfinite(rates).all()
         ):
             with self._lock:
                 self.rejected += 1
@@ -102,14 +103,14 @@ class PoseHistory:
             if e > s and t <= self._t[e - 1]:
                 i = s + int(np.searchsorted(self._t[s:e], t))
                 if i < e and self._t[i] == t:  # same instant twice: the newer message wins
-                    self._write(i, t, pos, vel, att, yaw_rate)
+                    self._write(i, t, pos, vel, att, rates)
                     return True
                 self.reordered += 1
-                for arr in (self._t, self._pos, self._vel, self._att, self._yaw_rate):
+                for arr in (self._t, self._pos, self._vel, self._att, self._rates):
                     arr[i + 1 : e + 1] = arr[i:e].copy()
-                self._write(i, t, pos, vel, att, yaw_rate)
+                self._write(i, t, pos, vel, att, rates)
             else:
-                self._write(e, t, pos, vel, att, yaw_rate)
+                self._write(e, t, pos, vel, att, rates)
             self._end += 1
             if self._end - self._start > self.capacity:
                 self._start = self._end - self.capacity
@@ -120,17 +121,17 @@ class PoseHistory:
         with self._lock:
             self._start = self._end = 0
 
-    def _write(self, i: int, t: float, pos: np.ndarray, vel: np.ndarray, att: np.ndarray, yr: float) -> None:
+    def _write(self, i: int, t: float, pos: np.ndarray, vel: np.ndarray, att: np.ndarray, rates: np.ndarray) -> None:
         self._t[i] = t
         self._pos[i] = pos
         self._vel[i] = vel
         self._att[i] = att
-        self._yaw_rate[i] = yr
+        self._rates[i] = rates
 
     def _compact(self) -> None:
         s, e = self._start, self._end
         n = e - s
-        for arr in (self._t, self._pos, self._vel, self._att, self._yaw_rate):
+        for arr in (self._t, self._pos, self._vel, self._att, self._rates):
             arr[:n] = arr[s:e].copy()
         self._start, self._end = 0, n
 
@@ -164,7 +165,9 @@ class PoseHistory:
                 roll=float(self._att[i, 0]),
                 pitch=float(self._att[i, 1]),
                 yaw=float(self._att[i, 2]),
-                yaw_rate=float(self._yaw_rate[i]),
+                roll_rate=float(self._rates[i, 0]),
+                pitch_rate=float(self._rates[i, 1]),
+                yaw_rate=float(self._rates[i, 2]),
             )
 
     def _snapshot(self) -> tuple[np.ndarray, ...]:
@@ -175,14 +178,14 @@ class PoseHistory:
                 self._pos[s:e].copy(),
                 self._vel[s:e].copy(),
                 self._att[s:e].copy(),
-                self._yaw_rate[s:e].copy(),
+                self._rates[s:e].copy(),
             )
 
     def at(self, t: float) -> EgoPose | None:
         """Pose at host time ``t``, or None when ``t`` is further than the extrapolation limit from any data."""
         if self.no_ego_pose:
             return identity_pose(float(t))
-        pos, vel, att, yaw_rate, ok = self._evaluate(np.array([float(t)], dtype=float))
+        pos, vel, att, rates, ok = self._evaluate(np.array([float(t)], dtype=float))
         if not ok[0]:
             return None
         return EgoPose(
@@ -192,7 +195,9 @@ class PoseHistory:
             roll=float(att[0, 0]),
             pitch=float(att[0, 1]),
             yaw=float(att[0, 2]),
-            yaw_rate=float(yaw_rate[0]),
+            roll_rate=float(rates[0, 0]),
+            pitch_rate=float(rates[0, 1]),
+            yaw_rate=float(rates[0, 2]),
         )
 
     def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -205,20 +210,20 @@ class PoseHistory:
         if self.no_ego_pose:
             z = np.zeros(times.shape[0])
             return np.zeros((times.shape[0], 3)), z, z.copy(), z.copy()
-        pos, _vel, att, _yr, _ok = self._evaluate(times)
+        pos, _vel, att, _rates, _ok = self._evaluate(times)
         return pos, att[:, 0].copy(), att[:, 1].copy(), att[:, 2].copy()
 
     def _evaluate(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Vectorised core: interpolate between neighbours, else extrapolate from the nearer one, else NaN."""
-        ts, pos, vel, att, yr = self._snapshot()
+        ts, pos, vel, att, rates = self._snapshot()
         n, m = ts.shape[0], q.shape[0]
         out_pos = np.full((m, 3), np.nan)
         out_vel = np.full((m, 3), np.nan)
         out_att = np.full((m, 3), np.nan)
-        out_yr = np.full(m, np.nan)
+        out_rates = np.full((m, 3), np.nan)
         ok = np.zeros(m, dtype=bool)
         if n == 0 or m == 0:
-            return out_pos, out_vel, out_att, out_yr, ok
+            return out_pos, out_vel, out_att, out_rates, ok
         finite = np.isfinite(q)
         qf = np.where(finite, q, ts[0])
         hi = np.searchsorted(ts, qf, side="left")  # ts[hi-1] < q <= ts[hi]
@@ -237,23 +242,22 @@ class PoseHistory:
         iv = vel[lo_c] + (vel[hi_c] - vel[lo_c]) * f1
         d_att = wrap_angle(att[hi_c] - att[lo_c])
         ia = wrap_angle(att[lo_c] + d_att * f1)
-        iyr = yr[lo_c] + (yr[hi_c] - yr[lo_c]) * frac
+        ir = rates[lo_c] + (rates[hi_c] - rates[lo_c]) * f1
 
         # extrapolation from the nearer sample (before the first, after the last, or inside a long gap)
         near = np.where(np.abs(qf - t_lo) <= np.abs(t_hi - qf), lo_c, hi_c)
         dt = qf - ts[near]
         extrap = finite & ~interp & (np.abs(dt) <= self.max_extrapolation)
         ep = pos[near] + vel[near] * dt[:, None]
-        ea = att[near].copy()
-        ea[:, 2] = wrap_angle(ea[:, 2] + yr[near] * dt)
+        ea = wrap_angle(att[near] + rates[near] * dt[:, None])
 
         out_pos[interp] = ip[interp]
         out_vel[interp] = iv[interp]
         out_att[interp] = ia[interp]
-        out_yr[interp] = iyr[interp]
+        out_rates[interp] = ir[interp]
         out_pos[extrap] = ep[extrap]
         out_vel[extrap] = vel[near][extrap]
         out_att[extrap] = ea[extrap]
-        out_yr[extrap] = yr[near][extrap]
+        out_rates[extrap] = rates[near][extrap]
         ok = interp | extrap
-        return out_pos, out_vel, out_att, out_yr, ok
+        return out_pos, out_vel, out_att, out_rates, ok

@@ -81,4 +81,31 @@ class EgoPose:
     roll: float
     pitch: float
     yaw: float  # rad, 0 = north, clockwise positive
-    yaw_rate: float = 0.0
+    yaw_rate: float = 0.0  # Euler angle rates, rad/s (not the body rates p, q, r: see body_rates_to_euler)
+    roll_rate: float = 0.0
+    pitch_rate: float = 0.0
+
+
+def body_rates_to_euler(roll: float, pitch: float, p: float, q: float, r: float) -> tuple[float, float, float]:
+    """Body FRD angular rates (p, q, r), as MAVLink ATTITUDE carries them, -> ZYX Euler angle rates
+    (roll_rate, pitch_rate, yaw_rate), rad/s. At pitch +-90 deg yaw and roll are one axis: the body rates are
+    returned as they are."""
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp = math.cos(pitch)
+    if abs(cp) < 1e-6:
+        return p, q, r
+    tp = math.sin(pitch) / cp
+    return p + (q * sr + r * cr) * tp, q * cr - r * sr, (q * sr + r * cr) / cp
+
+
+def euler_rates_to_body(
+    roll: float, pitch: float, roll_rate: float, pitch_rate: float, yaw_rate: float
+) -> tuple[float, float, float]:
+    """ZYX Euler angle rates -> body FRD angular rates (p, q, r); the inverse of ``body_rates_to_euler``."""
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    return (
+        roll_rate - sp * yaw_rate,
+        cr * pitch_rate + sr * cp * yaw_rate,
+        -sr * pitch_rate + cr * cp * yaw_rate,
+    )

@@ -37,6 +37,7 @@ import numpy as np
 
 from daemon.autopilot_geo import LocalTangentPlane
 from daemon.mavlink_env import mavlink, mavutil
+from drivers.frames import euler_rates_to_body
 
 log = logging.getLogger(__name__)
 
@@ -452,11 +453,13 @@ class SimAutopilot:
         vel = np.asarray(pose.velocity, dtype=float)
         if msg_id == ATTITUDE:
             roll, pitch, yaw = float(pose.roll), float(pose.pitch), float(pose.yaw)
-            yaw_rate = float(getattr(pose, "yaw_rate", 0.0))
-            # Euler rates (0, 0, yaw_rate) expressed as body rates p, q, r
-            p = -math.sin(pitch) * yaw_rate
-            q = math.sin(roll) * math.cos(pitch) * yaw_rate
-            r = math.cos(roll) * math.cos(pitch) * yaw_rate
+            p, q, r = euler_rates_to_body(
+                roll,
+                pitch,
+                float(getattr(pose, "roll_rate", 0.0)),
+                float(getattr(pose, "pitch_rate", 0.0)),
+                float(getattr(pose, "yaw_rate", 0.0)),
+            )
             self._send(lambda mav: mav.attitude_send(ms, roll, pitch, yaw, p, q, r))
         elif msg_id == LOCAL_POSITION_NED:
             self._send(lambda mav: mav.local_position_ned_send(ms, *(float(v) for v in pos), *(float(v) for v in vel)))

@@ -25,6 +25,7 @@ from daemon.autopilot_geo import LocalTangentPlane
 from daemon.mavlink_env import mavlink
 from drivers.awr1843.parser import encode_frame
 from drivers.awr1843.timed_capture import TimedCaptureWriter
+from drivers.frames import euler_rates_to_body
 from drivers.mount import Mount
 from drivers.vlp16.packet import encode_data_packet, encode_position_packet
 from drivers.vlp16.pcap import PcapWriter
@@ -119,8 +120,8 @@ def write_captures(
             tu = T0_UNIX + float(t)
             pos = np.asarray(pose.position, float)
             vel = np.asarray(pose.velocity, float)
-            r = math.cos(pose.roll) * math.cos(pose.pitch) * pose.yaw_rate
-            tlog.write(_tlog_record(tu, mav.attitude_encode(ms, pose.roll, pose.pitch, pose.yaw, 0.0, 0.0, r), mav))
+            p, q, r = euler_rates_to_body(pose.roll, pose.pitch, pose.roll_rate, pose.pitch_rate, pose.yaw_rate)
+            tlog.write(_tlog_record(tu, mav.attitude_encode(ms, pose.roll, pose.pitch, pose.yaw, p, q, r), mav))
             tlog.write(_tlog_record(tu, mav.local_position_ned_encode(ms, *map(float, pos), *map(float, vel)), mav))
             lat, lon, alt = plane.to_geodetic(pos)
             hdg = round(math.degrees(pose.yaw) % 360.0 * 100.0) % 36000

@@ -355,6 +355,13 @@ class OwnBoat:
         pitch = self.pitch_amplitude * np.sin(2 * math.pi * t / self.pitch_period + 0.5 * self.wave_phase)
         return roll, pitch
 
+    def attitude_rates(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """d(roll)/dt, d(pitch)/dt, rad/s: what a real autopilot's gyros report (as body rates) while rolling."""
+        w_roll, w_pitch = 2 * math.pi / self.roll_period, 2 * math.pi / self.pitch_period
+        roll_rate = self.roll_amplitude * w_roll * np.cos(w_roll * t + self.wave_phase)
+        pitch_rate = self.pitch_amplitude * w_pitch * np.cos(w_pitch * t + 0.5 * self.wave_phase)
+        return roll_rate, pitch_rate
+
     def poses(self, t: np.ndarray | float) -> OwnPoses:
         t = np.atleast_1d(np.asarray(t, float))
         s = self.trajectory.state(t)
@@ -364,6 +371,7 @@ class OwnBoat:
 
     def pose(self, t: float) -> EgoPose:
         p = self.poses(t)
+        roll_rate, pitch_rate = self.attitude_rates(np.array([float(t)]))
         return EgoPose(
             t=float(t),
             position=np.array([p.position[0, 0], p.position[0, 1], float(p.down[0])]),
@@ -372,6 +380,8 @@ class OwnBoat:
             pitch=float(p.pitch[0]),
             yaw=float(p.yaw[0]),
             yaw_rate=float(p.yaw_rate[0]),
+            roll_rate=float(roll_rate[0]),
+            pitch_rate=float(pitch_rate[0]),
         )
 
 

@@ -15,6 +15,7 @@ from daemon.autopilot_rates import ACCEPTED, NO_ACK, IntervalRequester
 from daemon.mavlink_env import mavlink, signing_key_from_passphrase
 from daemon.pose_history import PoseHistory
 from daemon.timesync import NS_PER_MS, NS_PER_S, TimeSync
+from drivers.frames import body_rates_to_euler, euler_rates_to_body
 from simulator.autopilot import ReceivedObstacleDistance, proximity_sectors
 
 OFFSET = 123_456_789_012  # autopilot clock - host clock, ns
@@ -150,6 +151,22 @@ def test_pose_assembler_prefers_local_and_waits_for_it() -> None:
     assert a.on_attitude(2.0, 0, 0, 0, 0, 0, 0) is None  # position 1.5 s old: no pose
     a.on_autopilot_reboot()
     assert a.world_epoch == 1 and len(h) == 0 and a.position_source is None
+
+
+def test_pose_assembler_turns_attitudes_body_rates_into_euler_rates() -> None:
+    """ATTITUDE's rollspeed/pitchspeed/yawspeed are body rates; on a boat rolled 5 deg and pitched 3 deg they
+    differ from the Euler rates the pose history extrapolates with, and the conversion round-trips exactly."""
+    roll, pitch = math.radians(5.0), math.radians(3.0)
+    euler = (0.11, -0.07, 0.2)  # rad/s: roll, pitch, yaw rates
+    p, q, r = euler_rates_to_body(roll, pitch, *euler)
+    assert (p, q, r) != pytest.approx(euler, abs=1e-3)  # not the same numbers at this attitude
+    assert body_rates_to_euler(roll, pitch, p, q, r) == pytest.approx(euler, abs=1e-12)
+    assert euler_rates_to_body(0.0, 0.0, *euler) == pytest.approx(euler, abs=1e-15)  # level: they coincide
+    a = PoseAssembler(PoseHistory())
+    a.on_local_position(0.0, np.zeros(3), np.zeros(3))
+    got = a.on_attitude(0.02, roll, pitch, 0.0, p, q, r)
+    assert got is not None
+    assert (got.roll_rate, got.pitch_rate, got.yaw_rate) == pytest.approx(euler, abs=1e-12)
 
 
 def test_pose_assembler_global_after_grace_and_geodetic_anchor() -> None:

@@ -68,6 +68,34 @@ def test_extrapolation_limit_and_velocity_extrapolation() -> None:
     assert PoseHistory().at(1.0) is None  # empty
 
 
+def test_a_rolling_boats_attitude_is_extrapolated_with_its_rates_not_held() -> None:
+    """The busy-machine case: ATTITUDE stopped arriving 0.25 s before the scan's newest point. The boat rolls
+    5 deg over 5 s and pitches 3 deg over 3.7 s (peak rates 6.3 and 5.1 deg/s). Held, the roll would be wrong by
+    over a degree -- the water 20 m off would stand 0.4 m high; with its rate it is wrong by no more than the
+    sinusoid's curvature over 0.25 s allows, A w^2 dt^2 / 2: 0.25 deg of roll, 0.27 deg of pitch (9 cm at 20 m)."""
+    w_r, w_p = 2 * math.pi / 5.0, 2 * math.pi / 3.7
+    a_r, a_p = math.radians(5.0), math.radians(3.0)
+    h = PoseHistory(max_extrapolation=0.3)
+    t_last = 4.9  # near a zero crossing of the roll: its rate is the largest
+    for t in np.arange(4.0, t_last + 1e-9, 0.02):
+        h.add(
+            EgoPose(
+                float(t), np.zeros(3), np.zeros(3), a_r * math.sin(w_r * t), a_p * math.sin(w_p * t), 0.0,
+                roll_rate=a_r * w_r * math.cos(w_r * t), pitch_rate=a_p * w_p * math.cos(w_p * t),
+            )
+        )  # fmt: skip
+    t_q = t_last + 0.25
+    got = h.at(t_q)
+    assert got is not None
+    held = a_r * math.sin(w_r * t_last)
+    assert abs(held - a_r * math.sin(w_r * t_q)) > math.radians(1.0)  # the case is meaningful
+    dt = t_q - t_last
+    assert abs(got.roll - a_r * math.sin(w_r * t_q)) <= 0.5 * a_r * w_r**2 * dt**2 + 1e-9
+    assert abs(got.pitch - a_p * math.sin(w_p * t_q)) <= 0.5 * a_p * w_p**2 * dt**2 + 1e-9
+    _pos, roll, pitch, _yaw = h.at_many(np.array([t_q]))
+    assert roll[0] == pytest.approx(got.roll, abs=1e-12) and pitch[0] == pytest.approx(got.pitch, abs=1e-12)
+
+
 def test_long_gap_is_not_interpolated_across() -> None:
     h = PoseHistory(max_extrapolation=0.3, max_gap=1.0)
     h.add(pose(0.0, pos=(0, 0, 0), vel=(1, 0, 0)))
