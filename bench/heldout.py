@@ -91,6 +91,7 @@ def run_scene(seed: int, seconds: float, modes: tuple[str, ...] = tuple(MODES)) 
                 "false_clear_bins": bins.get("false_clear", 0),
                 "bins_with_solid": bins.get("bins_with_solid", 0),
                 "false_obstacle_bins": bins.get("false_obstacle", 0),
+                "obstacle_unreturned_bins": bins.get("obstacle_unreturned", 0),
                 "bins_scored": bins.get("bins_scored", 0),
                 "false_obstacle_share": bins.get("false_obstacle", 0) / max(bins.get("bins_scored", 0), 1),
                 "replay_s": replay_s,

@@ -9,9 +9,12 @@ Definitions (d = the distance sent in a bin, tol(d) = max(0.5 m, 5 % of d), max 
   * false clear: the bin was sent clear (max + 1 cm) or unknown (65535) while a returned solid lay nearer than
     0.8 * max in that bin in every reference window (there throughout, so whatever the daemon's sweep caught, it
     was in it); split into sent-clear and sent-unknown;
-  * false obstacle: the bin was sent with an obstacle at d while no returned solid lay at or nearer than d + tol(d)
-    in that bin or its two neighbours in any reference window (an obstacle reported nearer than anything returned is
-    false; the neighbours absorb a bearing that moved by the boat's turn between sweep and window);
+  * false obstacle: the bin was sent with an obstacle at d while no solid lay at or nearer than d + tol(d) in that
+    bin or its two neighbours in any reference window, neither a returned one nor, where the record has them
+    (returns.csv's present columns), one that was there unreturned (an obstacle reported nearer than anything
+    there is false; the neighbours absorb a bearing that moved by the boat's turn between sweep and window). An
+    obstacle on a solid that was there but that no sensor returned in those windows (the daemon held it from an
+    earlier sweep) is counted apart as ``obstacle_unreturned``, not as false;
   * within tolerance: an obstacle bin whose d is within tol(d) of the nearest returned solid in that bin in one of
     the reference windows; its share of the obstacle bins is reported.
 Withheld ticks (bins null) and ticks whose reference windows do not cover the span are counted apart, not scored.
@@ -48,6 +51,7 @@ class BinScores:
     unknown_bins: int
     bins_with_solid: int  # bins where a solid lay nearer than 0.8 * max throughout the reference windows
     false_clear: int
+    obstacle_unreturned: int  # obstacle bins on a solid that was there but not returned in the reference windows
     false_clear_sent_clear: int
     false_clear_sent_unknown: int
     false_obstacle: int
@@ -82,6 +86,11 @@ def reference_windows(returns: ReturnsTable, t: float) -> np.ndarray:
     if w.size == 0 or returns.t_start[w[0]] > t - span or returns.t_end[w[-1]] < t - _OVERLAP_S:
         return w[:0]
     return w
+
+
+def _around(nearest: np.ndarray) -> np.ndarray:
+    """(72,) the nearest in each bin or its two neighbours."""
+    return np.minimum(nearest, np.minimum(np.roll(nearest, 1), np.roll(nearest, -1)))
 
 
 def score_bins(
@@ -128,8 +137,12 @@ def score_bins(
         d = sent / 100.0
         tol = np.maximum(TOL_MIN_M, TOL_SHARE * d)
         nearest_any = near.min(axis=0)  # (72,) nearest in any window
-        around = np.minimum(nearest_any, np.minimum(np.roll(nearest_any, 1), np.roll(nearest_any, -1)))
-        n["false_obstacle"] += int((obstacle & ~(around <= d + tol)).sum())
+        unreturned = obstacle & ~(_around(nearest_any) <= d + tol)
+        if returns.present is not None:
+            there = _around(returns.present[w].min(axis=0)) <= d + tol
+            n["obstacle_unreturned"] += int((unreturned & there).sum())
+            unreturned &= ~there
+        n["false_obstacle"] += int(unreturned.sum())
         closest_gap = np.min(np.abs(near - d[None, :]), axis=0)  # inf - d stays inf where nothing came back
         n["within_tolerance"] += int((obstacle & (closest_gap <= tol)).sum())
     n["false_clear"] = n["false_clear_sent_clear"] + n["false_clear_sent_unknown"]

@@ -17,6 +17,11 @@ that down beside the captures as ``returns.csv``, one row per window [k * 0.1, (
                                     edge that the daemon, placing its returns at its own instant, puts a tenth of a
                                     degree into the next bin, is not a miss in this one
   radar_bin_.., radar_core_..       the same for the radar
+  present_00 .. present_71          nearest solid that was there per bin, returned or not: the hulls' and quay
+                                    blocks' outlines at the window's start, middle and end, in the same frame (so
+                                    an obstacle the daemon held from an earlier sweep, on a hull that is there, is
+                                    not a false obstacle); empty where none lay within PRESENT_RANGE_M. Files
+                                    written before it have no such columns.
 
 A "returned solid" is a LiDAR or radar return labelled as a vessel or the shore; clutter, water, rain and radar
 multipath ghosts never count. LiDAR returns are placed along their true ray at the measured (noisy) distance and
@@ -44,7 +49,7 @@ from simulator.lidar_model import (
     Vlp16Model,
 )
 from simulator.radar_model import RadarDetections
-from simulator.scene import LABEL_SHORE, Scene
+from simulator.scene import LABEL_SHORE, MAX_VERTICES, Scene
 from tracker.ego import rotation_matrices
 
 N_BINS = 72
@@ -55,6 +60,9 @@ SENSORS = ("lidar", "radar")
 BIN_COLUMNS = tuple(f"{s}_{kind}_{j:02d}" for s in SENSORS for kind in ("bin", "core") for j in range(N_BINS))
 EDGE_MARGIN_DEG = 0.5
 POSE_COLUMNS = ("t_start", "t_end", "own_north", "own_east", "own_yaw")
+PRESENT_COLUMNS = tuple(f"present_{j:02d}" for j in range(N_BINS))
+PRESENT_RANGE_M = 150.0  # beyond any max_distance the daemon takes
+_PRESENT_STEP_M = 0.1  # outline sampling: a bin 5 m off is 0.44 m wide
 
 # (block, channel) of a packet -> laser id and firing offset from the packet's first firing (vlp16.md §4):
 # channel c of block k is laser c % 16 of sequence 2k + (c >= 16).
@@ -151,18 +159,37 @@ class ReturnsRecorder:
         inner = inside_bin(fwd, stbd, math.radians(EDGE_MARGIN_DEG))
         np.minimum.at(self.core[sensor], (w[inner], b[inner]), r[inner])
 
+    def present_nearest(self) -> np.ndarray:
+        """(W, 72) m: per window, the nearest solid outline in each bin at the window's start, middle or end (the
+        own boat's level frame at its end), inf where none lies within PRESENT_RANGE_M."""
+        out = np.full((self.n_windows, N_BINS), np.inf)
+        if self.n_windows == 0:
+            return out
+        for k in range(self.n_windows):
+            t = self.t_end[k] - self.window_s * np.array([1.0, 0.5, 0.0])
+            pts = _outline_samples(self.scene.prisms_at(t).vertices.reshape(-1, MAX_VERTICES, 2))
+            rel = pts - self.own_ne[k]
+            c, s = math.cos(self.own_yaw[k]), math.sin(self.own_yaw[k])
+            fwd, stbd = c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]
+            r = np.hypot(fwd, stbd)
+            near = r <= PRESENT_RANGE_M
+            np.minimum.at(out[k], bearing_bin(fwd[near], stbd[near]), r[near])
+        return out
+
     # -- output --------------------------------------------------------------------------------------------------
     def write(self, path: str | Path) -> int:
         """Write returns.csv; returns the number of windows (rows)."""
         self.flush()
         with open(path, "w", newline="") as f:
             w = csv.writer(f)
-            w.writerow([*POSE_COLUMNS, *solid_columns(self.n_vessels), *BIN_COLUMNS])
+            w.writerow([*POSE_COLUMNS, *solid_columns(self.n_vessels), *BIN_COLUMNS, *PRESENT_COLUMNS])
+            present = self.present_nearest()
             for k in range(self.n_windows):
                 counts = []
                 for s in range(1 + self.n_vessels):
                     counts += [int(self.lidar_counts[k, s]), int(self.radar_counts[k, s])]
                 per_sensor = [a for sensor in range(2) for a in (self.nearest[sensor, k], self.core[sensor, k])]
+                per_sensor.append(present[k])
                 bins = ["" if not np.isfinite(r) else f"{r:.3f}" for r in np.concatenate(per_sensor)]
                 w.writerow(
                     [
@@ -176,6 +203,16 @@ class ReturnsRecorder:
                     ]
                 )
         return self.n_windows
+
+
+def _outline_samples(vertices: np.ndarray) -> np.ndarray:
+    """(M, 2) points every _PRESENT_STEP_M along the closed outlines (P, 5, 2) (padded vertices repeat)."""
+    a = vertices.reshape(-1, 2)
+    b = np.roll(vertices, -1, axis=1).reshape(-1, 2)
+    n = np.ceil(np.hypot(*(b - a).T) / _PRESENT_STEP_M).astype(np.int64)
+    seg = np.repeat(np.arange(a.shape[0]), n)
+    frac = (np.arange(seg.size) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(np.maximum(n, 1), n)
+    return a[seg] + (b[seg] - a[seg]) * frac[:, None]
 
 
 def _lidar_points_world(model: Vlp16Model, t: np.ndarray, laser: np.ndarray, distance: np.ndarray) -> np.ndarray:
@@ -207,6 +244,7 @@ class ReturnsTable:
     sensor_nearest: np.ndarray  # (2, W, 72) m per sensor (LiDAR, radar), inf where nothing was returned
     sensor_core: np.ndarray  # (2, W, 72) m, the same from returns at least EDGE_MARGIN_DEG inside their bin
     vessel_ids: tuple[int, ...]  # (V,) the ids of columns 1..V
+    present: np.ndarray | None = None  # (W, 72) m, nearest solid there, returned or not; None in older files
     window_s: float = WINDOW_S
     sensors: tuple[str, ...] = SENSORS  # whose returns count (``for_sensors``)
 
@@ -255,9 +293,12 @@ def read_returns_csv(path: str | Path) -> ReturnsTable:
     if not rows:
         raise ReturnsFormatError(f"{path}: empty file (expected a returns.csv header)")
     header = rows[0]
+    has_present = tuple(header[-len(PRESENT_COLUMNS) :]) == PRESENT_COLUMNS
+    if has_present:
+        header = header[: -len(PRESENT_COLUMNS)]
     ids = _parse_header(path, header)
     n_solid = 1 + len(ids)
-    width = len(header)
+    width = len(header) + (len(PRESENT_COLUMNS) if has_present else 0)
     out = {k: [] for k in ("t_start", "t_end", "north", "east", "yaw", "lidar", "radar", "bins")}
     for line_no, row in enumerate(rows[1:], start=2):
         if not row:
@@ -278,6 +319,8 @@ def read_returns_csv(path: str | Path) -> ReturnsTable:
         out["radar"].append(counts[1::2])
         out["bins"].append(bins)
     t_start, t_end = np.array(out["t_start"], float), np.array(out["t_end"], float)
+    bins = np.array(out["bins"], float).reshape(len(out["bins"]), -1)
+    n_sensor_bins = len(BIN_COLUMNS)
     if np.any(t_end <= t_start) or np.any(np.diff(t_start) <= 0):
         raise ReturnsFormatError(f"{path}: windows must have t_end > t_start and follow each other in time")
     return ReturnsTable(
@@ -289,9 +332,10 @@ def read_returns_csv(path: str | Path) -> ReturnsTable:
         lidar=np.array(out["lidar"], np.int64).reshape(-1, n_solid),
         radar=np.array(out["radar"], np.int64).reshape(-1, n_solid),
         # (W, sensor, kind, 72) -> per sensor (2, W, 72)
-        sensor_nearest=np.array(out["bins"], float).reshape(-1, 2, 2, N_BINS)[:, :, 0].transpose(1, 0, 2),
-        sensor_core=np.array(out["bins"], float).reshape(-1, 2, 2, N_BINS)[:, :, 1].transpose(1, 0, 2),
+        sensor_nearest=bins[:, :n_sensor_bins].reshape(-1, 2, 2, N_BINS)[:, :, 0].transpose(1, 0, 2),
+        sensor_core=bins[:, :n_sensor_bins].reshape(-1, 2, 2, N_BINS)[:, :, 1].transpose(1, 0, 2),
         vessel_ids=ids,
+        present=bins[:, n_sensor_bins:] if has_present else None,
     )
 
 

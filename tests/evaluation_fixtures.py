@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from simulator.returns import BIN_COLUMNS, POSE_COLUMNS, solid_columns
+from simulator.returns import BIN_COLUMNS, POSE_COLUMNS, PRESENT_COLUMNS, solid_columns
 from simulator.scene import OwnBoat, Scene, Trajectory, Vessel
 from simulator.truth import write_truth_csv
 
@@ -74,19 +74,28 @@ def write_ticks(path: Path, ticks: Sequence[dict[str, Any]]) -> Path:
 
 
 def write_returns(
-    path: Path, counts: np.ndarray, nearest: np.ndarray, window_s: float = 0.1, core: np.ndarray | None = None
+    path: Path,
+    counts: np.ndarray,
+    nearest: np.ndarray,
+    window_s: float = 0.1,
+    core: np.ndarray | None = None,
+    present: np.ndarray | None = None,
 ) -> Path:
     """``counts``: (W, 1 + V, 2) LiDAR/radar returns of the shore and each vessel; ``nearest``: (W, 72) m (inf: none),
     as the LiDAR returned them (the radar's bins are empty); ``core``: the same from returns inside their bins, away
-    from the edges (default: ``nearest``). The own boat sits at the origin heading north, as in two_boats()."""
+    from the edges (default: ``nearest``); ``present``: (W, 72) m, the nearest solid there, returned or not (default:
+    no such columns, as in files written before them). The own boat sits at the origin heading north, as in
+    two_boats()."""
     n_vessels = counts.shape[1] - 1
     core = nearest if core is None else core
-    lines = [",".join([*POSE_COLUMNS, *solid_columns(n_vessels), *BIN_COLUMNS])]
+    extra = list(PRESENT_COLUMNS) if present is not None else []
+    lines = [",".join([*POSE_COLUMNS, *solid_columns(n_vessels), *BIN_COLUMNS, *extra])]
     for k in range(counts.shape[0]):
         pose = [f"{k * window_s:.6f}", f"{(k + 1) * window_s:.6f}", "0", "0", "0"]
         c = [str(int(x)) for x in counts[k].reshape(-1)]
         none = np.full(72, np.inf)
-        b = ["" if not np.isfinite(r) else f"{r:.3f}" for r in (*nearest[k], *core[k], *none, *none)]
+        there = () if present is None else tuple(present[k])
+        b = ["" if not np.isfinite(r) else f"{r:.3f}" for r in (*nearest[k], *core[k], *none, *none, *there)]
         lines.append(",".join(pose + c + b))
     path.write_text("\n".join(lines) + "\n")
     return path

@@ -52,6 +52,7 @@ def test_bin_counts_exact(tmp_path: Path) -> None:
     # bins 0 and 31 (the solid beside bin 30's obstacle) were sent clear, bin 10 unknown
     assert (b.false_clear, b.false_clear_sent_clear, b.false_clear_sent_unknown) == (21, 14, 7)
     assert b.false_obstacle == 7 * 2  # bins 5 and 20
+    assert b.obstacle_unreturned == 0  # an older record: no present columns, nothing counted apart
     assert b.within_tolerance == 7  # bin 40
     assert b.false_clear_rate == pytest.approx(3 / 5)
     assert b.false_obstacle_rate == pytest.approx(0.5)
@@ -137,3 +138,22 @@ def test_reference_is_the_span_the_ticks_revolution_was_swept_in(tmp_path: Path)
     ticks = [tick(0.3996, track_a_b(), [CLEAR] * 12 + [7000] + [CLEAR] * 59)]
     b = evaluate_run(tmp_path, write_ticks(tmp_path / "tracks.jsonl", ticks)).bins
     assert b is not None and (b.obstacle_bins, b.false_obstacle, b.within_tolerance) == (1, 0, 1)
+
+
+def test_an_obstacle_on_a_solid_there_but_unreturned_is_counted_apart(tmp_path: Path) -> None:
+    """The present record tells a held obstacle on a hull that is there from one on open water: bin 20 sent at
+    15 m with a hull there at 15.3 m that no sensor returned (counted apart), bin 5 at 50 m with a hull 53 m off
+    (beyond 50 m + 2.5 m: false), bin 60 at 30 m with nothing there at all (false)."""
+    write_truth(tmp_path, two_boats(), 2.0)
+    counts = np.zeros((10, 3, 2), int)
+    counts[:, 1:, 0] = 40
+    present = np.full((10, 72), np.inf)
+    present[:, 20] = 15.3
+    present[:, 5] = 53.0
+    write_returns(tmp_path / "returns.csv", counts, np.full((10, 72), np.inf), present=present)
+    bins = [UNKNOWN] * 72
+    bins[20], bins[5], bins[60] = 1500, 5000, 3000
+    path = write_ticks(tmp_path / "tracks.jsonl", [tick(0.25 + 0.1 * k, track_a_b(), bins) for k in range(5)])
+    b = evaluate_run(tmp_path, path).bins
+    assert b is not None and b.ticks_scored == 5
+    assert (b.obstacle_bins, b.obstacle_unreturned, b.false_obstacle) == (15, 5, 10)

@@ -73,6 +73,23 @@ def test_counts_and_ranges_match_the_models_own_hits() -> None:
     assert rec.radar_counts.sum() == 0 and np.isinf(rec.nearest[1]).all()
 
 
+def test_present_is_every_solid_there_returned_or_not() -> None:
+    """The present record is geometry, not returns: the wall 19 m ahead and the quay 30 m astern in their bins
+    (the wall's face spans +-14.7 deg, each bin at 19 / cos of its nearer edge) and open water elsewhere; a solid a sensor returned is never nearer than what is there, to
+    the outline's 0.1 m sampling."""
+    rec, _ = record_lidar(wall_scene(), 0.3)
+    present = rec.present_nearest()
+    assert present.shape == (3, 72)
+    for k in range(3):
+        assert present[k, 0] == pytest.approx(19.0, abs=0.01)
+        assert present[k, 36] == pytest.approx(30.0, abs=0.01)
+        for off in (-2, -1, 1, 2):
+            assert present[k, off % 72] == pytest.approx(19.0 / math.cos(math.radians(5 * abs(off) - 2.5)), abs=0.02)
+        assert np.isinf(present[k, 9])  # 45 deg off the bow: open water
+        returned = np.isfinite(rec.nearest[0, k])
+        assert np.all(present[k, returned] <= rec.nearest[0, k, returned] + 0.1)
+
+
 def test_radar_counts_only_vessels_and_shore() -> None:
     scene = wall_scene()
     rec = ReturnsRecorder(scene, 0.2)
@@ -104,6 +121,8 @@ def test_written_file_reads_back(tmp_path: Path) -> None:
     np.testing.assert_allclose(table.nearest, rec.nearest[0], atol=5e-4)  # both sensors: the radar saw nothing
     assert table.returns_of(0).tolist() == (rec.lidar_counts[:, 1] + rec.radar_counts[:, 1]).tolist()
     assert table.returns_of(7).tolist() == [0, 0, 0]
+    assert table.present is not None
+    np.testing.assert_allclose(table.present, rec.present_nearest(), atol=5e-4)
     radar_only = table.for_sensors(["radar"])
     assert np.isinf(radar_only.nearest).all() and radar_only.returns_of(0).tolist() == [0, 0, 0]
 
@@ -111,7 +130,7 @@ def test_written_file_reads_back(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
-        (lambda rows: [*rows[:2], rows[2][:-1], *rows[3:]], "line 3: 296 fields, expected 297"),
+        (lambda rows: [*rows[:2], rows[2][:-1], *rows[3:]], "line 3: 368 fields, expected 369"),
         (lambda rows: [*rows[:3], ["nan", *rows[3][1:]], *rows[4:]], "line 4: 'nan' is not a finite number"),
         (lambda rows: [*rows[:1], [*rows[1][:5], "x", *rows[1][6:]], *rows[2:]], "line 2: invalid literal"),
         (lambda rows: [["t", *rows[0][1:]], *rows[1:]], "line 1: not a returns.csv header"),
