@@ -47,6 +47,14 @@ def world_to_body_2d(points_ne: np.ndarray, position_ne: np.ndarray, yaw: float)
     return np.stack([c * d[..., 0] + s * d[..., 1], -s * d[..., 0] + c * d[..., 1]], axis=-1)
 
 
+def body_to_world_2d(points_fs: np.ndarray, position_ne: np.ndarray, yaw: float) -> np.ndarray:
+    """Body (forward, starboard) of a level boat at ``yaw`` -> horizontal world (north, east); inverts
+    world_to_body_2d."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    f, st = points_fs[..., 0], points_fs[..., 1]
+    return np.stack([position_ne[0] + c * f - s * st, position_ne[1] + s * f + c * st], axis=-1)
+
+
 @dataclass
 class PoseTable:
     """K body->NED poses (world NED position m, roll/pitch/yaw rad) and which one each of N points was taken at.

@@ -34,6 +34,7 @@ from tracker.lidar.coverage import (
 from tracker.lidar.hull_gate import on_tracked_hulls
 from tracker.lidar.water import WaterEstimate, WaterSurface
 from tracker.obstacle_map import SensorCoverage, bearing_bins, build_obstacle_distances, outline_points
+from tracker.obstacle_memory import ObstacleMemory
 from tracker.types import Track
 
 log = logging.getLogger(__name__)
@@ -144,6 +145,10 @@ class PipelineSettings:
     # reach the obstacle array (tracker/lidar/hull_gate.py); negative turns it off. Held out (random:1001-1025, LiDAR
     # only), switching it off: false-clear bins 1,680 -> 2,004 a scene, false-obstacle bins 0.12 % -> 0.09 %.
     hull_margin_grow_m: float = 0.5
+    # A bin that would go out "unknown" shows the nearest solid the sensors returned in it within this many seconds
+    # (tracker/obstacle_memory.py): a low hull whose returns fall in and out of the sea margin from one sweep to the
+    # next stays in ArduPilot's boundary. Never over a measured obstacle or a vouched "clear". 0 turns it off.
+    obstacle_hold_s: float = 0.5
 
 
 @dataclass
@@ -217,6 +222,7 @@ class PerceptionPipeline:
         self._lidar_tracks: list[Track] = []
         self._radar_tracks: list[Track] = []
         self._published = PublishedIds()
+        self._memory = ObstacleMemory()
         self.skipped_no_pose = 0
         cfg = self.lidar_preprocess_config
         # The water surface is a body-relative estimate: it survives a change of world frame.
@@ -245,6 +251,7 @@ class PerceptionPipeline:
             self.radar_tracker = self.radar_tracker_factory()
         self._lidar_tracks, self._radar_tracks = [], []
         self._published.reset()
+        self._memory.reset()
         points, at_sweep_end = self._lidar_solid
         if at_sweep_end is not None:  # kept in the body frame of the sweep's end, both in the old world frame
             self._lidar_solid = (world_to_body_2d(points, *at_sweep_end), None)
@@ -366,6 +373,22 @@ class PerceptionPipeline:
             "obstacle_map",
             lambda: build_obstacle_distances(solid, clear_to, s.min_distance_m, s.max_distance_m),
         )
+        if own is not None:
+            solid_body = np.concatenate(solid) if solid else np.empty((0, 2))
+            distances = _timed(
+                timings,
+                "obstacle_map",
+                lambda: self._memory.fill_unknown(
+                    t,
+                    distances,
+                    solid_body,
+                    (own[0][:2], own[3]),
+                    tracks,
+                    s.obstacle_hold_s,
+                    s.min_distance_m,
+                    s.max_distance_m,
+                ),
+            )
         if s.keep_published_ids:
             members = {id(tr): m for tr, m in groups}
             tracks = self._published.publish(t, [(tr, members[id(tr)]) for tr in tracks])

@@ -17,14 +17,21 @@ from tracker.types import Track
 
 
 def on_tracked_hulls(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float) -> np.ndarray:
-    """(L,) bool: the point lies inside some confirmed track's footprint box grown by ``grow_m`` on every side.
+    """(L,) bool: the point lies inside some confirmed track's footprint box grown by ``grow_m`` on every side."""
+    return tracked_hull_of(points_ne, tracks, grow_m) >= 0
+
+
+def tracked_hull_of(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float) -> np.ndarray:
+    """(L,) int: the index in ``tracks`` of a confirmed track whose footprint box, grown by ``grow_m`` on every
+    side, holds the point (the nearest centre where several do), -1 for none.
 
     Work is (points x confirmed tracks) array operations; a track without a finite size or heading counts as
     none."""
     pts = np.asarray(points_ne, dtype=float).reshape(-1, 2)
-    hull = [t for t in tracks if t.confirmed and _finite_box(t)]
-    if pts.shape[0] == 0 or not hull:
-        return np.zeros(pts.shape[0], dtype=bool)
+    which = [i for i, t in enumerate(tracks) if t.confirmed and _finite_box(t)]
+    if pts.shape[0] == 0 or not which:
+        return np.full(pts.shape[0], -1, dtype=np.int64)
+    hull = [tracks[i] for i in which]
     centre = np.array([t.position[:2] for t in hull])  # (T, 2)
     heading = np.array([t.heading for t in hull])
     half_len = np.array([t.length for t in hull]) / 2 + grow_m
@@ -35,7 +42,10 @@ def on_tracked_hulls(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: flo
     c, s = np.cos(heading), np.sin(heading)
     along = dn * c + de * s
     across = de * c - dn * s
-    return np.any((np.abs(along) <= half_len) & (np.abs(across) <= half_wid), axis=1)
+    inside = (np.abs(along) <= half_len) & (np.abs(across) <= half_wid)
+    dist2 = np.where(inside, dn * dn + de * de, np.inf)
+    best = np.argmin(dist2, axis=1)
+    return np.where(inside.any(axis=1), np.asarray(which)[best], -1)
 
 
 def _finite_box(track: Track) -> bool:

@@ -1,0 +1,113 @@
+"""The obstacle memory: a solid measured within the hold fills a bin that would go out "unknown", moved by the boat's
+own motion and by its track's velocity, and never overrides a measurement, a vouched "clear", or outlives the hold."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from drivers.mount import Mount
+from tests.sea_geometry import SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
+from tracker.obstacle_map import UNKNOWN, to_distances_cm
+from tracker.obstacle_memory import ObstacleMemory, nearest_point_per_bin
+from tracker.types import Track
+
+MAX_M = 100.0
+CLEAR = 10001
+HOLD_S = 0.5
+
+
+def sent(nearest: dict[int, float] | None = None, clear: tuple[int, ...] = ()) -> np.ndarray:
+    """An array as build_obstacle_distances makes it: obstacles at ``nearest`` (bin: m), ``clear`` bins vouched."""
+    near = np.full(72, np.inf)
+    for b, r in (nearest or {}).items():
+        near[b] = r
+    covered = np.zeros(72, dtype=bool)
+    covered[list(clear)] = True
+    return to_distances_cm(near, covered, 0.5, MAX_M)
+
+
+def fill(
+    memory: ObstacleMemory,
+    t: float,
+    distances: np.ndarray,
+    solid_body: np.ndarray | None = None,
+    own_ne: tuple[float, float] = (0.0, 0.0),
+    tracks: list[Track] | None = None,
+) -> np.ndarray:
+    solid = np.empty((0, 2)) if solid_body is None else np.asarray(solid_body, float)
+    return memory.fill_unknown(t, distances, solid, (np.array(own_ne), 0.0), tracks or [], HOLD_S, 0.5, MAX_M)
+
+
+def test_nearest_point_per_bin_keeps_each_bins_nearest() -> None:
+    pts = np.array([[20.0, 0.0], [10.0, 0.1], [0.0, 5.0], [0.0, 7.0], [np.nan, 1.0]])
+    near = nearest_point_per_bin(pts)
+    np.testing.assert_allclose(near[0], [10.0, 0.1])
+    np.testing.assert_allclose(near[18], [0.0, 5.0])  # due starboard
+    assert np.isnan(np.delete(near, [0, 18], axis=0)).all()
+
+
+def test_an_unknown_bin_shows_the_solid_measured_within_the_hold_where_the_boat_now_sees_it() -> None:
+    """A wall point 20 m ahead measured at t = 0; at 0.2 s the boat has come 2 m north and the bin would be unknown:
+    it shows 18 m. Its other bins stay unknown."""
+    m = ObstacleMemory()
+    first = fill(m, 0.0, sent({0: 20.0}), np.array([[20.0, 0.0]]))
+    assert first[0] == 2000
+    now = fill(m, 0.2, sent(), own_ne=(2.0, 0.0))
+    assert now[0] == 1800
+    assert (np.delete(now, 0) == UNKNOWN).all()
+    assert m.bins_filled == 1
+
+
+def test_a_measurement_or_a_vouched_clear_wins_over_the_memory() -> None:
+    m = ObstacleMemory()
+    fill(m, 0.0, sent({0: 20.0}), np.array([[20.0, 0.0]]))
+    assert fill(m, 0.1, sent(clear=(0,)))[0] == CLEAR  # the beams vouched nothing was there: it left
+    assert fill(m, 0.2, sent({0: 15.0}), np.array([[15.0, 0.0]]))[0] == 1500  # measured nearer: the truth now
+    assert m.bins_filled == 0
+
+
+def test_a_held_solid_is_gone_after_the_hold_and_is_never_held_again() -> None:
+    """Measured at 0; filled at 0.2 and 0.4 from that measurement alone; at 0.55 it is 0.55 s old: unknown, although
+    the bin was sent an obstacle 0.15 s before (a filled value is not a measurement)."""
+    m = ObstacleMemory()
+    fill(m, 0.0, sent({0: 20.0}), np.array([[20.0, 0.0]]))
+    assert fill(m, 0.2, sent())[0] == 2000
+    assert fill(m, 0.4, sent())[0] == 2000
+    assert fill(m, 0.55, sent())[0] == UNKNOWN
+
+
+def test_a_solid_on_a_tracked_hull_moves_with_the_track() -> None:
+    """A boat crossing at 5 m/s east, 20 m ahead: after 0.2 s its returned point is 1 m east, at 2.9 deg, in bin 1
+    (centred on 5 deg, from 2.5 deg), and bin 0 is no longer held."""
+    boat = Track(1, 0.0, np.array([20.5, 0.0]), np.array([0.0, 5.0]), math.pi / 2, 0.0, 6.0, 2.0, 1.0, confirmed=True)
+    m = ObstacleMemory()
+    fill(m, 0.0, sent({0: 20.0}), np.array([[20.0, 0.0]]), tracks=[boat])
+    now = fill(m, 0.2, sent())
+    assert now[0] == UNKNOWN
+    assert now[1] == pytest.approx(round(math.hypot(20.0, 1.0) * 100), abs=1)
+
+
+def test_the_pipeline_holds_a_wall_through_a_revolution_that_returned_nothing() -> None:
+    """The daemon's pipeline on the shipped defaults: a wall 20 m ahead, then a revolution in which nothing
+    returned (a dropout of the whole sensor for one sweep): the wall's bins still hold it; 0.6 s after its last
+    return the memory has let it go and the bins are unknown, never clear."""
+    mount = Mount(z=-1.6)
+
+    def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(np.shape(t)), np.zeros(np.shape(t))
+
+    ego = SteadyEgo(level, 0.0)
+    pipeline = lidar_pipeline(mount)
+    wall = (((20.0, -3.0), (20.0, 3.0), 2.0),)
+    seen = pipeline.step(0.1, scan_of(revolution_over_water(mount, level, yaw=0.0, walls=wall), 0.1), [], ego)
+    bins = [70, 71, 0, 1, 2]
+    assert (seen.distances_cm[bins] <= 2020).all() and (seen.distances_cm[bins] >= 2000).all()
+    nothing = revolution_over_water(mount, level, yaw=0.0, water_returns=False, t0=0.1)
+    assert nothing.t.size == 0
+    held = pipeline.step(0.2, scan_of(nothing, 0.2), [], ego)
+    np.testing.assert_array_equal(held.distances_cm[bins], seen.distances_cm[bins])
+    later = pipeline.step(0.7, scan_of(nothing, 0.7), [], ego)
+    assert (later.distances_cm[bins] == UNKNOWN).all()

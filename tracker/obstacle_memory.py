@@ -1,0 +1,109 @@
+"""A short memory of the obstacles the sensors measured, for bins that would otherwise go out "unknown".
+
+Why: a solid seen one revolution is often unresolved the next. A low hull at 20 m in a sea-state-3 chop is met only
+by the -3 deg beam, 0.5 m up, and its returns fall in and out of the sea margin from one sweep to the next; a far
+hull met by one beam drops out with that beam's dropout. Such a bin goes out 65535, and ArduPilot drops unknown
+bins and rebuilds its whole boundary from each message: for it the hull is gone until the next sweep that resolves
+it. The memory keeps, per bin, the nearest solid the sensors returned in the last ``hold_s`` seconds (in the world
+frame, so the boat's own motion moves it to its right bearing and range) and puts it in a bin whose value would
+be "unknown" now, moved on by the velocity of the confirmed track whose hull it lay on (a boat overtaking at
+3 m/s is a metre further on after 0.3 s; held where it was, its stern's bins showed open water). It never overrides a measurement: not an obstacle (the nearer truth), not "clear" (the beams
+vouched that nothing was there: the solid left), and a held value is never held again, so a solid the sensors
+stop returning is gone ``hold_s`` after its last return.
+
+Frames: bins and points body (forward, starboard) at the tick; memory world (north, east), m.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Sequence
+
+import numpy as np
+
+from tracker.ego import body_to_world_2d, world_to_body_2d
+from tracker.lidar.hull_gate import tracked_hull_of
+from tracker.obstacle_map import N_BINS, UNKNOWN, bearing_bins, nearest_per_bin
+from tracker.types import Track
+
+# A solid within this (m) of a confirmed track's footprint is that hull's and moves with it: the returns of a hull
+# lie on its sides, and a box fitted to a partial view is short by a metre or so.
+HULL_GROW_M = 1.0
+
+
+def nearest_point_per_bin(points_fwd_stbd: np.ndarray) -> np.ndarray:
+    """(72, 2) the nearest (forward, starboard) point in each bin, NaN where the bin has none."""
+    out = np.full((N_BINS, 2), np.nan)
+    p = np.asarray(points_fwd_stbd, dtype=float).reshape(-1, 2)
+    p = p[np.isfinite(p).all(axis=1)]
+    if p.shape[0] == 0:
+        return out
+    r2 = p[:, 0] ** 2 + p[:, 1] ** 2
+    b = bearing_bins(p)
+    order = np.lexsort((r2, b))  # by bin, nearest first within it
+    sorted_bins = b[order]
+    first = np.r_[True, sorted_bins[1:] != sorted_bins[:-1]]
+    out[sorted_bins[first]] = p[order[first]]
+    return out
+
+
+class ObstacleMemory:
+    """Per-bin nearest measured solids of the last seconds, in the world frame."""
+
+    def __init__(self) -> None:
+        # (tick time, (K, 2) world north/east, (K, 2) their velocity north/east m/s)
+        self._held: deque[tuple[float, np.ndarray, np.ndarray]] = deque()
+        self.bins_filled = 0  # bins sent with a held solid instead of "unknown", since start
+
+    def reset(self) -> None:
+        """Forget everything (the world frame changed)."""
+        self._held.clear()
+
+    def fill_unknown(
+        self,
+        t: float,
+        distances_cm: np.ndarray,
+        solid_body: np.ndarray,
+        own: tuple[np.ndarray, float],
+        tracks: Sequence[Track],
+        hold_s: float,
+        min_distance_m: float,
+        max_distance_m: float,
+    ) -> np.ndarray:
+        """This tick's array with its unknown bins filled from what was measured in the last ``hold_s`` seconds,
+        and this tick's measured obstacles (``solid_body``'s nearest per obstacle bin) remembered.
+        ``distances_cm``: as build_obstacle_distances made it from ``solid_body``; ``own``: the boat's world
+        (north, east) and yaw (rad) at the tick; ``tracks``: the tick's tracks, whose velocities move the solids
+        on their hulls (footprints grown by HULL_GROW_M)."""
+        own_ne, own_yaw = own
+        if hold_s <= 0:
+            self._held.clear()
+            return distances_cm
+        while self._held and t - self._held[0][0] > hold_s:
+            self._held.popleft()
+        out = distances_cm
+        unknown = distances_cm == UNKNOWN
+        if self._held and unknown.any():
+            moved = [p + v * (t - t_held) for t_held, p, v in self._held]
+            held_body = world_to_body_2d(np.concatenate(moved), own_ne, own_yaw)
+            nearest = nearest_per_bin(held_body)
+            fill = unknown & (nearest <= max_distance_m)
+            if fill.any():
+                out = distances_cm.copy()
+                min_cm, max_cm = max(round(min_distance_m * 100), 1), round(max_distance_m * 100)
+                out[fill] = np.clip(np.rint(nearest[fill] * 100), min_cm, max_cm).astype(np.uint16)
+                self.bins_filled += int(fill.sum())
+        measured = distances_cm <= round(max_distance_m * 100)
+        if measured.any():
+            pts = nearest_point_per_bin(solid_body)[measured]
+            pts = pts[np.isfinite(pts).all(axis=1)]
+            if pts.shape[0]:
+                world = body_to_world_2d(pts, own_ne, own_yaw)
+                hull = tracked_hull_of(world, tracks, HULL_GROW_M)
+                vel = np.zeros_like(world)
+                on = hull >= 0
+                if on.any():
+                    v = np.array([tracks[i].velocity[:2] for i in hull[on]], dtype=float)
+                    vel[on] = np.where(np.isfinite(v), v, 0.0)
+                self._held.append((t, world, vel))
+        return out
