@@ -205,14 +205,15 @@ def markdown(summary: dict[str, Any], rows: list[dict[str, Any]], seconds: float
         "Per scene (fused; LiDAR-only and radar-only MOTA beside):",
         "",
         "| seed | MOTA | IDF1 | false track-frames | false-clear bins / with a solid | false-obstacle bins | "
-        "LiDAR MOTA | radar MOTA | the day |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "held obstacle bins on an unreturned solid | LiDAR MOTA | radar MOTA | the day |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         f = r["fused"]
         lines.append(
             f"| {r['seed']} | {f['mota']:.3f} | {f['idf1']:.3f} | {f['false_track_frames']:.1%} | "
             f"{f['false_clear_bins']} / {f['bins_with_solid']} | {f['false_obstacle_bins']} | "
+            f"{f['obstacle_unreturned_bins']} | "
             f"{r['lidar']['mota']:.3f} | {r['radar']['mota']:.3f} | {r['description'].removeprefix('day: ')} |"
         )
     return "\n".join(lines)
