@@ -10,8 +10,8 @@ import pytest
 
 from drivers.mount import Mount
 from tests.sea_geometry import SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
-from tracker.obstacle_map import UNKNOWN, to_distances_cm
-from tracker.obstacle_memory import ObstacleMemory, nearest_point_per_bin
+from tracker.obstacle_map import UNKNOWN, nearest_per_bin, nearest_point_per_bin, to_distances_cm
+from tracker.obstacle_memory import ObstacleMemory
 from tracker.types import Track
 
 MAX_M = 100.0
@@ -47,6 +47,9 @@ def test_nearest_point_per_bin_keeps_each_bins_nearest() -> None:
     np.testing.assert_allclose(near[0], [10.0, 0.1])
     np.testing.assert_allclose(near[18], [0.0, 5.0])  # due starboard
     assert np.isnan(np.delete(near, [0, 18], axis=0)).all()
+    ranges = nearest_per_bin(pts)
+    assert ranges[0] == pytest.approx(math.hypot(10.0, 0.1)) and ranges[18] == pytest.approx(5.0)
+    assert np.isinf(np.delete(ranges, [0, 18])).all()
 
 
 def test_an_unknown_bin_shows_the_solid_measured_within_the_hold_where_the_boat_now_sees_it() -> None:

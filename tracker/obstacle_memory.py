@@ -23,28 +23,12 @@ import numpy as np
 
 from tracker.ego import body_to_world_2d, world_to_body_2d
 from tracker.lidar.hull_gate import tracked_hull_of
-from tracker.obstacle_map import N_BINS, UNKNOWN, bearing_bins, nearest_per_bin
+from tracker.obstacle_map import UNKNOWN, nearest_per_bin, nearest_point_per_bin
 from tracker.types import Track
 
 # A solid within this (m) of a confirmed track's footprint is that hull's and moves with it: the returns of a hull
 # lie on its sides, and a box fitted to a partial view is short by a metre or so.
 HULL_GROW_M = 1.0
-
-
-def nearest_point_per_bin(points_fwd_stbd: np.ndarray) -> np.ndarray:
-    """(72, 2) the nearest (forward, starboard) point in each bin, NaN where the bin has none."""
-    out = np.full((N_BINS, 2), np.nan)
-    p = np.asarray(points_fwd_stbd, dtype=float).reshape(-1, 2)
-    p = p[np.isfinite(p).all(axis=1)]
-    if p.shape[0] == 0:
-        return out
-    r2 = p[:, 0] ** 2 + p[:, 1] ** 2
-    b = bearing_bins(p)
-    order = np.lexsort((r2, b))  # by bin, nearest first within it
-    sorted_bins = b[order]
-    first = np.r_[True, sorted_bins[1:] != sorted_bins[:-1]]
-    out[sorted_bins[first]] = p[order[first]]
-    return out
 
 
 class ObstacleMemory:
