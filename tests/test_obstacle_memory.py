@@ -61,7 +61,7 @@ def test_an_unknown_bin_shows_the_solid_measured_within_the_hold_where_the_boat_
     now = fill(m, 0.2, sent(), own_ne=(2.0, 0.0))
     assert now[0] == 1800
     assert (np.delete(now, 0) == UNKNOWN).all()
-    assert m.bins_filled == 1
+    assert m.bins_filled == 1 and np.flatnonzero(m.last_filled).tolist() == [0]
 
 
 def test_a_measurement_or_a_vouched_clear_wins_over_the_memory() -> None:
@@ -112,5 +112,6 @@ def test_the_pipeline_holds_a_wall_through_a_revolution_that_returned_nothing() 
     assert nothing.t.size == 0
     held = pipeline.step(0.2, scan_of(nothing, 0.2), [], ego)
     np.testing.assert_array_equal(held.distances_cm[bins], seen.distances_cm[bins])
+    assert not seen.held_bins.any() and set(np.flatnonzero(held.held_bins).tolist()) == set(bins)
     later = pipeline.step(0.7, scan_of(nothing, 0.7), [], ego)
     assert (later.distances_cm[bins] == UNKNOWN).all()

@@ -30,13 +30,15 @@ def output() -> PerceptionOutput:
         lidar_fresh=True,
         radar_fresh=False,
         clear_to_m=clear_to,
+        held_bins=np.isin(np.arange(72), [5, 6]),
     )
 
 
 def test_record_with_and_without_a_pose() -> None:
     pose = EgoPose(12.5, np.array([3.14159, -2.5, 0.1]), np.zeros(3), 0.01, 0.02, math.radians(-30.0), 0.0)
     rec = tick_record(output(), sent=True, own=pose, world_origin=(59.4100000123, 10.49))
-    assert set(rec) == OLD_KEYS | {"own", "world_origin_lat_lon", "clear_to_m"}
+    assert set(rec) == OLD_KEYS | {"own", "world_origin_lat_lon", "clear_to_m", "held_bins"}
+    assert rec["held_bins"] == [5, 6]
     assert rec["clear_to_m"][:4] == [11.8, 50.0, 0.0, 0.0] and len(rec["clear_to_m"]) == 72
     assert rec["own"] == {"position_ne": [3.142, -2.5], "yaw_deg": -30.0}
     assert rec["world_origin_lat_lon"] == [59.41000001, 10.49]

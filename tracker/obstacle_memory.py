@@ -23,7 +23,7 @@ import numpy as np
 
 from tracker.ego import body_to_world_2d, world_to_body_2d
 from tracker.lidar.hull_gate import tracked_hull_of
-from tracker.obstacle_map import UNKNOWN, nearest_per_bin, nearest_point_per_bin
+from tracker.obstacle_map import N_BINS, UNKNOWN, nearest_per_bin, nearest_point_per_bin
 from tracker.types import Track
 
 # A solid within this (m) of a confirmed track's footprint is that hull's and moves with it: the returns of a hull
@@ -38,6 +38,7 @@ class ObstacleMemory:
         # (tick time, (K, 2) world north/east, (K, 2) their velocity north/east m/s)
         self._held: deque[tuple[float, np.ndarray, np.ndarray]] = deque()
         self.bins_filled = 0  # bins sent with a held solid instead of "unknown", since start
+        self.last_filled = np.zeros(N_BINS, dtype=bool)  # the bins the newest call filled
 
     def reset(self) -> None:
         """Forget everything (the world frame changed)."""
@@ -60,6 +61,7 @@ class ObstacleMemory:
         (north, east) and yaw (rad) at the tick; ``tracks``: the tick's tracks, whose velocities move the solids
         on their hulls (footprints grown by HULL_GROW_M)."""
         own_ne, own_yaw = own
+        self.last_filled = np.zeros(N_BINS, dtype=bool)
         if hold_s <= 0:
             self._held.clear()
             return distances_cm
@@ -77,6 +79,7 @@ class ObstacleMemory:
                 min_cm, max_cm = max(round(min_distance_m * 100), 1), round(max_distance_m * 100)
                 out[fill] = np.clip(np.rint(nearest[fill] * 100), min_cm, max_cm).astype(np.uint16)
                 self.bins_filled += int(fill.sum())
+                self.last_filled = fill
         measured = distances_cm <= round(max_distance_m * 100)
         if measured.any():
             pts = nearest_point_per_bin(solid_body)[measured]

@@ -168,6 +168,8 @@ class PerceptionOutput:
     # (72,) m per bin: out to where the live sensors vouch that a solid min_obstacle_height_m tall would have been
     # returned (0: nowhere). A bin is sent "clear" only when this reaches max_distance_m.
     clear_to_m: np.ndarray = field(default_factory=lambda: np.zeros(72))
+    # (72,) bool: bins whose obstacle is a solid held from an earlier sweep (tracker/obstacle_memory.py), not this one
+    held_bins: np.ndarray = field(default_factory=lambda: np.zeros(72, dtype=bool))
     # Trackers ("lidar", "radar") skipped this cycle to keep the obstacle array inside its deadline: their tracks
     # coasted, the array came from this cycle's returns and the tracks as they were.
     tracking_skipped: tuple[str, ...] = ()
@@ -406,6 +408,7 @@ class PerceptionPipeline:
             timings_ms=timings,
             solid_points_body=np.concatenate(solid) if solid else np.empty((0, 2)),
             clear_to_m=clear_to,
+            held_bins=self._memory.last_filled if own is not None else np.zeros(72, dtype=bool),
             tracking_skipped=tuple(dict.fromkeys(self._skipped)),
         )
 
