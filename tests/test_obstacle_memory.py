@@ -115,3 +115,20 @@ def test_the_pipeline_holds_a_wall_through_a_revolution_that_returned_nothing() 
     assert not seen.held_bins.any() and set(np.flatnonzero(held.held_bins).tolist()) == set(bins)
     later = pipeline.step(0.7, scan_of(nothing, 0.7), [], ego)
     assert (later.distances_cm[bins] == UNKNOWN).all()
+
+
+def test_without_the_boats_pose_nothing_is_held() -> None:
+    """In "no ego pose" mode the body frame at start stands for the world, so a held solid could not follow the boat's
+    turns: the memory is off and a revolution that returned nothing leaves the wall's bins unknown."""
+    mount = Mount(z=-1.6)
+
+    def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(np.shape(t)), np.zeros(np.shape(t))
+
+    pipeline = lidar_pipeline(mount)
+    wall = (((20.0, -3.0), (20.0, 3.0), 2.0),)
+    seen = pipeline.step(0.1, scan_of(revolution_over_water(mount, level, yaw=0.0, walls=wall), 0.1), [], None)
+    assert (seen.distances_cm[[71, 0, 1]] <= 2020).all()
+    nothing = revolution_over_water(mount, level, yaw=0.0, water_returns=False, t0=0.1)
+    after = pipeline.step(0.2, scan_of(nothing, 0.2), [], None)
+    assert (after.distances_cm[[71, 0, 1]] == UNKNOWN).all() and not after.held_bins.any()

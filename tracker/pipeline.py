@@ -377,7 +377,8 @@ class PerceptionPipeline:
             "obstacle_map",
             lambda: build_obstacle_distances(solid, clear_to, s.min_distance_m, s.max_distance_m),
         )
-        if own is not None:
+        held = np.zeros(72, dtype=bool)
+        if own is not None and ego_ok:
             solid_body = np.concatenate(solid) if solid else np.empty((0, 2))
             distances = _timed(
                 timings,
@@ -393,6 +394,11 @@ class PerceptionPipeline:
                     s.max_distance_m,
                 ),
             )
+            held = self._memory.last_filled
+        else:
+            # Without the boat's pose a held solid cannot follow the boat's motion: it would keep its body bearing
+            # while the boat turns. The pose's return starts a new world frame, which empties the memory anyway.
+            self._memory.reset()
         if s.keep_published_ids:
             members = {id(tr): m for tr, m in groups}
             tracks = self._published.publish(t, [(tr, members[id(tr)]) for tr in tracks])
@@ -408,7 +414,7 @@ class PerceptionPipeline:
             timings_ms=timings,
             solid_points_body=np.concatenate(solid) if solid else np.empty((0, 2)),
             clear_to_m=clear_to,
-            held_bins=self._memory.last_filled if own is not None else np.zeros(72, dtype=bool),
+            held_bins=held,
             tracking_skipped=tuple(dict.fromkeys(self._skipped)),
         )
 
