@@ -471,7 +471,7 @@ def tick_record(
         # per bin, how far out the live sensors vouched that a 0.5 m solid would have been returned (m, 0: nowhere)
         "clear_to_m": [round(float(x), 1) for x in out.clear_to_m],
         # bins whose obstacle was held from an earlier sweep (the obstacle memory), not returned in this one
-        "held_bins": np.flatnonzero(out.held_bins).tolist(),
+        "held_bins": np.flatnonzero(out.held_bins).tolist() if sent else None,
         "lidar_fresh": out.lidar_fresh,
         "radar_fresh": out.radar_fresh,
         "own": None

@@ -319,8 +319,8 @@ def read_returns_csv(path: str | Path) -> ReturnsTable:
         out["radar"].append(counts[1::2])
         out["bins"].append(bins)
     t_start, t_end = np.array(out["t_start"], float), np.array(out["t_end"], float)
-    bins = np.array(out["bins"], float).reshape(len(out["bins"]), -1)
     n_sensor_bins = len(BIN_COLUMNS)
+    bins = np.array(out["bins"], float).reshape(len(out["bins"]), n_sensor_bins + (N_BINS if has_present else 0))
     if np.any(t_end <= t_start) or np.any(np.diff(t_start) <= 0):
         raise ReturnsFormatError(f"{path}: windows must have t_end > t_start and follow each other in time")
     return ReturnsTable(

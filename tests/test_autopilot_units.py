@@ -17,6 +17,7 @@ from daemon.pose_history import PoseHistory
 from daemon.timesync import NS_PER_MS, NS_PER_S, TimeSync
 from drivers.frames import body_rates_to_euler, euler_rates_to_body
 from simulator.autopilot import ReceivedObstacleDistance, proximity_sectors
+from tracker.ego import rotation_matrices
 
 OFFSET = 123_456_789_012  # autopilot clock - host clock, ns
 
@@ -162,6 +163,14 @@ def test_pose_assembler_turns_attitudes_body_rates_into_euler_rates() -> None:
     assert (p, q, r) != pytest.approx(euler, abs=1e-3)  # not the same numbers at this attitude
     assert body_rates_to_euler(roll, pitch, p, q, r) == pytest.approx(euler, abs=1e-12)
     assert euler_rates_to_body(0.0, 0.0, *euler) == pytest.approx(euler, abs=1e-15)  # level: they coincide
+    # independent of both: the body rates are R^T dR/dt of the body->NED rotation R = Rz(yaw) Ry(pitch) Rx(roll)
+    h, yaw = 1e-6, 0.4
+    r0 = rotation_matrices(np.array([roll]), np.array([pitch]), np.array([yaw]))[0]
+    r1 = rotation_matrices(
+        np.array([roll + euler[0] * h]), np.array([pitch + euler[1] * h]), np.array([yaw + euler[2] * h])
+    )[0]
+    w = r0.T @ (r1 - r0) / h  # skew matrix of (p, q, r)
+    assert (w[2, 1], w[0, 2], w[1, 0]) == pytest.approx((p, q, r), abs=1e-5)
     a = PoseAssembler(PoseHistory())
     a.on_local_position(0.0, np.zeros(3), np.zeros(3))
     got = a.on_attitude(0.02, roll, pitch, 0.0, p, q, r)

@@ -38,7 +38,7 @@ def fill(
     tracks: list[Track] | None = None,
 ) -> np.ndarray:
     solid = np.empty((0, 2)) if solid_body is None else np.asarray(solid_body, float)
-    return memory.fill_unknown(t, distances, solid, (np.array(own_ne), 0.0), tracks or [], HOLD_S, 0.5, MAX_M)
+    return memory.fill_unknown(t, t, distances, solid, (np.array(own_ne), 0.0), tracks or [], HOLD_S, 0.5, MAX_M)
 
 
 def test_nearest_point_per_bin_keeps_each_bins_nearest() -> None:
@@ -80,6 +80,14 @@ def test_a_held_solid_is_gone_after_the_hold_and_is_never_held_again() -> None:
     assert fill(m, 0.2, sent())[0] == 2000
     assert fill(m, 0.4, sent())[0] == 2000
     assert fill(m, 0.55, sent())[0] == UNKNOWN
+
+
+def test_a_hold_of_zero_holds_nothing() -> None:
+    m = ObstacleMemory()
+    fill(m, 0.0, sent({0: 20.0}), np.array([[20.0, 0.0]]))
+    out = m.fill_unknown(0.1, 0.1, sent(), np.empty((0, 2)), (np.zeros(2), 0.0), [], 0.0, 0.5, MAX_M)
+    assert out[0] == UNKNOWN and not m.last_filled.any()
+    assert fill(m, 0.2, sent())[0] == UNKNOWN  # and what was held before is forgotten
 
 
 def test_a_solid_on_a_tracked_hull_moves_with_the_track() -> None:
@@ -132,3 +140,25 @@ def test_without_the_boats_pose_nothing_is_held() -> None:
     nothing = revolution_over_water(mount, level, yaw=0.0, water_returns=False, t0=0.1)
     after = pipeline.step(0.2, scan_of(nothing, 0.2), [], None)
     assert (after.distances_cm[[71, 0, 1]] == UNKNOWN).all() and not after.held_bins.any()
+
+
+def test_ticks_without_new_data_do_not_renew_the_hold() -> None:
+    """One revolution with a wall at 0.1 s, then ticks with no new revolution: the array re-sends that revolution's
+    returns while the LiDAR counts as fresh (0.5 s), but they are not new measurements, so the memory holds the wall
+    for 0.5 s after 0.1 s, not after each tick: at 0.65 s the bins are unknown (they stayed held until 1.0 s when
+    every tick renewed the hold)."""
+    mount = Mount(z=-1.6)
+
+    def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(np.shape(t)), np.zeros(np.shape(t))
+
+    ego = SteadyEgo(level, 0.0)
+    pipeline = lidar_pipeline(mount)
+    wall = (((20.0, -3.0), (20.0, 3.0), 2.0),)
+    bins = [71, 0, 1]
+    pipeline.step(0.1, scan_of(revolution_over_water(mount, level, yaw=0.0, walls=wall), 0.1), [], ego)
+    for k in range(2, 6):  # 0.2 .. 0.5: the revolution of 0.1 s is still fresh and still in the array
+        out = pipeline.step(0.1 * k, None, [], ego)
+        assert (out.distances_cm[bins] <= 2020).all() and not out.held_bins.any()
+    after = pipeline.step(0.65, None, [], ego)
+    assert (after.distances_cm[bins] == UNKNOWN).all()

@@ -90,6 +90,21 @@ def test_present_is_every_solid_there_returned_or_not() -> None:
         assert np.all(present[k, returned] <= rec.nearest[0, k, returned] + 0.1)
 
 
+@pytest.mark.parametrize("present", [False, True])
+def test_a_file_with_no_windows_reads_as_an_empty_record(tmp_path: Path, present: bool) -> None:
+    """A capture stopped before its first window ends: the header alone, with or without the present columns."""
+    path = tmp_path / "returns.csv"
+    rec, _ = record_lidar(wall_scene(), 0.3)
+    rec.write(path)
+    header = path.read_text().splitlines()[0]
+    if not present:
+        header = ",".join(header.split(",")[:-72])
+    path.write_text(header + "\n")
+    table = read_returns_csv(path)
+    assert table.t_end.shape == (0,) and table.sensor_nearest.shape == (2, 0, 72) and table.vessel_ids == (0,)
+    assert (table.present is not None) == present and (table.present is None or table.present.shape == (0, 72))
+
+
 def test_radar_counts_only_vessels_and_shore() -> None:
     scene = wall_scene()
     rec = ReturnsRecorder(scene, 0.2)

@@ -378,6 +378,11 @@ class PerceptionPipeline:
             lambda: build_obstacle_distances(solid, clear_to, s.min_distance_m, s.max_distance_m),
         )
         held = np.zeros(72, dtype=bool)
+        # the oldest of the live sensors' newest data: what this tick's array is made of is at least that recent
+        fresh_times = [
+            x for x, fresh in ((self._last_lidar_t, lidar_fresh), (self._last_radar_t, radar_fresh)) if fresh
+        ]
+        measured_at = min(fresh_times, default=-np.inf)
         if own is not None and ego_ok:
             solid_body = np.concatenate(solid) if solid else np.empty((0, 2))
             distances = _timed(
@@ -385,6 +390,7 @@ class PerceptionPipeline:
                 "obstacle_map",
                 lambda: self._memory.fill_unknown(
                     t,
+                    measured_at,
                     distances,
                     solid_body,
                     (own[0][:2], own[3]),
