@@ -8,10 +8,12 @@ import math
 import numpy as np
 import pytest
 
+from drivers.frames import LidarScan
 from drivers.mount import Mount
 from tests.sea_geometry import SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
 from tracker.obstacle_map import UNKNOWN, nearest_per_bin, nearest_point_per_bin, to_distances_cm
 from tracker.obstacle_memory import ObstacleMemory
+from tracker.pipeline import PerceptionOutput, PerceptionPipeline
 from tracker.types import Track
 
 MAX_M = 100.0
@@ -101,45 +103,49 @@ def test_a_solid_on_a_tracked_hull_moves_with_the_track() -> None:
     assert now[1] == pytest.approx(round(math.hypot(20.0, 1.0) * 100), abs=1)
 
 
-def test_the_pipeline_holds_a_wall_through_a_revolution_that_returned_nothing() -> None:
-    """The daemon's pipeline on the shipped defaults: a wall 20 m ahead, then a revolution in which nothing
-    returned (a dropout of the whole sensor for one sweep): the wall's bins still hold it; 0.6 s after its last
-    return the memory has let it go and the bins are unknown, never clear."""
-    mount = Mount(z=-1.6)
+MOUNT = Mount(z=-1.6)
+WALL_BINS = [70, 71, 0, 1, 2]  # a wall 20 m ahead, 6 m wide, from a boat heading north
 
-    def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return np.zeros(np.shape(t)), np.zeros(np.shape(t))
 
-    ego = SteadyEgo(level, 0.0)
-    pipeline = lidar_pipeline(mount)
+def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return np.zeros(np.shape(t)), np.zeros(np.shape(t))
+
+
+def after_a_wall(ego: SteadyEgo | None) -> tuple[PerceptionPipeline, PerceptionOutput]:
+    """The daemon's pipeline on the shipped defaults, LiDAR only, after one revolution at 0.1 s with the wall."""
+    pipeline = lidar_pipeline(MOUNT)
     wall = (((20.0, -3.0), (20.0, 3.0), 2.0),)
-    seen = pipeline.step(0.1, scan_of(revolution_over_water(mount, level, yaw=0.0, walls=wall), 0.1), [], ego)
-    bins = [70, 71, 0, 1, 2]
-    assert (seen.distances_cm[bins] <= 2020).all() and (seen.distances_cm[bins] >= 2000).all()
-    nothing = revolution_over_water(mount, level, yaw=0.0, water_returns=False, t0=0.1)
-    assert nothing.t.size == 0
-    held = pipeline.step(0.2, scan_of(nothing, 0.2), [], ego)
-    np.testing.assert_array_equal(held.distances_cm[bins], seen.distances_cm[bins])
-    assert not seen.held_bins.any() and set(np.flatnonzero(held.held_bins).tolist()) == set(bins)
-    later = pipeline.step(0.7, scan_of(nothing, 0.7), [], ego)
-    assert (later.distances_cm[bins] == UNKNOWN).all()
+    seen = pipeline.step(0.1, scan_of(revolution_over_water(MOUNT, level, yaw=0.0, walls=wall), 0.1), [], ego)
+    assert (seen.distances_cm[WALL_BINS] <= 2020).all() and (seen.distances_cm[WALL_BINS] >= 2000).all()
+    assert not seen.held_bins.any()
+    return pipeline, seen
+
+
+def nothing_returned(t0: float) -> LidarScan:
+    """A revolution in which no firing returned (the whole sensor dropped out for a sweep)."""
+    ret = revolution_over_water(MOUNT, level, yaw=0.0, water_returns=False, t0=t0)
+    assert ret.t.size == 0
+    return scan_of(ret, t0 + 0.1)
+
+
+def test_the_pipeline_holds_a_wall_through_a_revolution_that_returned_nothing() -> None:
+    """A wall 20 m ahead, then a revolution in which nothing returned: the wall's bins still hold it; 0.6 s after
+    its last return the memory has let it go and the bins are unknown, never clear."""
+    ego = SteadyEgo(level, 0.0)
+    pipeline, seen = after_a_wall(ego)
+    held = pipeline.step(0.2, nothing_returned(0.1), [], ego)
+    np.testing.assert_array_equal(held.distances_cm[WALL_BINS], seen.distances_cm[WALL_BINS])
+    assert set(np.flatnonzero(held.held_bins).tolist()) == set(WALL_BINS)
+    later = pipeline.step(0.7, nothing_returned(0.6), [], ego)
+    assert (later.distances_cm[WALL_BINS] == UNKNOWN).all()
 
 
 def test_without_the_boats_pose_nothing_is_held() -> None:
     """In "no ego pose" mode the body frame at start stands for the world, so a held solid could not follow the boat's
     turns: the memory is off and a revolution that returned nothing leaves the wall's bins unknown."""
-    mount = Mount(z=-1.6)
-
-    def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return np.zeros(np.shape(t)), np.zeros(np.shape(t))
-
-    pipeline = lidar_pipeline(mount)
-    wall = (((20.0, -3.0), (20.0, 3.0), 2.0),)
-    seen = pipeline.step(0.1, scan_of(revolution_over_water(mount, level, yaw=0.0, walls=wall), 0.1), [], None)
-    assert (seen.distances_cm[[71, 0, 1]] <= 2020).all()
-    nothing = revolution_over_water(mount, level, yaw=0.0, water_returns=False, t0=0.1)
-    after = pipeline.step(0.2, scan_of(nothing, 0.2), [], None)
-    assert (after.distances_cm[[71, 0, 1]] == UNKNOWN).all() and not after.held_bins.any()
+    pipeline, _ = after_a_wall(None)
+    after = pipeline.step(0.2, nothing_returned(0.1), [], None)
+    assert (after.distances_cm[WALL_BINS] == UNKNOWN).all() and not after.held_bins.any()
 
 
 def test_ticks_without_new_data_do_not_renew_the_hold() -> None:
@@ -147,18 +153,10 @@ def test_ticks_without_new_data_do_not_renew_the_hold() -> None:
     returns while the LiDAR counts as fresh (0.5 s), but they are not new measurements, so the memory holds the wall
     for 0.5 s after 0.1 s, not after each tick: at 0.65 s the bins are unknown (they stayed held until 1.0 s when
     every tick renewed the hold)."""
-    mount = Mount(z=-1.6)
-
-    def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return np.zeros(np.shape(t)), np.zeros(np.shape(t))
-
     ego = SteadyEgo(level, 0.0)
-    pipeline = lidar_pipeline(mount)
-    wall = (((20.0, -3.0), (20.0, 3.0), 2.0),)
-    bins = [71, 0, 1]
-    pipeline.step(0.1, scan_of(revolution_over_water(mount, level, yaw=0.0, walls=wall), 0.1), [], ego)
+    pipeline, _ = after_a_wall(ego)
     for k in range(2, 6):  # 0.2 .. 0.5: the revolution of 0.1 s is still fresh and still in the array
         out = pipeline.step(0.1 * k, None, [], ego)
-        assert (out.distances_cm[bins] <= 2020).all() and not out.held_bins.any()
+        assert (out.distances_cm[WALL_BINS] <= 2020).all() and not out.held_bins.any()
     after = pipeline.step(0.65, None, [], ego)
-    assert (after.distances_cm[bins] == UNKNOWN).all()
+    assert (after.distances_cm[WALL_BINS] == UNKNOWN).all()
