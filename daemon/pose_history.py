@@ -8,8 +8,9 @@ Interpolation: position and velocity linearly; roll, pitch and yaw each along th
 but for a boat (roll and pitch of a few degrees) the difference is far below the sensors' angular resolution.
 Outside the stored samples, and across gaps longer than ``max_gap``, the nearest sample is extrapolated with
 its velocity and its roll, pitch and yaw rates for at most ``max_extrapolation`` seconds (holding roll and
-pitch instead would tilt the water by range x rate x age: 0.6 m at 20 m for a 6 deg/s roll 0.3 s old); beyond that the answer is "unknown"
-(None, or NaN rows in ``at_many``) because a stale pose puts points in the wrong place with full confidence.
+pitch instead would tilt the water by range x rate x age: 0.6 m at 20 m for a 6 deg/s roll 0.3 s old); beyond
+that the answer is "unknown" (None, or NaN rows in ``at_many``) because a stale pose puts points in the wrong place
+with full confidence.
 
 "No ego pose" mode (``no_ego_pose=True``): when no autopilot answers, the body frame at start is the world,
 so every query returns the identity pose and samples fed in are ignored (counted).

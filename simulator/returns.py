@@ -163,8 +163,6 @@ class ReturnsRecorder:
         """(W, 72) m: per window, the nearest solid outline in each bin at the window's start, middle or end (the
         own boat's level frame at its end), inf where none lies within PRESENT_RANGE_M."""
         out = np.full((self.n_windows, N_BINS), np.inf)
-        if self.n_windows == 0:
-            return out
         for k in range(self.n_windows):
             t = self.t_end[k] - self.window_s * np.array([1.0, 0.5, 0.0])
             pts = _outline_samples(self.scene.prisms_at(t).vertices.reshape(-1, MAX_VERTICES, 2))

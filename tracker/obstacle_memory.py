@@ -29,7 +29,7 @@ import numpy as np
 
 from tracker.ego import body_to_world_2d, world_to_body_2d
 from tracker.lidar.hull_gate import tracked_hull_of
-from tracker.obstacle_map import N_BINS, UNKNOWN, nearest_per_bin, nearest_point_per_bin
+from tracker.obstacle_map import N_BINS, UNKNOWN, nearest_per_bin, nearest_point_per_bin, to_distances_cm
 from tracker.types import Track
 
 # A solid within this (m) of a confirmed track's footprint is that hull's and moves with it: the returns of a hull
@@ -83,18 +83,18 @@ class ObstacleMemory:
         if self._held and unknown.any():
             moved = [p + v * (t - t_held) for t_held, p, v in self._held]
             held_body = world_to_body_2d(np.concatenate(moved), own_ne, own_yaw)
-            nearest = nearest_per_bin(held_body)
-            fill = unknown & (nearest <= max_distance_m)
+            held_cm = to_distances_cm(
+                nearest_per_bin(held_body), np.zeros(N_BINS, bool), min_distance_m, max_distance_m
+            )
+            fill = unknown & (held_cm != UNKNOWN)
             if fill.any():
-                out = distances_cm.copy()
-                min_cm, max_cm = max(round(min_distance_m * 100), 1), round(max_distance_m * 100)
-                out[fill] = np.clip(np.rint(nearest[fill] * 100), min_cm, max_cm).astype(np.uint16)
+                out = np.where(fill, held_cm, distances_cm)
                 self.bins_filled += int(fill.sum())
                 self.last_filled = fill
         measured = distances_cm <= round(max_distance_m * 100)
         if measured.any() and measured_at > self._newest:
+            # an obstacle bin's value came from solid_body: its nearest point there is the one measured
             pts = nearest_point_per_bin(solid_body)[measured]
-            pts = pts[np.isfinite(pts).all(axis=1)]
             if pts.shape[0]:
                 world = body_to_world_2d(pts, own_ne, own_yaw)
                 hull = tracked_hull_of(world, tracks, HULL_GROW_M)

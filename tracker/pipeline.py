@@ -383,8 +383,8 @@ class PerceptionPipeline:
             x for x, fresh in ((self._last_lidar_t, lidar_fresh), (self._last_radar_t, radar_fresh)) if fresh
         ]
         measured_at = min(fresh_times, default=-np.inf)
+        solid_body = np.concatenate(solid) if solid else np.empty((0, 2))
         if own is not None and ego_ok:
-            solid_body = np.concatenate(solid) if solid else np.empty((0, 2))
             distances = _timed(
                 timings,
                 "obstacle_map",
@@ -418,7 +418,7 @@ class PerceptionPipeline:
             n_lidar_points=n_lidar,
             n_radar_points=n_radar,
             timings_ms=timings,
-            solid_points_body=np.concatenate(solid) if solid else np.empty((0, 2)),
+            solid_points_body=solid_body,
             clear_to_m=clear_to,
             held_bins=held,
             tracking_skipped=tuple(dict.fromkeys(self._skipped)),

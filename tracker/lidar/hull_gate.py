@@ -18,19 +18,32 @@ from tracker.types import Track
 
 def on_tracked_hulls(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float) -> np.ndarray:
     """(L,) bool: the point lies inside some confirmed track's footprint box grown by ``grow_m`` on every side."""
-    return tracked_hull_of(points_ne, tracks, grow_m) >= 0
+    return _inside_grown_boxes(points_ne, tracks, grow_m)[0].any(axis=1)
 
 
 def tracked_hull_of(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float) -> np.ndarray:
     """(L,) int: the index in ``tracks`` of a confirmed track whose footprint box, grown by ``grow_m`` on every
-    side, holds the point (the nearest centre where several do), -1 for none.
+    side, holds the point (the nearest centre where several do), -1 for none."""
+    inside, which, dist2 = _inside_grown_boxes(points_ne, tracks, grow_m)
+    if not which.size:
+        return np.full(inside.shape[0], -1, dtype=np.int64)
+    best = np.argmin(np.where(inside, dist2, np.inf), axis=1)
+    return np.where(inside.any(axis=1), which[best], -1)
+
+
+def _inside_grown_boxes(
+    points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(L, T) bool: point l inside the grown box of confirmed track ``which[t]``; ``which`` (T,) their indices in
+    ``tracks``; (L, T) squared distances to their centres.
 
     Work is (points x confirmed tracks) array operations; a track without a finite size or heading counts as
     none."""
     pts = np.asarray(points_ne, dtype=float).reshape(-1, 2)
-    which = [i for i, t in enumerate(tracks) if t.confirmed and _finite_box(t)]
-    if pts.shape[0] == 0 or not which:
-        return np.full(pts.shape[0], -1, dtype=np.int64)
+    which = np.array([i for i, t in enumerate(tracks) if t.confirmed and _finite_box(t)], dtype=np.int64)
+    if pts.shape[0] == 0 or not which.size:
+        empty = np.zeros((pts.shape[0], 0))
+        return empty.astype(bool), which, empty
     hull = [tracks[i] for i in which]
     centre = np.array([t.position[:2] for t in hull])  # (T, 2)
     heading = np.array([t.heading for t in hull])
@@ -42,10 +55,7 @@ def tracked_hull_of(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: floa
     c, s = np.cos(heading), np.sin(heading)
     along = dn * c + de * s
     across = de * c - dn * s
-    inside = (np.abs(along) <= half_len) & (np.abs(across) <= half_wid)
-    dist2 = np.where(inside, dn * dn + de * de, np.inf)
-    best = np.argmin(dist2, axis=1)
-    return np.where(inside.any(axis=1), np.asarray(which)[best], -1)
+    return (np.abs(along) <= half_len) & (np.abs(across) <= half_wid), which, dn * dn + de * de
 
 
 def _finite_box(track: Track) -> bool:
