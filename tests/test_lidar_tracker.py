@@ -148,20 +148,50 @@ def test_a_vessel_seen_again_soon_after_its_track_was_deleted_gets_it_back_confi
 
 def test_a_track_lost_before_its_velocity_is_known_coasts_one_second_not_three() -> None:
     """A just-confirmed track's velocity is a guess (not published); coasting on it for the full 3 s carried quay
-    pieces away at 20 m/s on the tuning scenes. It ends once unseen for longer than max_unseen_time_unknown_motion."""
+    pieces away at 20 m/s on the tuning scenes. It ends once unseen for longer than max_unseen_time_unknown_motion,
+    and is reported (confirmed) through one missed revolution only: standing still while its boat runs on, it is
+    where the boat was, not where it is. Seen again in time, it is reported again under the same id."""
     cfg = LidarTrackerConfig()
-    assert (cfg.lifecycle.max_unseen_time, cfg.lifecycle.max_unseen_time_unknown_motion) == (3.0, 1.0)
-    tracker = LidarTracker(cfg)
+    life = cfg.lifecycle
+    assert (life.max_unseen_time, life.max_unseen_time_unknown_motion) == (3.0, 1.0)
+    assert life.max_reported_unseen_unknown_motion == 0.15
     boat = SyntheticObject((70.0, 10.0), 0.3, 6.0, 2.5, 2.0)  # far: few returns, its velocity settles slowly
     pts = scan_objects([boat], ORIGIN)
-    for k in range(4):
-        tracks = tracker.step(pts, k * DT, ORIGIN, 0.0)
-    assert len(tracks) == 1 and tracks[0].confirmed
-    assert np.isnan(tracks[0].velocity).all()  # confirmed, its motion not yet known
-    for k in range(4, 13):  # unseen for 0.9 s: still coasting
-        tracks = tracker.step(np.zeros((0, 3)), k * DT, ORIGIN, 0.0)
-    assert len(tracks) == 1 and tracks[0].time_since_update == pytest.approx(0.9)
+
+    def lost_for_0_9_s() -> tuple[LidarTracker, int, list[bool]]:
+        tracker = LidarTracker(cfg)
+        for k in range(4):
+            tracks = tracker.step(pts, k * DT, ORIGIN, 0.0)
+        assert len(tracks) == 1 and tracks[0].confirmed
+        assert np.isnan(tracks[0].velocity).all()  # confirmed, its motion not yet known
+        born, reported = tracks[0].id, []
+        for k in range(4, 13):  # unseen for 0.9 s: still coasting
+            tracks = tracker.step(np.zeros((0, 3)), k * DT, ORIGIN, 0.0)
+            reported.append(tracks[0].confirmed)
+        assert len(tracks) == 1 and tracks[0].time_since_update == pytest.approx(0.9)
+        return tracker, born, reported
+
+    tracker, _, reported = lost_for_0_9_s()
+    assert reported == [True] + [False] * 8  # one missed revolution (0.1 s) reported, the second (0.2 s) not
     assert tracker.step(np.zeros((0, 3)), 1.5, ORIGIN, 0.0) == []  # unseen for 1.2 s: ended
+    tracker, born, _ = lost_for_0_9_s()
+    back = tracker.step(pts, 13 * DT, ORIGIN, 0.0)  # seen again after 1.0 s: the same track, reported again
+    assert [(tr.id, tr.confirmed) for tr in back] == [(born, True)]
+
+
+def test_a_track_whose_velocity_is_known_stays_reported_while_it_coasts() -> None:
+    """The rule above is for guesses only: a boat tracked long enough for its velocity to settle is reported
+    through a gap of a second, predicted along its course (a boat hidden behind another)."""
+    tracker = LidarTracker()
+    for k in range(40):
+        t = k * DT
+        boat = SyntheticObject((30.0, 3.0 * t - 10.0), math.pi / 2, 6.0, 2.5, 2.0)
+        tracks = tracker.step(scan_objects([boat], ORIGIN), t, ORIGIN, 0.0)
+    assert len(tracks) == 1 and tracks[0].confirmed and tracks[0].speed_valid
+    for k in range(40, 50):
+        tracks = tracker.step(np.zeros((0, 3)), k * DT, ORIGIN, 0.0)
+        assert [tr.confirmed for tr in tracks] == [True]
+    assert tracks[0].position[1] == pytest.approx(3.0 * 4.9 - 10.0, abs=0.5)  # where the boat is now
 
 
 def test_static_object_seen_from_a_moving_turning_boat() -> None:

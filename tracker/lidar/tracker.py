@@ -626,6 +626,14 @@ class LidarTracker:
             moving = np.hypot(velocities[:, 0], velocities[:, 1]) > cfg.static_max_speed_mps
         return self._structure_sized(x) & ~moving
 
+    def _unseen_guess(self, velocity_known: np.ndarray) -> np.ndarray:
+        """(T,) bool: tracks whose velocity is not known yet (``velocity_known`` False), unseen for longer than
+        ``max_reported_unseen_unknown_motion``. Their position is where the vessel was, not where it is: reported
+        tentative while they coast."""
+        limit = self.config.lifecycle.max_reported_unseen_unknown_motion
+        unseen = np.array([life.time_since_update for life in self._lives]) > limit + 1e-9
+        return unseen & ~velocity_known
+
     def _velocity_known(self, p: np.ndarray) -> np.ndarray:
         """(T,) bool for covariances ``p`` (T, DIM_X, DIM_X): the velocity is settled (both standard deviations at
         most ``velocity_valid_std``). Unsettled velocities are not published, not used to move a swept detection,
@@ -671,11 +679,12 @@ class LidarTracker:
         x, p = self.bank.states(), self.bank.covariances()
         positions = x[:, [PN, PE]]
         velocities = x[:, [VN, VE]]
-        velocities[~self._velocity_known(p)] = np.nan
+        known = self._velocity_known(p)
+        velocities[~known] = np.nan
         headings = (x[:, PSI] % (2.0 * math.pi)).tolist()
         rates, lengths, widths, heights = (x[:, k].tolist() for k in (OMEGA, LEN, WID, HGT))
         position_covs = p[:, :2, :2].copy()
-        unproven = self._unproven_structure(x, velocities)
+        tentative_now = self._unproven_structure(x, velocities) | self._unseen_guess(known)
         return [
             Track(
                 id=life.id,
@@ -688,7 +697,7 @@ class LidarTracker:
                 width=widths[j],
                 height=heights[j],
                 shape=kind,
-                confirmed=life.confirmed and not unproven[j],
+                confirmed=life.confirmed and not tentative_now[j],
                 source="lidar",
                 position_cov=position_covs[j],
                 hits=life.hits,
