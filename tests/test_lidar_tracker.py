@@ -146,15 +146,12 @@ def test_a_vessel_seen_again_soon_after_its_track_was_deleted_gets_it_back_confi
     assert [(tr.id, tr.confirmed) for tr in elsewhere] == [(first_id + 1, False)]
 
 
-def test_a_track_lost_before_its_velocity_is_known_coasts_one_second_not_three() -> None:
-    """A just-confirmed track's velocity is a guess (not published); coasting on it for the full 3 s carried quay
-    pieces away at 20 m/s on the tuning scenes. It ends once unseen for longer than max_unseen_time_unknown_motion,
-    and is reported (confirmed) through one missed revolution only: standing still while its boat runs on, it is
-    where the boat was, not where it is. Seen again in time, it is reported again under the same id."""
+def test_a_track_lost_before_its_velocity_is_known_coasts_unreported_and_is_taken_back() -> None:
+    """A just-confirmed track's velocity is a guess (not published), so its coasting position is where the boat
+    was, not where it is: it is reported (confirmed) through one missed revolution only, then coasts unreported for
+    max_unseen_time, keeping its id. Seen again in that time, it is reported again under the same id."""
     cfg = LidarTrackerConfig()
-    life = cfg.lifecycle
-    assert (life.max_unseen_time, life.max_unseen_time_unknown_motion) == (3.0, 1.0)
-    assert life.max_reported_unseen_unknown_motion == 0.15
+    assert (cfg.lifecycle.max_unseen_time, cfg.lifecycle.max_reported_unseen_unknown_motion) == (3.0, 0.15)
     boat = SyntheticObject((70.0, 10.0), 0.3, 6.0, 2.5, 2.0)  # far: few returns, its velocity settles slowly
     pts = scan_objects([boat], ORIGIN)
 
@@ -173,9 +170,10 @@ def test_a_track_lost_before_its_velocity_is_known_coasts_one_second_not_three()
 
     tracker, _, reported = lost_for_0_9_s()
     assert reported == [True] + [False] * 8  # one missed revolution (0.1 s) reported, the second (0.2 s) not
-    assert tracker.step(np.zeros((0, 3)), 1.5, ORIGIN, 0.0) == []  # unseen for 1.2 s: ended
+    assert len(tracker.step(np.zeros((0, 3)), 3.3, ORIGIN, 0.0)) == 1  # unseen for 3.0 s: coasting still
+    assert tracker.step(np.zeros((0, 3)), 3.5, ORIGIN, 0.0) == []  # unseen for 3.2 s: ended
     tracker, born, _ = lost_for_0_9_s()
-    back = tracker.step(pts, 13 * DT, ORIGIN, 0.0)  # seen again after 1.0 s: the same track, reported again
+    back = tracker.step(pts, 2.5, ORIGIN, 0.0)  # seen again after 2.2 s: the same track, reported again
     assert [(tr.id, tr.confirmed) for tr in back] == [(born, True)]
 
 

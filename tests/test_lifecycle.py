@@ -67,18 +67,6 @@ def test_an_occluded_track_coasts_longer_and_only_while_occluded() -> None:
     assert seen_again.miss(2.1) is TrackStatus.DELETED  # out of the shadow and still not seen: the open limit
 
 
-def test_a_confirmed_track_whose_motion_is_unknown_coasts_only_its_own_shorter_time() -> None:
-    """Its predicted position rests on a velocity the tracker does not know: past its own limit it ends."""
-    cfg = {"confirm_hits": 1, "confirm_window": 1, "max_unseen_time": 3.0, "max_unseen_time_unknown_motion": 1.0}
-    guessed = make(**cfg).start(0.0)
-    assert guessed.miss(1.0, motion_known=False) is TrackStatus.COASTING  # 1.0 s: at the limit, not past it
-    assert guessed.miss(1.1, motion_known=False) is TrackStatus.DELETED
-    known = make(**cfg).start(0.0)
-    assert known.miss(1.1) is TrackStatus.COASTING  # the same track with its velocity known coasts on
-    assert known.miss(3.0) is TrackStatus.COASTING
-    assert known.miss(3.1) is TrackStatus.DELETED
-
-
 def test_m_of_one_confirms_at_birth() -> None:
     life = make(confirm_hits=1, confirm_window=1).start(5.0)
     assert life.status is TrackStatus.CONFIRMED

@@ -38,19 +38,16 @@ class LifecycleConfig:
     max_unseen_time: float = 3.0  # s a confirmed track coasts unseen before deletion
     max_unseen_time_tentative: float = 0.5  # s a tentative track survives unseen
     max_unseen_time_occluded: float = 0.0  # s a confirmed track coasts while occluded (below max_unseen_time: that)
-    # s a confirmed track coasts while its tracker does not know its velocity yet (ours): its predicted position is
-    # then a guess, and on the tuning scenes such tracks were mostly quay and hull pieces whose cluster had gone to
-    # another track, coasting on for the full max_unseen_time. Chosen on tuning seeds 1-16 (fused; 0.25 / 0.5 / 1.0 /
-    # 3.0 s gave MOTA 0.795 / 0.804 / 0.807 / 0.792). Held out (random:1001-1050, fused) against 3 s: MOTA 0.759 ->
-    # 0.773, false track-frames 15.2 -> 12.3 % of matches. Only the LiDAR tracker says when a velocity is unknown.
-    max_unseen_time_unknown_motion: float = 1.0
-    # s such a track (velocity not known yet) is still reported confirmed while unseen (ours); after that it coasts
-    # unreported, keeping its id should the vessel come back, until max_unseen_time_unknown_motion ends it. Standing
-    # still while the boat it was born on runs on, it lay 2-8 m behind that boat, or on nothing, within a second:
-    # a false vessel every tick. On tuning seeds 1-16 (fused), against reporting it for the whole coast: 0.05 /
-    # 0.15 / 0.25 / 0.5 s gave MOTA 0.9343 / 0.9367 / 0.9367 / 0.9364 (1.0 s: 0.9350), false track-frames 1.76 /
-    # 1.82 / 1.89 / 2.04 % (2.31 %) of matches. Held out (random:1001-1050, fused) against reporting it: MOTA
-    # 0.912 -> 0.917, worst scene 0.724 -> 0.726, false track-frames 4.8 -> 4.0 % of matches. LiDAR tracker only.
+    # s a confirmed track whose velocity its tracker does not know yet is still reported confirmed while unseen
+    # (ours; only the LiDAR tracker says when a velocity is unknown). After that it coasts unreported, keeping its id
+    # should the vessel come back, for max_unseen_time like any other: its predicted position is a guess, and
+    # standing still while the boat it was born on runs on, it lay 2-8 m behind that boat, or on nothing, within a
+    # second: a false vessel every tick. On tuning seeds 1-16 (fused), against reporting it while it coasted 1 s:
+    # 0.05 / 0.15 / 0.25 / 0.5 s gave MOTA 0.9343 / 0.9367 / 0.9367 / 0.9364 (0.9350), false track-frames 1.76 /
+    # 1.82 / 1.89 / 2.04 % (2.31 %) of matches. Held out (random:1001-1050, fused): MOTA 0.912 -> 0.917, worst scene
+    # 0.724 -> 0.726, false track-frames 4.8 -> 4.0 % of matches. Unreported, such a track then coasts the full
+    # max_unseen_time instead of the 1 s it was given while reported (tuning seeds 1-16: MOTA 0.9367 -> 0.9421 at
+    # 2 s, 0.9443 at 3 s; held out: MOTA 0.917 -> 0.920, IDF1 0.913 -> 0.917, id switches 8.9 -> 6.1 a scene).
     max_reported_unseen_unknown_motion: float = 0.15
 
     def __post_init__(self) -> None:
@@ -62,7 +59,6 @@ class LifecycleConfig:
             self.max_unseen_time,
             self.max_unseen_time_tentative,
             self.max_unseen_time_occluded,
-            self.max_unseen_time_unknown_motion,
             self.max_reported_unseen_unknown_motion,
         )
         if min(limits) < 0:
@@ -131,10 +127,8 @@ class TrackLife:
         self.hits += 1
         self.status = TrackStatus.CONFIRMED
 
-    def miss(self, t: float, occluded: bool = False, motion_known: bool = True) -> TrackStatus:
-        """A cycle without a detection; ``occluded``: the tracker knows the track is hidden this cycle.
-        ``motion_known`` False: the tracker does not know the track's velocity yet, so its predicted position is a
-        guess that drifts by metres a second; such a track coasts no longer than ``max_unseen_time_unknown_motion``."""
+    def miss(self, t: float, occluded: bool = False) -> TrackStatus:
+        """A cycle without a detection; ``occluded``: the tracker knows the track is hidden this cycle."""
         if not self.alive:
             return self.status
         self._advance(t, False)
@@ -148,8 +142,6 @@ class TrackLife:
             limit = self.config.max_unseen_time
             if occluded:
                 limit = max(limit, self.config.max_unseen_time_occluded)
-            if not motion_known:
-                limit = min(limit, self.config.max_unseen_time_unknown_motion)
             if self.time_since_update > limit:
                 self.status = TrackStatus.DELETED
         return self.status

@@ -472,7 +472,7 @@ class LidarTracker:
                 for ti, di in assignment.matches
             ]
         )
-        # after the update: what each hit track is seen with, how long each missed one may coast
+        # after the update: where each hit track is seen, with its velocity if known (for reacquisition)
         known = self._velocity_known(self.bank.covariances()) if self._lives else np.zeros(0, dtype=bool)
         self._note_seen(t, [int(ti) for ti, _ in assignment.matches], known)
         for ti, di in assignment.matches:
@@ -481,7 +481,7 @@ class LidarTracker:
             for k in self._detection_clusters[di]:
                 self.last_cluster_track[k] = self._lives[ti].id
         for ti in assignment.unmatched_rows:
-            self._lives[ti].miss(t, motion_known=bool(known[ti]))
+            self._lives[ti].miss(t)
         lapsed = [i for i, life in enumerate(self._lives) if not life.alive]
         self._remember_lost(t, lapsed)
         dead = lapsed + self._static_structure(t)
@@ -637,7 +637,7 @@ class LidarTracker:
     def _velocity_known(self, p: np.ndarray) -> np.ndarray:
         """(T,) bool for covariances ``p`` (T, DIM_X, DIM_X): the velocity is settled (both standard deviations at
         most ``velocity_valid_std``). Unsettled velocities are not published, not used to move a swept detection,
-        and shorten a lost track's coasting (LifecycleConfig.max_unseen_time_unknown_motion)."""
+        and keep a coasting track unreported (LifecycleConfig.max_reported_unseen_unknown_motion)."""
         return np.maximum(p[:, VN, VN], p[:, VE, VE]) <= self.config.ekf.velocity_valid_std**2
 
     def _swept_to(self, m: Measurement, ti: int, lag: float) -> Measurement:
