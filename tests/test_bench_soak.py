@@ -10,6 +10,7 @@ import pytest
 
 from bench._proc import ProcSample, rss_windows, sample, summarise, udp_socket
 from bench._scene_chain import SceneChain
+from bench.soak import soak_scenes
 from drivers.vlp16.packet import PACKET_PERIOD_US
 
 
@@ -29,6 +30,14 @@ def test_a_scene_switch_changes_the_world_but_not_the_sensor_clock_or_rotor() ->
 def test_a_scene_chain_wants_whole_revolutions() -> None:
     with pytest.raises(ValueError, match="whole number"):
         SceneChain(["random:1"], 60.05)
+
+
+def test_the_soak_ends_on_the_scene_it_started_with() -> None:
+    # the end sample and the 1-minute sample then see the same harbour: a difference is what the hour added
+    assert soak_scenes(60)[:3] == ["random:1", "random:2", "random:3"]
+    assert soak_scenes(60)[58:] == ["random:59", "random:1"]
+    assert soak_scenes(1) == ["random:1"]
+    assert soak_scenes(5) == ["random:1", "random:2", "random:3", "random:4", "random:1"]
 
 
 def test_summary_counts_growth_from_the_reference_minute() -> None:
