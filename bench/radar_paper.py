@@ -20,7 +20,6 @@ import gc
 import math
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -56,8 +55,8 @@ PAPER_T5 = {
 }
 ABLATIONS = {
     "full": {},
-    "no_velocity": {"doppler_measurement_enabled": False},
-    "no_md": {"motion_discriminator_enabled": False},
+    "no_velocity": {"doppler": {"enabled": False}},
+    "no_md": {"motion": {"enabled": False}},
 }
 ABLATION_NAMES = {
     "full": "Full (ours)",
@@ -115,7 +114,7 @@ def main() -> None:
     t_start = time.perf_counter()
     mount = get_scenario("radar_paper").radar_mount
     ours = daemon_config(mount.x, mount.y)
-    paper_defaults = RadarTrackerConfig(sensor_position_body=(mount.x, mount.y))
+    paper_defaults = RadarTrackerConfig().replaced(sensor_position_body=(mount.x, mount.y))
 
     # --- recordings ---------------------------------------------------------------------------------------------
     seqs: dict[str, list[Recording]] = {sp: [] for sp in SPEEDS}
@@ -153,7 +152,7 @@ def main() -> None:
     # --- Table 4: ablation -------------------------------------------------------------------------------------
     ablation: dict[str, tuple[Metrics, Metrics]] = {}
     for key, change in ABLATIONS.items():
-        sc = full if not change else run_all(all_recs, replace(ours, **change))
+        sc = full if not change else run_all(all_recs, ours.replaced(**change))
         low = sc[SPEEDS.index("low") * len(seeds) : (SPEEDS.index("low") + 1) * len(seeds)]
         ablation[key] = (metrics([(s, None) for s in sc]), metrics([(s, None) for s in low]))
     print(f"ablation done ({time.perf_counter() - t_start:.0f} s)", flush=True)
@@ -165,28 +164,31 @@ def main() -> None:
         band_metrics[band] = metrics([(s, None) for s in sc], band=band)
     print(f"bands done ({time.perf_counter() - t_start:.0f} s)", flush=True)
 
-    # --- settings sweep (one seed): cluster_min_points, and the paper's cluster radius ---------------------------
+    # --- settings sweep (one seed): clustering.min_points, and the paper's cluster radius ---------------------------
     sweep_recs = [seqs[sp][0] for sp in SPEEDS]
     sweep: list[tuple[str, Metrics]] = []
     for k in SWEEP_MIN_POINTS:
-        cfg = replace(ours, cluster_min_points=k, velocity_cluster_min_points=k)
+        cfg = ours.replaced(clustering={"min_points": k, "velocity_min_points": k})
         sweep.append(
             (
-                f"min points {k}, radius {ours.cluster_radius_m} m",
+                f"min points {k}, radius {ours.clustering.radius_m} m",
                 metrics([(s, None) for s in run_all(sweep_recs, cfg)]),
             )
         )
     for k in (3, 4):
-        cfg = replace(ours, cluster_min_points=k, velocity_cluster_min_points=k, cluster_radius_m=1.2)
+        cfg = ours.replaced(clustering={"min_points": k, "velocity_min_points": k, "radius_m": 1.2})
         sweep.append((f"min points {k}, radius 1.2 m (paper)", metrics([(s, None) for s in run_all(sweep_recs, cfg)])))
     sweep.append(
         (
             "ours with constant velocity instead of the turn model (cv, 2 m/s^2)",
-            metrics([(s, None) for s in run_all(sweep_recs, replace(ours, motion_model="cv", accel_std=2.0))]),
+            metrics(
+                [(s, None) for s in run_all(sweep_recs, ours.replaced(kalman={"motion_model": "cv", "accel_std": 2.0}))]
+            ),
         )
     )
-    cfg = replace(
-        ours, motion_model=RadarTrackerConfig().motion_model, max_unseen_time_s=RadarTrackerConfig().max_unseen_time_s
+    cfg = ours.replaced(
+        kalman={"motion_model": RadarTrackerConfig().kalman.motion_model},
+        lifecycle={"max_unseen_time": RadarTrackerConfig().lifecycle.max_unseen_time},
     )
     sweep.append(
         (
@@ -510,7 +512,7 @@ def make_figures(
     axes[0].plot(SWEEP_MIN_POINTS, [m.mota for m in ks], "o-", label="MOTA %")
     axes[0].plot(SWEEP_MIN_POINTS, [m.tp for m in ks], "s-", label="TP %")
     axes[0].plot(SWEEP_MIN_POINTS, [m.fp for m in ks], "^-", label="FP %")
-    axes[0].set_xlabel("cluster_min_points = velocity_cluster_min_points")
+    axes[0].set_xlabel("cluster_min_points = clustering.velocity_min_points")
     axes[0].legend(fontsize=8)
     axes[1].hist(wall * 1e3, bins=60, alpha=0.6, label="wall")
     axes[1].hist(cpu * 1e3, bins=60, alpha=0.6, label="CPU")

@@ -4,7 +4,7 @@
   laid out in range and bearing so that they stay inside the band and the radar's field of view. "static" moors them in the middle of their lap (Smurf
   broadside, Titan stern-on, Xi at 45 deg to the line of sight); "moving" runs Smurf at the paper's "low", Titan at
   "mid" and Xi at "high" speed. No shore: Table 3's scenes test the shore filter; here a bank behind the boats
-  would be seen in pieces between their radar shadows, and pieces shorter than ``shore_min_extent_m`` are (rightly)
+  would be seen in pieces between their radar shadows, and pieces shorter than ``shore.min_extent_m`` are (rightly)
   indistinguishable from moored boats.
 * ``BAND_MODEL``: the AWR1843 model settings for the bands. The simulator's default is a 50 m configuration (max range
   50 m, 45 dB SNR for a 1 m hull side at 10 m); the paper configured the radar for 100 m (sec. 3.1), so the band runs
@@ -18,7 +18,6 @@
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -38,7 +37,7 @@ DAEMON_OVERRIDES: dict[str, Any] = dict(DAEMON_RADAR_DEFAULTS)
 
 def daemon_config(mount_x: float = 0.0, mount_y: float = 0.0, **overrides: Any) -> RadarTrackerConfig:
     """Config defaults (paper) plus the benchmark's daemon settings, the radar at (mount_x, mount_y) body FRD."""
-    return replace(RadarTrackerConfig(), sensor_position_body=(mount_x, mount_y), **{**DAEMON_OVERRIDES, **overrides})
+    return RadarTrackerConfig().replaced(sensor_position_body=(mount_x, mount_y), **{**DAEMON_OVERRIDES, **overrides})
 
 
 def band_scene(band: tuple[float, float], motion: str = "moving") -> Scene:

@@ -84,6 +84,16 @@ def _coerce(value: Any, tp: Any, key: str, problems: list[str]) -> Any:
     return value
 
 
+def _candidates(fields: dict[str, Any], hints: dict[str, Any]) -> list[str]:
+    """The keys of a table and those of its sub-tables as "table.key": a key that moved into a group (the radar
+    tracker's flat ``cluster_min_points`` became ``clustering.min_points``) is suggested where it went."""
+    out = list(fields)
+    for name in fields:
+        if dataclasses.is_dataclass(hints.get(name)):
+            out += [f"{name}.{f.name}" for f in dataclasses.fields(hints[name]) if f.init]
+    return out
+
+
 def _build(cls: type[T], table: dict[str, Any], prefix: str, problems: list[str]) -> T:
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}  # type: ignore[arg-type]
@@ -92,7 +102,7 @@ def _build(cls: type[T], table: dict[str, Any], prefix: str, problems: list[str]
     for key, value in table.items():
         full = f"{prefix}.{key}" if prefix else key
         if key not in fields:
-            close = difflib.get_close_matches(key, list(fields), n=1)
+            close = difflib.get_close_matches(key, _candidates(fields, hints), n=1)
             hint = f" (did you mean '{close[0]}'?)" if close else f" (known keys: {', '.join(sorted(fields))})"
             problems.append(f"{full}: unknown key{hint}")
             continue

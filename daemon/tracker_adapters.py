@@ -19,26 +19,26 @@ from tracker.lifecycle import IdSource
 # out-of-box demo returns 3-10 per boat, so the paper's value clusters nothing (MOTA 0 %). These are the settings
 # bench/radar_paper.py found best on the simulated AWR1843 (its settings sweep); RadarTrackerConfig keeps the paper's.
 DAEMON_RADAR_DEFAULTS: dict[str, Any] = {
-    "cluster_min_points": 3,
-    "velocity_cluster_min_points": 3,
-    "cluster_radius_m": 2.0,
+    "clustering": {"min_points": 3, "velocity_min_points": 3, "radius_m": 2.0},
     # Coordinated turn: constant velocity plus a turn-rate state that also explains a turning hull's Doppler spread;
     # the turns are the model's, so the straight-line acceleration noise can be low (constant velocity needed 2).
-    "motion_model": "ct",
-    "accel_std": 0.7,
-    "max_unseen_time_s": 1.0,  # coast 1 s: a lost track on a stale course is a false track
-    # Tracks and shore must hold more returns than the measured sea clutter explains (tracker/existence.py). Chosen on
-    # tuning scenes random:1-8 (radar only): confirmed clutter tracks 797 % -> 26 % of matches, false-obstacle bins
-    # 32.8 % -> 0.6 %; a crest peak of 2 let twice the false obstacles through, 4 doubled the false clears.
-    "existence_confirm_tail": 1.0e-3,
-    "existence_keep_tail": 0.05,
-    "existence_clutter_peak": 3.0,
-    # A cluster the clutter at its place explains (Poisson chance above 0.1) starts no track: where clutter is that
-    # dense its tracks were never confirmed, only updated until deleted. Held out (random:1001-1050) against off:
-    # fused false-obstacle bins 0.14 -> 0.12 % (worst scene 0.76 -> 0.60 %), MOTA 0.870 unchanged, false-clear bins
-    # 73 -> 74 a scene; radar only MOTA 0.338 -> 0.340, false track-frames 57.9 -> 57.5 %. The worst-case load's
-    # radar stage about a sixth less CPU (bench/radar_stage.py).
-    "existence_birth_tail": 0.1,
+    "kalman": {"motion_model": "ct", "accel_std": 0.7},
+    "lifecycle": {"max_unseen_time": 1.0},  # coast 1 s: a lost track on a stale course is a false track
+    "existence": {
+        # Tracks and shore must hold more returns than the measured sea clutter explains (tracker/existence.py).
+        # Chosen on tuning scenes random:1-8 (radar only): confirmed clutter tracks 797 % -> 26 % of matches,
+        # false-obstacle bins 32.8 % -> 0.6 %; a crest peak of 2 let twice the false obstacles through, 4 doubled the
+        # false clears.
+        "confirm_tail": 1.0e-3,
+        "keep_tail": 0.05,
+        "clutter_peak": 3.0,
+        # A cluster the clutter at its place explains (Poisson chance above 0.1) starts no track: where clutter is
+        # that dense its tracks were never confirmed, only updated until deleted. Held out (random:1001-1050) against
+        # off: fused false-obstacle bins 0.14 -> 0.12 % (worst scene 0.76 -> 0.60 %), MOTA 0.870 unchanged,
+        # false-clear bins 73 -> 74 a scene; radar only MOTA 0.338 -> 0.340, false track-frames 57.9 -> 57.5 %. The
+        # worst-case load's radar stage about a sixth less CPU (bench/radar_stage.py).
+        "birth_tail": 0.1,
+    },
 }
 
 
@@ -71,11 +71,9 @@ def radar_tracker_table(config: Any) -> dict[str, Any]:
     derived = {
         "sensor_position_body": [m.x, m.y],
         "sensor_yaw_body_rad": math.radians(m.yaw),
-        "roi_max_range_m": config.radar.max_range_m,
-        "roi_max_abs_azimuth_rad": math.radians(config.radar.fov_deg / 2),
-        **DAEMON_RADAR_DEFAULTS,
+        "roi": {"max_range_m": config.radar.max_range_m, "max_abs_azimuth_rad": math.radians(config.radar.fov_deg / 2)},
     }
-    return _merge(derived, config.tracker.radar)
+    return _merge(_merge(derived, DAEMON_RADAR_DEFAULTS), config.tracker.radar)
 
 
 def tracker_factories(config: Any) -> tuple[Callable[[], Any] | None, Callable[[], Any] | None, Any]:

@@ -387,7 +387,11 @@ def run_cfg(data: bytes, rnd: random.Random) -> None:
 # ---- the TOML config --------------------------------------------------------------------------------------------
 def _config_seeds() -> list[bytes]:
     example = (REPO / "config" / "usv-tracker.toml").read_bytes()
-    return [example, (OWN_FIXTURES / "fuzz" / "config_latin1.toml").read_bytes(), b"[tracker.radar]\naccel_std = 0.7\n"]
+    return [
+        example,
+        (OWN_FIXTURES / "fuzz" / "config_latin1.toml").read_bytes(),
+        b"[tracker.radar.kalman]\naccel_std = 0.7\n",
+    ]
 
 
 def run_config(data: bytes, rnd: random.Random) -> None:

@@ -138,6 +138,30 @@ def test_a_tracker_table_that_is_not_a_table(tmp_path: Path) -> None:
     assert err.value.problems == ["lidar: expected a table, got 'udp://0.0.0.0:2368'"]
 
 
+def test_the_radar_tracker_is_set_by_role_and_an_old_flat_key_is_pointed_to_its_group(tmp_path: Path) -> None:
+    from daemon.tracker_adapters import tracker_factories
+
+    path = tmp_path / "c.toml"
+    path.write_text("[tracker.radar.clustering]\nmin_points = 4\n[tracker.radar.lifecycle]\nmax_unseen_time = 1.5\n")
+    _, radar, _ = tracker_factories(load_config(path))
+    assert radar is not None
+    cfg = radar().cfg
+    assert (cfg.clustering.min_points, cfg.lifecycle.max_unseen_time) == (4, 1.5)
+    # the rest keeps the daemon's defaults (tracker_adapters.DAEMON_RADAR_DEFAULTS) and the classes' own
+    assert (cfg.clustering.radius_m, cfg.kalman.motion_model, cfg.lifecycle.max_unseen_time_occluded) == (
+        2.0,
+        "ct",
+        4.0,
+    )
+    assert cfg.roi.max_range_m == load_config(path).radar.max_range_m
+
+    path.write_text("[tracker.radar]\ncluster_min_points = 3\n[tracker.radar.clustering]\nmin_points = 0\n")
+    out = check_config(path)
+    assert out.returncode == 2, out.stdout + out.stderr
+    assert "tracker.radar.cluster_min_points: unknown key (did you mean 'clustering.min_points'?)" in out.stderr
+    assert "tracker.radar.clustering: ClusteringConfig.min_points: must be >= 1, got 0" in out.stderr
+
+
 def test_values_that_load_but_cannot_work_are_named(tmp_path: Path) -> None:
     path = tmp_path / "c.toml"
     path.write_text(

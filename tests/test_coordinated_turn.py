@@ -4,7 +4,6 @@ ctrv_predict and the radar filter's ct_transition / predict_many."""
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from decimal import Decimal, localcontext
 
 import numpy as np
@@ -15,7 +14,7 @@ from tracker.lidar.ekf import OMEGA, PE, PN, PSI, VE, VN, ctrv_predict
 from tracker.radar import kalman
 from tracker.radar.config import RadarTrackerConfig
 
-CT = RadarTrackerConfig(motion_model="ct", accel_std=0.7)
+CT = RadarTrackerConfig().replaced(kalman={"motion_model": "ct", "accel_std": 0.7})
 
 
 def _reference_gains(w: float, dt: float) -> tuple[float, float, float, float]:
@@ -134,7 +133,7 @@ def test_both_filters_predict_the_same_turn() -> None:
 @pytest.mark.parametrize("model", ["ct", "ca", "cv"])
 def test_predict_many_is_predict_per_filter(model: str) -> None:
     """The radar tracker predicts all its tracks in one stack: the same numbers as one at a time, each its own dt."""
-    cfg = replace(CT, motion_model=model)
+    cfg = CT.replaced(kalman={"motion_model": model})
     rng = np.random.default_rng(7)
     n = kalman.dim_x(cfg)
     one, many = [], []
@@ -160,4 +159,4 @@ def test_predict_many_is_predict_per_filter(model: str) -> None:
         else:
             assert b_kf.last_dt == dts[k]
             if model == "ct":
-                assert abs(b_kf.x[kalman.TURN, 0]) <= cfg.max_turn_rate
+                assert abs(b_kf.x[kalman.TURN, 0]) <= cfg.kalman.max_turn_rate

@@ -4,7 +4,6 @@ neither confirms tracks nor builds a shore, while a boat and a quay wall among i
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -16,18 +15,13 @@ from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.tracker import RadarTracker
 
 # The daemon's radar settings (daemon/tracker_adapters.py) that matter here: small clusters, the existence test on.
-DAEMON_LIKE = RadarTrackerConfig(
-    cluster_min_points=3,
-    velocity_cluster_min_points=3,
-    cluster_radius_m=2.0,
-    roi_max_range_m=50.0,
-    roi_max_abs_azimuth_rad=math.radians(60.0),
-    max_unseen_time_s=1.0,
-    existence_confirm_tail=1e-3,
-    existence_keep_tail=0.05,
-    existence_clutter_peak=3.0,
+DAEMON_LIKE = RadarTrackerConfig().replaced(
+    clustering={"min_points": 3, "velocity_min_points": 3, "radius_m": 2.0},
+    roi={"max_range_m": 50.0, "max_abs_azimuth_rad": math.radians(60.0)},
+    lifecycle={"max_unseen_time": 1.0},
+    existence={"confirm_tail": 1e-3, "keep_tail": 0.05, "clutter_peak": 3.0},
 )
-OFF = replace(DAEMON_LIKE, existence_confirm_tail=1.0, existence_keep_tail=1.0)
+OFF = DAEMON_LIKE.replaced(existence={"confirm_tail": 1.0, "keep_tail": 1.0})
 ROUGH = 150.0  # clutter returns a frame over 1-50 m, +-60 deg: the simulator's sea state 3
 BOAT = np.array([25.0, 6.0])  # a 4 m x 2 m boat at rest, 25.7 m off
 
@@ -150,7 +144,7 @@ def test_clutter_bunches_start_no_track_under_the_birth_test_and_a_boat_still_do
     no track. On the rough sea, clutter bunches started tentative tracks in most frames, each updated until it was
     deleted; with the test at 0.1 a quarter as many start, and the moored boat is confirmed as soon and held as long."""
     seen = {}
-    for name, cfg in [("off", DAEMON_LIKE), ("on", replace(DAEMON_LIKE, existence_birth_tail=0.1))]:
+    for name, cfg in [("off", DAEMON_LIKE), ("on", DAEMON_LIKE.replaced(existence={"birth_tail": 0.1}))]:
         trk, frames = run_rough_sea(cfg, 100, with_boat=True)
         on_boat = [any(np.linalg.norm(tr.position - BOAT) < 2.0 for tr in f) for f in frames]
         started = trk.lifecycle.ids.next() - 1  # ids count up from 1, one per track started

@@ -4,7 +4,6 @@ dropped, a track recovered after a hard turn, loose returns keeping a far track,
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -12,12 +11,11 @@ import pytest
 from tests.radar_synthetic import OwnBoat, box_points, observe
 from tracker.radar import RadarTracker, RadarTrackerConfig
 
-BASE = RadarTrackerConfig(
-    cluster_min_points=4,
-    velocity_cluster_min_points=4,
-    shore_filter_enabled=False,
-    multipath_enabled=False,
-    visible_side_enabled=False,  # synthetic returns fill the whole box, not its visible sides
+BASE = RadarTrackerConfig().replaced(
+    clustering={"min_points": 4, "velocity_min_points": 4},
+    shore={"enabled": False},
+    multipath={"enabled": False},
+    visible_side={"enabled": False},
 )
 OWN = OwnBoat(position=np.zeros(2))
 
@@ -53,17 +51,17 @@ def test_pieces_of_one_hull_become_one_track() -> None:
     assert [len(confirmed(o)) for o in outs[5:]] == [1] * 15
     np.testing.assert_allclose(confirmed(outs[-1])[0].position, [20.0, 0.0], atol=0.3)
     # Without the merge and the duplicate rule each piece is a boat of its own.
-    _, apart = run(replace(BASE, merge_gap_m=0.0, duplicate_distance_m=0.0), frames)
+    _, apart = run(BASE.replaced(association={"merge_gap_m": 0.0, "duplicate_distance_m": 0.0}), frames)
     assert [len(confirmed(o)) for o in apart[5:]] == [2] * 15
 
 
 def test_duplicate_tracks_are_dropped_keeping_the_older() -> None:
     frames = two_piece_boat(20, gap_east=2.2)
-    cfg = replace(BASE, merge_gap_m=0.0)  # both pieces start tracks; the duplicate rule removes one
+    cfg = BASE.replaced(association={"merge_gap_m": 0.0})  # both pieces start tracks; the duplicate rule removes one
     _, outs = run(cfg, frames)
     ids = {tr.id for o in outs[5:] for tr in confirmed(o)}
     assert len(ids) == 1 and ids == {min(tr.id for tr in outs[0])}
-    _, kept = run(replace(cfg, duplicate_distance_m=0.0), frames)
+    _, kept = run(cfg.replaced(association={"duplicate_distance_m": 0.0}), frames)
     assert [len(confirmed(o)) for o in kept[5:]] == [2] * 15
 
 
@@ -98,13 +96,13 @@ def hard_turn(seed: int = 1) -> list[tuple[np.ndarray, np.ndarray]]:
 
 
 def test_track_keeps_its_id_through_a_hard_turn() -> None:
-    cfg = replace(BASE, motion_model="cv", accel_std=0.5)
+    cfg = BASE.replaced(kalman={"motion_model": "cv", "accel_std": 0.5})
     _, outs = run(cfg, hard_turn())
     ids = {tr.id for o in outs[5:] for tr in confirmed(o)}
     assert ids == {confirmed(outs[5])[0].id}
     assert np.linalg.norm(confirmed(outs[-1])[0].position - [21.0, -4.0 + 3.0 * 1.9]) < 2.0  # inside the MOT gate
     # Without recovery a second track starts on the boat after the turn.
-    _, lost = run(replace(cfg, recovery_gate_m=0.0, duplicate_distance_m=0.0), hard_turn())
+    _, lost = run(cfg.replaced(association={"recovery_gate_m": 0.0, "duplicate_distance_m": 0.0}), hard_turn())
     assert len({tr.id for o in lost[5:] for tr in confirmed(o)}) >= 2
 
 
@@ -117,8 +115,8 @@ def test_loose_returns_keep_a_track_on_a_boat_below_the_cluster_size() -> None:
     _tracker, outs = run(BASE, frames)
     assert [len(confirmed(o)) for o in outs[10:]] == [1] * 20
     assert confirmed(outs[-1])[0].time_since_update == 0.0
-    _, dropped = run(replace(BASE, update_min_points=0), frames)
-    assert confirmed(dropped[-1]) == []  # coasted out after max_unseen_time_s
+    _, dropped = run(BASE.replaced(association={"update_min_points": 0}), frames)
+    assert confirmed(dropped[-1]) == []  # coasted out after lifecycle.max_unseen_time
 
 
 def test_a_far_track_lives_on_one_return_a_frame_a_near_one_does_not() -> None:
@@ -133,22 +131,22 @@ def test_a_far_track_lives_on_one_return_a_frame_a_near_one_does_not() -> None:
     assert [len(confirmed(o)) for o in far[10:]] == [1] * 20
     assert confirmed(far[-1])[0].time_since_update == 0.0
     np.testing.assert_allclose(confirmed(far[-1])[0].position, [70.0, 3.0], atol=1.0)
-    _, near = run(BASE, frames_at(25.0))  # inside update_single_return_range_m (40 m): clutter-dense water
+    _, near = run(BASE, frames_at(25.0))  # inside association.update_single_return_range_m (40 m): clutter-dense water
     assert confirmed(near[-1]) == []
-    _, never = run(replace(BASE, update_single_return_range_m=float("inf")), frames_at(70.0))
+    _, never = run(BASE.replaced(association={"update_single_return_range_m": float("inf")}), frames_at(70.0))
     assert confirmed(never[-1]) == []
 
 
 def test_far_sparse_boat_is_born_from_pooled_frames() -> None:
     rng = np.random.default_rng(3)
     frames = [(box_points(np.array([40.0, -5.0]), (1.5, 1.5), 2, rng), np.zeros(2)) for _ in range(30)]
-    cfg = replace(BASE, birth_window_frames=3, birth_pool_min_range_m=20.0)
+    cfg = BASE.replaced(births={"window_frames": 3, "pool_min_range_m": 20.0})
     _, outs = run(cfg, frames)
     assert confirmed(outs[-1]) and np.linalg.norm(confirmed(outs[-1])[0].position - [40.0, -5.0]) < 1.0
     assert len({tr.id for o in outs for tr in confirmed(o)}) == 1
-    _, single = run(replace(cfg, birth_window_frames=1), frames)
+    _, single = run(cfg.replaced(births={"window_frames": 1}), frames)
     assert all(o == [] for o in single)
-    _, near_only = run(replace(cfg, birth_pool_min_range_m=50.0), frames)
+    _, near_only = run(cfg.replaced(births={"pool_min_range_m": 50.0}), frames)
     assert all(o == [] for o in near_only)
 
 
@@ -158,7 +156,7 @@ def test_a_hull_piece_whose_doppler_a_plausible_turn_rate_explains_joins_its_tra
     from tracker.radar import kalman
     from tracker.radar.detector import RadarCluster
 
-    cfg = replace(BASE, motion_model="ct", accel_std=0.7)
+    cfg = BASE.replaced(kalman={"motion_model": "ct", "accel_std": 0.7})
     tracker, _ = run(cfg, [(box_points(np.array([20.0, 0.0]), (1.0, 1.0), 8, np.random.default_rng(6)), np.zeros(2))])
     kf = tracker.tracks[0].kf
     kf.x[:4, 0] = [20.0, 0.0, 0.0, 0.0]
@@ -174,9 +172,11 @@ def test_a_hull_piece_whose_doppler_a_plausible_turn_rate_explains_joins_its_tra
         snr=np.zeros(3), los=los, range_m=np.linalg.norm(pts, axis=1), index=np.arange(3),
         profile=piece.profile, rng=piece.rng,
     )  # fmt: skip
-    assert abs(rot.mean()) > 1.5  # far outside merge_doppler_tolerance_mps for a straight-running track
+    assert abs(rot.mean()) > 1.5  # far outside association.merge_doppler_tolerance_mps for a straight-running track
     assert tracker._doppler_agrees(0, piece)
-    tracker.cfg = replace(cfg, merge_turn_rate_sigmas=0.0)  # the track's own 0.5 rad/s only: 1.05 m/s left over
+    tracker.cfg = cfg.replaced(
+        association={"merge_turn_rate_sigmas": 0.0}
+    )  # the track's own 0.5 rad/s only: 1.05 m/s left over
     assert not tracker._doppler_agrees(0, piece)
 
 
@@ -215,13 +215,13 @@ def test_doppler_veto_sees_a_slow_boat_move_and_a_moored_one_not() -> None:
 
     assert cluster_at(0.4)  # 0.4 m/s away from the radar: well above 3 sigma of 12 returns' Doppler
     assert not cluster_at(0.0)
-    assert not cluster_at(0.4, replace(BASE, motion_veto_speed_mps=0.5))  # the old threshold missed it
+    assert not cluster_at(0.4, BASE.replaced(motion={"veto_speed_mps": 0.5}))  # the old threshold missed it
 
 
 def test_turn_rate_is_held_at_zero_beyond_the_turn_models_range() -> None:
     from tracker.radar import kalman
 
-    cfg = replace(BASE, motion_model="ct", accel_std=0.7)
+    cfg = BASE.replaced(kalman={"motion_model": "ct", "accel_std": 0.7})
     rng = np.random.default_rng(9)
     for north, frozen in ((70.0, True), (30.0, False)):
         frames = [(box_points(np.array([north, 3.0]), (2.0, 2.0), 8, rng), np.zeros(2)) for _ in range(5)]
@@ -243,7 +243,7 @@ def test_a_far_track_fed_two_returns_a_frame_keeps_its_hull_size() -> None:
     centre, size = np.array([45.0, 0.0]), (4.0, 3.0)
     frames = [(box_points(centre, size, 8, rng), np.zeros(2)) for _ in range(5)]
     frames += [(box_points(centre, size, 2, rng), np.zeros(2)) for _ in range(40)]  # loose returns, gathered
-    cfg = replace(BASE, visible_side_enabled=True)
+    cfg = BASE.replaced(visible_side={"enabled": True})
 
     def final_size(c: RadarTrackerConfig) -> np.ndarray:
         _, outs = run(c, frames)
@@ -251,7 +251,9 @@ def test_a_far_track_fed_two_returns_a_frame_keeps_its_hull_size() -> None:
         return np.array([outs[-1][0].length, outs[-1][0].width])
 
     assert np.all(final_size(cfg) > 0.7 * np.array(size))
-    assert np.all(final_size(replace(cfg, outline_size_quantile=0.0)) < 0.5 * np.array(size))  # the paper's box
+    assert np.all(
+        final_size(cfg.replaced(visible_side={"outline_size_quantile": 0.0})) < 0.5 * np.array(size)
+    )  # the paper's box
 
 
 def test_a_half_hidden_hull_is_measured_from_its_lit_edge() -> None:
@@ -270,14 +272,14 @@ def test_a_half_hidden_hull_is_measured_from_its_lit_edge() -> None:
 
     # The track's width comes from its outline over the last second (kept with the visible-side centre on; along
     # the line of sight that centre is off here, as box_points fill the box, but only east is checked).
-    cfg = replace(BASE, visible_side_enabled=True, occlusion_lit_edge=True)
+    cfg = BASE.replaced(visible_side={"enabled": True}, occlusion={"lit_edge": True})
     assert abs(east_error(cfg)) < 0.4
-    assert east_error(replace(cfg, occlusion_lit_edge=False)) > 0.6  # pulled toward the lit side (the default)
+    assert east_error(cfg.replaced(occlusion={"lit_edge": False})) > 0.6  # pulled toward the lit side (the default)
 
 
 def test_a_boat_hidden_behind_another_keeps_its_track_and_id() -> None:
     # A boat at 40 m; a nearer one (20 m, its bearing span covering the far one's) hides it completely for 2.5 s
-    # (no returns at all), longer than max_unseen_time_s (1 s). In the nearer boat's shadow the far track coasts on
+    # (no returns at all), longer than lifecycle.max_unseen_time (1 s). In the nearer boat's shadow the far track coasts on
     # and keeps its id when the boat reappears; without the occlusion rule it is deleted and a new id starts.
     rng = np.random.default_rng(13)
     frames = []
@@ -286,14 +288,14 @@ def test_a_boat_hidden_behind_another_keeps_its_track_and_id() -> None:
         pts = [box_points(far, (2.0, 3.0), 10, rng)] if not 20 <= k < 45 else []
         pts.append(box_points(np.array([20.0, -1.0]), (2.0, 3.0), 14, rng))  # the nearer boat, moored
         frames.append((np.concatenate(pts), np.zeros(2)))
-    cfg = replace(BASE, max_unseen_time_s=1.0, max_unseen_time_occluded_s=4.0)
+    cfg = BASE.replaced(lifecycle={"max_unseen_time": 1.0, "max_unseen_time_occluded": 4.0})
 
     def far_ids(c: RadarTrackerConfig) -> set[int]:
         _, outs = run(c, frames)
         return {tr.id for o in outs[10:] for tr in confirmed(o) if tr.position[0] > 30.0}
 
     assert len(far_ids(cfg)) == 1
-    assert len(far_ids(replace(cfg, max_unseen_time_occluded_s=0.0))) == 2
+    assert len(far_ids(cfg.replaced(lifecycle={"max_unseen_time_occluded": 0.0}))) == 2
 
 
 def test_a_moving_boat_hidden_behind_another_coasts_with_relaxing_speed_and_keeps_its_id() -> None:
@@ -309,7 +311,9 @@ def test_a_moving_boat_hidden_behind_another_coasts_with_relaxing_speed_and_keep
         else:
             pts = np.concatenate([box_points(far, (2.0, 3.0), 10, rng), near])
             frames.append((pts, np.concatenate([np.tile(vel_far, (10, 1)), np.zeros((16, 2))])))
-    cfg = replace(BASE, max_unseen_time_s=1.0, max_unseen_time_occluded_s=4.0, occluded_velocity_decay_s=2.0)
+    cfg = BASE.replaced(
+        lifecycle={"max_unseen_time": 1.0, "max_unseen_time_occluded": 4.0}, occlusion={"velocity_decay_s": 2.0}
+    )
     _, outs = run(cfg, frames)
 
     def far_track(o: list) -> object:
@@ -323,9 +327,9 @@ def test_a_moving_boat_hidden_behind_another_coasts_with_relaxing_speed_and_keep
 
 
 def test_a_quay_piece_tracked_before_the_wall_was_known_is_dropped_once_it_is_shore() -> None:
-    # First 0.5 s: only an 8 m piece of a quay wall 25 m north is seen (shorter than shore_min_extent_m): a track.
+    # First 0.5 s: only an 8 m piece of a quay wall 25 m north is seen (shorter than shore.min_extent_m): a track.
     # Then the whole 40 m wall: the shore-line search calls it shore, the piece's cluster is removed, and the track
-    # on it is deleted at once instead of coasting (max_unseen_time_s 2 s here) as an object.
+    # on it is deleted at once instead of coasting (lifecycle.max_unseen_time 2 s here) as an object.
     from tests.radar_synthetic import segment_points
 
     rng = np.random.default_rng(15)
@@ -337,7 +341,7 @@ def test_a_quay_piece_tracked_before_the_wall_was_known_is_dropped_once_it_is_sh
             else (np.array([25.0, -20.0]), np.array([25.0, 20.0]))
         )
         frames.append((segment_points(a, b, 12 if k < 5 else 50, 0.1, rng), np.zeros(2)))
-    cfg = replace(BASE, shore_filter_enabled=True)
+    cfg = BASE.replaced(shore={"enabled": True})
 
     def piece_track_frames(c: RadarTrackerConfig) -> int:
         _, outs = run(c, frames)
@@ -345,12 +349,14 @@ def test_a_quay_piece_tracked_before_the_wall_was_known_is_dropped_once_it_is_sh
 
     kept_for = piece_track_frames(cfg)
     assert 5 <= kept_for <= 9  # born on the piece, gone within a few frames of the whole wall being seen
-    assert piece_track_frames(replace(cfg, drop_tracks_on_shore=False)) >= kept_for + 10  # coasted on for ~2 s
+    assert (
+        piece_track_frames(cfg.replaced(shore={"drop_tracks_on_shore": False})) >= kept_for + 10
+    )  # coasted on for ~2 s
 
 
 def test_a_sparse_cluster_next_to_the_radar_starts_no_track() -> None:
     # Four returns a frame hold still 6 m off the bow: as many as sea clutter clumps into there now and then.
-    # Within near_birth_range_m (10 m) a track needs near_birth_min_points (5) returns to start; farther out, or
+    # Within births.near_range_m (10 m) a track needs births.near_min_points (5) returns to start; farther out, or
     # with more returns, the same cluster is a boat.
     rng = np.random.default_rng(21)
 
@@ -361,7 +367,7 @@ def test_a_sparse_cluster_next_to_the_radar_starts_no_track() -> None:
     assert tracks_after((6.0, 0.0), 4, BASE) == []
     assert len(tracks_after((6.0, 0.0), 8, BASE)) == 1
     assert len(tracks_after((25.0, 0.0), 4, BASE)) == 1
-    near = tracks_after((6.0, 0.0), 4, replace(BASE, near_birth_min_points=0))
+    near = tracks_after((6.0, 0.0), 4, BASE.replaced(births={"near_min_points": 0}))
     assert len(near) == 1
     np.testing.assert_allclose(near[0].position, [6.0, 0.0], atol=0.3)
 
@@ -375,8 +381,8 @@ def test_a_track_on_a_steady_turn_publishes_the_turn_models_yaw_rate() -> None:
         h = rate * 0.1 * k
         c = centre + radius * np.array([math.sin(h), -math.cos(h)])
         frames.append((box_points(c, (1.5, 1.5), 8, rng), 3.0 * np.array([math.cos(h), math.sin(h)])))
-    _, outs = run(replace(BASE, motion_model="ct"), frames)
+    _, outs = run(BASE.replaced(kalman={"motion_model": "ct"}), frames)
     rates = [confirmed(o)[0].yaw_rate for o in outs[60:]]
     assert np.median(rates) == pytest.approx(rate, abs=0.04)
-    _, straight = run(replace(BASE, motion_model="cv"), frames)
+    _, straight = run(BASE.replaced(kalman={"motion_model": "cv"}), frames)
     assert {tr.yaw_rate for o in straight[60:] for tr in confirmed(o)} == {0.0}  # no turn state, no turn rate

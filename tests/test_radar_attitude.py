@@ -26,7 +26,7 @@ def test_a_return_lands_within_0_2_m_of_its_scatterer_at_5_deg_roll() -> None:
     r_bw = rotation_zyx(roll, pitch, yaw)
     body = r_bw.T @ (target - np.array([pos[0], pos[1], 0.0]))
     # through the daemon's call: a driver frame and the autopilot's pose at its time
-    tracker = RadarTracker(RadarTrackerConfig(roi_max_range_m=50.0))
+    tracker = RadarTracker(RadarTrackerConfig().replaced(roi={"max_range_m": 50.0}))
     frame = RadarFrame(1.0, 1, body[None, :], np.zeros(1), np.full(1, 20.0), np.full(1, 5.0))
     pose = EgoPose(1.0, np.array([pos[0], pos[1], 0.0]), np.zeros(3), roll, pitch, yaw)
     tracker.step_frame(frame, pose)
@@ -34,7 +34,7 @@ def test_a_return_lands_within_0_2_m_of_its_scatterer_at_5_deg_roll() -> None:
     assert np.hypot(*(placed - target[:2])) < 0.2
     np.testing.assert_allclose(placed, target[:2], atol=1e-9)
     # what laying the body frame flat (the yaw alone) gets wrong
-    flat = RadarDetector(RadarTrackerConfig(roi_max_range_m=50.0)).detect(
+    flat = RadarDetector(RadarTrackerConfig().replaced(roi={"max_range_m": 50.0})).detect(
         body[None, :], np.zeros(1), None, 0.0, pos, yaw
     )
     assert np.hypot(*(flat.points[0] - target[:2])) > 0.25

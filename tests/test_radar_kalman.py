@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 
@@ -11,7 +9,7 @@ from tracker.radar import kalman
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.velocity_profile import VelocityEstimate, VelocityStatus
 
-CV = RadarTrackerConfig(motion_model="cv", accel_std=2.0)
+CV = RadarTrackerConfig().replaced(kalman={"motion_model": "cv", "accel_std": 2.0})
 
 
 def test_constant_velocity_model_matrices() -> None:
@@ -28,7 +26,7 @@ def test_constant_velocity_model_matrices() -> None:
     ca = kalman.transition(dt, RadarTrackerConfig())
     assert ca[0, 4] == pytest.approx(dt * dt / 2) and ca[2, 4] == pytest.approx(dt)
     with pytest.raises(ValueError, match="motion_model"):
-        RadarTrackerConfig(motion_model="imm")
+        RadarTrackerConfig().replaced(kalman={"motion_model": "imm"})
 
 
 def test_velocity_follows_positions_under_the_cv_model() -> None:
@@ -73,11 +71,11 @@ def test_manoeuvre_opens_the_velocity_and_skips_the_doppler() -> None:
     turned = kf.x[kalman.VEL, 0].copy()
     assert turned[1] > 1.5  # this very update turns the velocity toward the jump
     assert turned[0] == pytest.approx(0.0, abs=1e-9)  # and leaves the Doppler out
-    off = replace(CV, maneuver_nis=0.0)
+    off = CV.replaced(doppler={"maneuver_nis": 0.0})
     kf2 = settled(off)
     kalman.fused_update(kf2, jump, np.ones(2), 20.0, None, off)
     assert kf2.x[3, 0] < turned[1] / 2  # without the rule the settled filter turns half as much
-    keep = replace(CV, maneuver_skip_doppler=False)
+    keep = CV.replaced(doppler={"maneuver_skip_doppler": False})
     kf3 = settled(keep)
     kalman.fused_update(kf3, jump, np.ones(2), 20.0, wild, keep)
     assert kf3.x[2, 0] > 4.0  # the opened-up velocity takes the Doppler whole
@@ -93,7 +91,7 @@ def test_doppler_is_fused_without_a_manoeuvre_with_its_model_floor() -> None:
     assert 0.05 < kf.x[2, 0] < 0.4  # pulled toward the radial 0.4 m/s, not all the way
 
 
-CT = RadarTrackerConfig(motion_model="ct", accel_std=0.7)
+CT = RadarTrackerConfig().replaced(kalman={"motion_model": "ct", "accel_std": 0.7})
 
 
 def test_turn_rate_state_follows_a_tight_turn_that_cv_lags() -> None:
@@ -113,7 +111,7 @@ def test_turn_rate_state_follows_a_tight_turn_that_cv_lags() -> None:
             kalman.fused_update(
                 kf, np.array([26.0 + r * np.sin(th), r * (1 - np.cos(th))]), np.ones(2), 20.0, None, cfg
             )
-        err[cfg.motion_model] = np.mean(lag[5:])
+        err[cfg.kalman.motion_model] = np.mean(lag[5:])
     assert kalman.turn_rate(kf)[0] == pytest.approx(w, abs=0.3)
     assert err["ct"] < 0.6 * err["cv"]
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -138,7 +137,7 @@ def test_published_velocity_follows_the_level() -> None:
 
 def test_observe_compares_consecutive_frames_with_zero_baseline() -> None:
     md = MotionDiscriminator(
-        replace(RadarTrackerConfig(), motion_hull_baseline_s=0.0, hull_point_pad_m=0.0, motion_group_window_s=0.0)
+        RadarTrackerConfig().replaced(motion={"hull_baseline_s": 0.0, "hull_point_pad_m": 0.0, "group_window_s": 0.0})
     )
     pts = square(0, 0, 2)
     assert md.observe(0.0, pts) is W and md.counter == 0  # nothing to compare with yet
@@ -152,7 +151,7 @@ def test_observe_compares_consecutive_frames_with_zero_baseline() -> None:
 
 def test_observe_with_baseline_compares_with_the_hull_one_second_older() -> None:
     md = MotionDiscriminator(
-        replace(RadarTrackerConfig(), motion_hull_baseline_s=1.0, hull_point_pad_m=0.0, motion_group_window_s=0.0)
+        RadarTrackerConfig().replaced(motion={"hull_baseline_s": 1.0, "hull_point_pad_m": 0.0, "group_window_s": 0.0})
     )
     pts = square(0, 0, 2)
     speed = 1.0  # m/s north: 0.1 m per frame, 1 m per second
@@ -169,12 +168,8 @@ def test_observe_with_baseline_compares_with_the_hull_one_second_older() -> None
 def test_point_group_accumulates_recent_frames(exact: bool) -> None:
     # Two returns per frame alternate between opposite corners: one frame's hull is a sliver, the 0.25 s group's
     # hull (three frames) is the whole 2 x 2 square, so the comparison one second apart sees full overlap.
-    cfg = replace(
-        RadarTrackerConfig(),
-        motion_hull_baseline_s=1.0,
-        hull_point_pad_m=0.0,
-        motion_group_window_s=0.25,
-        motion_hull_exact=exact,
+    cfg = RadarTrackerConfig().replaced(
+        motion={"hull_baseline_s": 1.0, "hull_point_pad_m": 0.0, "group_window_s": 0.25, "hull_exact": exact}
     )
     md = MotionDiscriminator(cfg)
     a = np.array([[0.0, 0.0], [2.0, 2.0]])
@@ -188,21 +183,21 @@ def test_point_group_accumulates_recent_frames(exact: bool) -> None:
     assert np.isnan(ious[:10]).all()
     assert ious[10:] == [0.0, pytest.approx(1.0), pytest.approx(1.0)]
     assert md.counter == -1
-    alone = MotionDiscriminator(replace(cfg, motion_group_window_s=0.0))
+    alone = MotionDiscriminator(cfg.replaced(motion={"group_window_s": 0.0}))
     for k in range(13):
         alone.observe(0.1 * k, a if k % 2 == 0 else b)
     assert alone.last_iou == 0.0 and alone.counter == 3  # the single-frame "hulls" are segments: always "moved"
 
 
 def test_doppler_veto_counts_as_moved() -> None:
-    cfg = replace(RadarTrackerConfig(), motion_hull_baseline_s=0.0, motion_group_window_s=0.0)
+    cfg = RadarTrackerConfig().replaced(motion={"hull_baseline_s": 0.0, "group_window_s": 0.0})
     md = MotionDiscriminator(cfg)
     pts = square(0, 0, 2)
     md.observe(0.0, pts)
     md.observe(0.1, pts, doppler_moving=True)
     # Full overlap, but the Doppler says it moves: counted as moved without building the hulls at all.
     assert math.isnan(md.last_iou) and md.counter == 1
-    off = MotionDiscriminator(replace(cfg, motion_doppler_veto=False))
+    off = MotionDiscriminator(cfg.replaced(motion={"doppler_veto": False}))
     off.observe(0.0, pts)
     off.observe(0.1, pts, doppler_moving=True)
     assert off.counter == -1

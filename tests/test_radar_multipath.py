@@ -9,16 +9,17 @@ import numpy as np
 import pytest
 
 from tests.radar_synthetic import OwnBoat, box_points, observe
-from tracker.radar.config import RadarTrackerConfig
+from tracker.radar.config import MultipathConfig, RadarTrackerConfig
 from tracker.radar.detector import RadarDetector
-from tracker.radar.multipath import MultipathSettings, multipath_ghosts
+from tracker.radar.multipath import multipath_ghosts
 
-SETTINGS = MultipathSettings(
-    search_angle=math.radians(10.0),
-    orders=(2, 3),
+SETTINGS = MultipathConfig(
+    search_angle_rad=math.radians(10.0),
+    range_orders=(2, 3),
     range_tolerance_m=0.75,
     range_tolerance_rel=0.03,
-    doppler_tolerance=0.5,
+    doppler_tolerance_mps=0.5,
+    min_snr_drop_db=0.0,
 )
 
 
@@ -46,7 +47,7 @@ def test_doppler_test_can_be_switched_off_and_nan_doppler_never_contradicts() ->
     az = np.radians([0.0, 0.0])
     snr = np.array([20.0, 10.0])
     assert not multipath_ghosts(r, az, np.array([1.0, -1.0]), snr, SETTINGS)[1]
-    assert multipath_ghosts(r, az, np.array([1.0, -1.0]), snr, replace(SETTINGS, doppler_tolerance=-1.0))[1]
+    assert multipath_ghosts(r, az, np.array([1.0, -1.0]), snr, replace(SETTINGS, doppler_tolerance_mps=-1.0))[1]
     assert multipath_ghosts(r, az, np.array([1.0, np.nan]), snr, SETTINGS)[1]
 
 
@@ -67,11 +68,11 @@ def test_many_returns_are_processed_in_blocks() -> None:
     rr, aa, dd, ss = ghost_r, ghost_az, ghost_dop, ghost_snr
     ref = np.zeros(n, bool)
     for j in range(n):
-        near = np.abs(np.angle(np.exp(1j * (aa[j] - aa)))) <= SETTINGS.search_angle
+        near = np.abs(np.angle(np.exp(1j * (aa[j] - aa)))) <= SETTINGS.search_angle_rad
         weaker = ~(ss[j] > ss)
-        for k in SETTINGS.orders:
+        for k in SETTINGS.range_orders:
             ok = np.abs(rr[j] - k * rr) <= SETTINGS.range_tolerance_m + SETTINGS.range_tolerance_rel * k * rr
-            ok &= np.abs(dd[j] - k * dd) <= SETTINGS.doppler_tolerance
+            ok &= np.abs(dd[j] - k * dd) <= SETTINGS.doppler_tolerance_mps
             ok[j] = False
             ref[j] |= bool(np.any(near & weaker & ok))
     np.testing.assert_array_equal(got[:n], ref)
@@ -88,14 +89,16 @@ def test_detector_drops_the_ghost_cluster_of_a_boat() -> None:
     pts = np.concatenate([xyz, ghost_xyz])
     doppler = np.concatenate([dop, ghost_dop])
     snr = np.concatenate([np.full(8, 20.0), np.full(8, 8.0)])
-    cfg = RadarTrackerConfig(cluster_min_points=3, velocity_cluster_min_points=3, shore_filter_enabled=False)
+    cfg = RadarTrackerConfig().replaced(
+        clustering={"min_points": 3, "velocity_min_points": 3}, shore={"enabled": False}
+    )
     out = RadarDetector(cfg).detect(pts, doppler, snr, 0.0, np.zeros(2), 0.0, np.zeros(2))
     np.testing.assert_array_equal(out.ghost, [False] * 8 + [True] * 8)
     assert len(out.detections) == 1
     vel = out.kept_clusters[0].velocity  # a 3 m boat at 14 m spans ~12 deg: only the radial speed is determined
     assert vel.status.value == "radial_only"
     assert vel.radial_speed == pytest.approx(boat_v @ vel.radial_direction, abs=0.02)
-    off = replace(cfg, multipath_enabled=False)
+    off = cfg.replaced(multipath={"enabled": False})
     assert len(RadarDetector(off).detect(pts, doppler, snr, 0.0, np.zeros(2), 0.0, np.zeros(2)).detections) == 2
 
 
@@ -109,13 +112,13 @@ def test_a_real_boat_at_twice_the_range_of_another_is_kept_per_cluster() -> None
     )
     xyz, dop = observe(own, np.concatenate([near, far]), np.zeros(2))
     snr = np.concatenate([np.full(6, 30.0), np.full(8, 18.0)])
-    cfg = RadarTrackerConfig(
-        cluster_min_points=6, velocity_cluster_min_points=6, cluster_radius_m=2.5, shore_filter_enabled=False
+    cfg = RadarTrackerConfig().replaced(
+        clustering={"min_points": 6, "velocity_min_points": 6, "radius_m": 2.5}, shore={"enabled": False}
     )
     out = RadarDetector(cfg).detect(xyz, dop, snr, 0.0, np.zeros(2), 0.0, np.zeros(2))
     np.testing.assert_array_equal(out.ghost[6:], [True] * 3 + [False] * 5)  # within 2 x 14.4 m + 1.6 m
-    assert len(out.detections) == 2  # 3 of 8 is under multipath_cluster_ghost_share: the far boat is real
-    paper = RadarDetector(replace(cfg, multipath_per_cluster=False))
+    assert len(out.detections) == 2  # 3 of 8 is under multipath.cluster_ghost_share: the far boat is real
+    paper = RadarDetector(cfg.replaced(multipath={"per_cluster": False}))
     assert len(paper.detect(xyz, dop, snr, 0.0, np.zeros(2), 0.0, np.zeros(2)).detections) == 1  # 5 left < 6
 
 

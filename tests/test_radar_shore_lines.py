@@ -3,8 +3,6 @@ evidence pooled over blocks, only recently hit cells count, lone static returns 
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from tests.radar_synthetic import OwnBoat, box_points, observe
@@ -87,12 +85,9 @@ def test_a_search_due_with_the_map_extraction_waits_one_frame() -> None:
 def test_detector_removes_a_wall_before_the_static_map_has_it() -> None:
     # A wall seen for 0.4 s: too little evidence for the map, already a line (20 returns a frame along 30 m).
     def first_frames(window_s: float) -> list[set[int]]:
-        cfg = RadarTrackerConfig(
-            cluster_min_points=2,
-            velocity_cluster_min_points=2,
-            cluster_radius_m=2.0,
-            shore_update_interval_s=0.0,
-            shore_line_window_s=window_s,
+        cfg = RadarTrackerConfig().replaced(
+            clustering={"min_points": 2, "velocity_min_points": 2, "radius_m": 2.0},
+            shore={"update_interval_s": 0.0, "line_window_s": window_s},
         )
         rng = np.random.default_rng(4)
         det = RadarDetector(cfg)
@@ -110,7 +105,7 @@ def test_detector_removes_a_wall_before_the_static_map_has_it() -> None:
 
 
 def test_map_pools_evidence_and_counts_only_recent_cells() -> None:
-    cfg = RadarTrackerConfig(static_occupied_hits=3.0, static_evidence_pool_m=0.75, static_recent_s=2.0)
+    cfg = RadarTrackerConfig().replaced(shore={"occupied_hits": 3.0, "evidence_pool_m": 0.75, "recent_s": 2.0})
     m = StaticMap(cfg)
     m.advance_time(0.0)
     m.follow(np.zeros(2))
@@ -120,7 +115,7 @@ def test_map_pools_evidence_and_counts_only_recent_cells() -> None:
         m.add_points(wall + np.array([dx, 0.0]), 0.1 * k)
     m.update_shore(0.3, np.zeros(2), 100.0)
     assert len(m.shore_cells()) > 0
-    per_cell = replace(cfg, static_evidence_pool_m=0.0)
+    per_cell = cfg.replaced(shore={"evidence_pool_m": 0.0})
     m2 = StaticMap(per_cell)
     m2.advance_time(0.0)
     m2.follow(np.zeros(2))
@@ -128,14 +123,16 @@ def test_map_pools_evidence_and_counts_only_recent_cells() -> None:
         m2.add_points(wall + np.array([dx, 0.0]), 0.1 * k)
     m2.update_shore(0.3, np.zeros(2), 100.0)
     assert len(m2.shore_cells()) == 0
-    # Not hit for longer than static_recent_s: no longer shore, though its evidence has hardly decayed.
+    # Not hit for longer than shore.recent_s: no longer shore, though its evidence has hardly decayed.
     m.update_shore(2.5, np.zeros(2), 100.0)
     assert len(m.shore_cells()) == 0
     assert m.evidence_at(np.array([[30.1, 0.0]]), 2.5)[0] > 0.9
 
 
 def test_lone_static_returns_stay_out_of_the_map() -> None:
-    cfg = RadarTrackerConfig(cluster_min_points=3, velocity_cluster_min_points=3, static_map_min_neighbours=1)
+    cfg = RadarTrackerConfig().replaced(
+        clustering={"min_points": 3, "velocity_min_points": 3}, shore={"map_min_neighbours": 1}
+    )
     det = RadarDetector(cfg)
     own = OwnBoat(position=np.zeros(2))
     pts = np.array([[10.0, 0.0], [10.5, 0.3], [20.0, -8.0]])  # a pair and a loner (sea clutter)
@@ -143,5 +140,5 @@ def test_lone_static_returns_stay_out_of_the_map() -> None:
     out = det.detect(xyz, dop, None, 0.0, own.position, 0.0, np.zeros(2))
     np.testing.assert_array_equal(out.static, [True, True, False])
     np.testing.assert_array_equal(out.line_static, [True, True, True])
-    off = RadarDetector(replace(cfg, static_map_min_neighbours=0))
+    off = RadarDetector(cfg.replaced(shore={"map_min_neighbours": 0}))
     assert off.detect(xyz, dop, None, 0.0, own.position, 0.0, np.zeros(2)).static.all()

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 
@@ -12,7 +10,7 @@ from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.detector import SHORE_BEHIND, SHORE_KEEP, SHORE_ON, RadarDetector
 from tracker.radar.static_map import StaticMap
 
-CFG = RadarTrackerConfig(cluster_min_points=4, velocity_cluster_min_points=4)
+CFG = RadarTrackerConfig().replaced(clustering={"min_points": 4, "velocity_min_points": 4})
 WALL_A, WALL_B = np.array([20.0, -30.0]), np.array([20.0, 30.0])  # quay face along east, 20 m north
 MOORED = np.array([16.0, 5.0])  # 2 m (north) x 4 m boat: its side toward the quay is at 17 m, 3 m off the wall
 BEHIND = np.array([26.0, -10.0])  # a parked van on the quay, behind the wall seen from the water
@@ -67,13 +65,13 @@ def test_wall_removed_moored_boat_kept() -> None:
     # The moored boat and the van are in the map but not shore (too small).
     assert not det.static_map.is_shore(box_points(MOORED, (2.0, 4.0), 50, np.random.default_rng(9))).any()
     g = np.stack(np.meshgrid(np.arange(15.1, 17.0, 0.25), np.arange(3.1, 7.0, 0.25), indexing="ij"), -1).reshape(-1, 2)
-    assert det.static_map.evidence_at(g, last.t).max() >= CFG.static_occupied_hits  # it is in the map, as static
+    assert det.static_map.evidence_at(g, last.t).max() >= CFG.shore.occupied_hits  # it is in the map, as static
 
 
 def test_first_frames_have_no_shore_and_the_ablation_switch_keeps_the_wall() -> None:
     _, outs = quay_frames(CFG, 2)
     assert len(outs[0].detections) >= 3  # one frame of evidence is not a shore yet
-    _, outs = quay_frames(replace(CFG, shore_filter_enabled=False), 40)
+    _, outs = quay_frames(CFG.replaced(shore={"enabled": False}), 40)
     wall_dets = [d for d in outs[-1].detections if abs(d.center[0] - 20.0) < 1.0]
     assert len(wall_dets) >= 2
 
@@ -104,7 +102,7 @@ def test_moving_boat_along_the_quay_is_kept_and_does_not_become_shore() -> None:
 
 
 def test_window_shifts_by_whole_submaps_and_keeps_evidence() -> None:
-    cfg = replace(CFG, static_submap_cells=40)  # 10 m sub-maps, 30 m window
+    cfg = CFG.replaced(shore={"submap_cells": 40})  # 10 m sub-maps, 30 m window
     m = StaticMap(cfg)
     m.follow(np.array([1.0, 1.0]))
     assert m.origin == (-40, -40)
@@ -122,7 +120,7 @@ def test_window_shifts_by_whole_submaps_and_keeps_evidence() -> None:
 
 
 def test_evidence_decays_and_backward_time_clears() -> None:
-    cfg = replace(CFG, static_decay_time_s=2.0)
+    cfg = CFG.replaced(shore={"decay_time_s": 2.0})
     m = StaticMap(cfg)
     m.follow(np.zeros(2))
     p = np.array([[5.0, 5.0]])

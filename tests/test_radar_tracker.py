@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,7 +13,7 @@ from tracker.lifecycle import IdSource
 from tracker.radar import RadarDetector, RadarTracker, RadarTrackerConfig, VelocityStatus
 from tracker.types import MotionState
 
-CFG = RadarTrackerConfig(cluster_min_points=4, velocity_cluster_min_points=4)
+CFG = RadarTrackerConfig().replaced(clustering={"min_points": 4, "velocity_min_points": 4})
 
 
 def crossing(cfg: RadarTrackerConfig, seed: int, frames: int = 100) -> tuple[list, list]:
@@ -40,7 +39,7 @@ def crossing(cfg: RadarTrackerConfig, seed: int, frames: int = 100) -> tuple[lis
 def test_ids_stay_with_their_boats_through_a_crossing(seed: int) -> None:
     # box_points fills each box, where a radar sees the near sides only: the visible-side centre (which moves the
     # measurement behind the near sides) would be fed the wrong data, so it is off here as in the association tests.
-    truth, outputs = crossing(replace(CFG, visible_side_enabled=False), seed)
+    truth, outputs = crossing(CFG.replaced(visible_side={"enabled": False}), seed)
     ids_a, ids_b = set(), set()
     for (a, b), tracks in list(zip(truth, outputs, strict=True))[5:]:
         confirmed = [tr for tr in tracks if tr.confirmed]
@@ -78,7 +77,7 @@ def test_ego_velocity_estimated_from_static_returns_and_target_velocity_over_gro
     target = box_points(target_c, (3.0, 4.0), 25, rng)
     xs, ds = observe(own, clutter, np.zeros(2), rng, 0.03)
     xt, dt = observe(own, target, target_v, rng, 0.03)
-    det = RadarDetector(replace(CFG, shore_filter_enabled=False, multipath_enabled=False))
+    det = RadarDetector(CFG.replaced(shore={"enabled": False}, multipath={"enabled": False}))
     out = det.detect(np.concatenate([xs, xt]), np.concatenate([ds, dt]), None, 0.0, own.position, own.yaw, None)
     assert out.ego_source == "doppler"
     np.testing.assert_allclose(out.sensor_velocity, own.velocity, atol=0.05)
@@ -93,7 +92,7 @@ def test_ego_velocity_estimated_from_static_returns_and_target_velocity_over_gro
 def test_body_to_world_and_lever_arm_compensation() -> None:
     # Radar 2 m forward of the reference point, boat turning at 0.2 rad/s while moving: the radar's own velocity is
     # v + omega x r, and with that every static return is at rest.
-    cfg = replace(CFG, sensor_position_body=(2.0, 0.0), shore_filter_enabled=False, multipath_enabled=False)
+    cfg = CFG.replaced(shore={"enabled": False}, multipath={"enabled": False}, sensor_position_body=(2.0, 0.0))
     own = OwnBoat(
         position=np.array([10.0, 20.0]),
         yaw=math.radians(90.0),  # bow east
@@ -108,7 +107,7 @@ def test_body_to_world_and_lever_arm_compensation() -> None:
     assert out.ego_source == "autopilot"
     np.testing.assert_allclose(out.sensor_velocity, [-0.4, 1.5], atol=1e-12)  # 0.2 rad/s x 2 m, to port = north
     np.testing.assert_allclose(out.doppler_world, 0.0, atol=1e-9)
-    inside = np.abs(np.arctan2(xyz[:, 1] - 0.0, xyz[:, 0] - 2.0)) <= cfg.roi_max_abs_azimuth_rad
+    inside = np.abs(np.arctan2(xyz[:, 1] - 0.0, xyz[:, 0] - 2.0)) <= cfg.roi.max_abs_azimuth_rad
     np.testing.assert_allclose(np.sort(out.points[:, 0]), np.sort(statics[inside, 0]), atol=1e-9)
     np.testing.assert_allclose(out.sensor_ne, [10.0, 22.0], atol=1e-12)
 
@@ -130,7 +129,7 @@ def moored_and_moving(cfg: RadarTrackerConfig, frames: int, seed: int = 5) -> li
 
 
 def test_motion_levels_and_published_speed() -> None:
-    out = moored_and_moving(replace(CFG, shore_filter_enabled=False), 40)
+    out = moored_and_moving(CFG.replaced(shore={"enabled": False}), 40)
     first = out[0]
     assert all(tr.motion is MotionState.WAIT and np.isnan(tr.velocity).all() for tr in first)
     last = {round(tr.position[1]): tr for tr in out[-1] if tr.confirmed}
@@ -144,13 +143,13 @@ def test_motion_levels_and_published_speed() -> None:
 
 
 def test_ablation_switches() -> None:
-    no_md = moored_and_moving(replace(CFG, shore_filter_enabled=False, motion_discriminator_enabled=False), 5)
+    no_md = moored_and_moving(CFG.replaced(shore={"enabled": False}, motion={"enabled": False}), 5)
     assert all(tr.motion is None and np.isfinite(tr.velocity).all() for tr in no_md[-1])
 
     # A wide, close target: its Doppler profile gives the full velocity at once. With the Doppler measurement the
     # first frames' velocity is right; without it the filter only has two or three positions to go on.
     def first_speed_error(doppler_on: bool) -> float:
-        cfg = replace(CFG, doppler_measurement_enabled=doppler_on, motion_discriminator_enabled=False)
+        cfg = CFG.replaced(doppler={"enabled": doppler_on}, motion={"enabled": False})
         rng = np.random.default_rng(8)
         tracker = RadarTracker(cfg)
         own = OwnBoat(position=np.zeros(2))
@@ -210,28 +209,28 @@ def test_bad_input_is_skipped_or_rejected_clearly() -> None:
     assert [tr.id for tr in back] == [tracks[0].id + 1]
     # an empty frame is fine
     assert tracker.step(np.empty((0, 3)), np.empty(0), None, -4.9, own.position, 0.0, None, 0.0)[0].hits == 1
-    with pytest.raises(ValueError, match="cluster_radius_m"):
-        RadarTrackerConfig(cluster_radius_m=0.0)
+    with pytest.raises(ValueError, match=r"ClusteringConfig\.radius_m"):
+        RadarTrackerConfig().replaced(clustering={"radius_m": 0.0})
     with pytest.raises(ValueError, match="thresholds"):
-        RadarTrackerConfig(motion_static_max=-7)
+        RadarTrackerConfig().replaced(motion={"static_max": -7})
 
 
 def test_defaults_are_the_papers_values() -> None:
     c = RadarTrackerConfig()
-    assert (c.cluster_radius_m, c.velocity_cluster_threshold_mps) == (1.2, 0.8)  # sec. 3.2
-    assert (c.cluster_min_points, c.velocity_cluster_min_points) == (20, 20)
-    assert (c.static_map_resolution_m, c.static_submap_cells) == (0.25, 400)
-    assert c.multipath_search_angle_rad == pytest.approx(math.radians(10.0))
-    assert c.fusion_gamma == 0.8
-    assert c.roi_max_range_m == 100.0  # sec. 3.1 radar configuration
+    assert (c.clustering.radius_m, c.clustering.velocity_threshold_mps) == (1.2, 0.8)  # sec. 3.2
+    assert (c.clustering.min_points, c.clustering.velocity_min_points) == (20, 20)
+    assert (c.shore.map_resolution_m, c.shore.submap_cells) == (0.25, 400)
+    assert c.multipath.search_angle_rad == pytest.approx(math.radians(10.0))
+    assert c.doppler.gamma == 0.8
+    assert c.roi.max_range_m == 100.0  # sec. 3.1 radar configuration
     thresholds = (
-        c.motion_absolutely_static_max,
-        c.motion_static_max,
-        c.motion_dynamic_min,
-        c.motion_absolutely_dynamic_min,
+        c.motion.absolutely_static_max,
+        c.motion.static_max,
+        c.motion.dynamic_min,
+        c.motion.absolutely_dynamic_min,
     )
     assert thresholds == (-6, -3, 3, 6)  # Table 1
-    assert c.doppler_measurement_enabled and c.motion_discriminator_enabled and c.shore_filter_enabled
+    assert c.doppler.enabled and c.motion.enabled and c.shore.enabled
 
 
 def crossing_slowly(cfg: RadarTrackerConfig, seed: int) -> tuple[int, list]:
@@ -252,9 +251,9 @@ def crossing_slowly(cfg: RadarTrackerConfig, seed: int) -> tuple[int, list]:
 
 
 def test_the_filter_veto_keeps_a_slow_crossing_boat_off_zero_speed() -> None:
-    cfg = replace(CFG, shore_filter_enabled=False)
+    cfg = CFG.replaced(shore={"enabled": False})
     with_veto = [crossing_slowly(cfg, seed) for seed in (3, 4, 5)]
-    without = [crossing_slowly(replace(cfg, motion_filter_veto_sigmas=0.0), seed) for seed in (3, 4, 5)]
+    without = [crossing_slowly(cfg.replaced(motion={"filter_veto_sigmas": 0.0}), seed) for seed in (3, 4, 5)]
     # Without the veto the discriminator publishes it at zero speed in 143 of 450 frames; with it, 62 (in the first
     # seconds, while the filter's tangential speed is still within 1.5 sigma of zero).
     assert sum(z for z, _ in with_veto) < 0.5 * sum(z for z, _ in without)
@@ -284,8 +283,8 @@ def test_both_trackers_configs_raise_the_one_tracker_config_error() -> None:
     from tracker.lidar.config import EkfConfig
     from tracker.radar.config import RadarTrackerConfig
 
-    with pytest.raises(ConfigError, match="RadarTrackerConfig: roi_min_range_m must be below roi_max_range_m"):
-        RadarTrackerConfig(roi_min_range_m=60.0, roi_max_range_m=50.0)
+    with pytest.raises(ConfigError, match="RoiConfig: min_range_m must be below max_range_m"):
+        RadarTrackerConfig().replaced(roi={"min_range_m": 60.0, "max_range_m": 50.0})
     with pytest.raises(ConfigError, match="EkfConfig"):
         EkfConfig(inflation_form="sideways")  # type: ignore[arg-type]
     assert issubclass(DaemonConfigError, ConfigError) and issubclass(ConfigError, ValueError)

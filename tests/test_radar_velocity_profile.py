@@ -16,7 +16,7 @@ from tracker.radar.velocity_profile import (
     ransac_iterations,
 )
 
-SETTINGS = RadarTrackerConfig().profile_settings()
+SETTINGS = RadarTrackerConfig().velocity.settings()
 
 
 def lines_of_sight(azimuth_deg: np.ndarray) -> np.ndarray:

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal
 
+from tracker.config_checks import choice, positive
 from tracker.config_error import ConfigError
 from tracker.lifecycle import LifecycleConfig
 
@@ -20,21 +21,6 @@ ShapeMode = Literal["adaptive", "lshape-bruteforce", "lshape-rotation", "lshape-
 LShapeMethod = Literal["bruteforce", "rotation", "corner"]
 VisibilityInflation = Literal["diagonal", "outer"]
 AspectReference = Literal["line_of_sight", "sensor_heading"]
-
-
-def _choice(owner: object, name: str, allowed: tuple[str, ...]) -> None:
-    value = getattr(owner, name)
-    if value not in allowed:
-        raise ConfigError(f"{type(owner).__name__}.{name}: {value!r} is not one of {', '.join(allowed)}")
-
-
-def _positive(owner: object, *names: str, allow_zero: bool = False) -> None:
-    for name in names:
-        value = getattr(owner, name)
-        ok = value >= 0 if allow_zero else value > 0
-        if not (isinstance(value, (int, float)) and math.isfinite(value) and ok):
-            bound = ">= 0" if allow_zero else "> 0"
-            raise ConfigError(f"{type(owner).__name__}.{name}: must be a finite number {bound}, got {value!r}")
 
 
 @dataclass
@@ -66,11 +52,11 @@ class WaterConfig:
     memory_s: float = 10.0  # an estimate holds this long without a new accepted fit
 
     def __post_init__(self) -> None:
-        _positive(
+        positive(
             self, "margin_floor", "margin_max", "search_window", "fit_max_range", "min_returns", "max_median_range"
         )
-        _positive(self, "crest_sigmas", "margin_sigmas")
-        _positive(
+        positive(self, "crest_sigmas", "margin_sigmas")
+        positive(
             self, "margin_pad", "fit_min_range", "max_spread", "max_offset", "max_tilt", "memory_s", allow_zero=True
         )
         if not 0.5 <= self.margin_quantile <= 1.0:
@@ -180,9 +166,9 @@ class PreprocessConfig:
     water: WaterConfig = field(default_factory=WaterConfig)
 
     def __post_init__(self) -> None:
-        _positive(self, "max_range", "spray_radius")
-        _positive(self, "min_range", "spray_min_neighbours", allow_zero=True)
-        _positive(
+        positive(self, "max_range", "spray_radius")
+        positive(self, "min_range", "spray_min_neighbours", allow_zero=True)
+        positive(
             self,
             "continuity_min_neighbours",
             "continuity_abs_tol",
@@ -190,8 +176,8 @@ class PreprocessConfig:
             "continuity_near_range",
             allow_zero=True,
         )
-        _positive(self, "vertical_abs_tol", "vertical_rel_tol", allow_zero=True)
-        _positive(
+        positive(self, "vertical_abs_tol", "vertical_rel_tol", allow_zero=True)
+        positive(
             self,
             "foot_min_neighbours",
             "calm_near_range",
@@ -239,10 +225,10 @@ class ClusterConfig:
     occluder_min_points: int = 10
 
     def __post_init__(self) -> None:
-        _positive(
+        positive(
             self, "base_tolerance", "max_tolerance", "grid_cell", "max_clusters", "max_extent", "occluder_min_points"
         )
-        _positive(self, "tolerance_per_metre", "occlusion_margin", allow_zero=True)
+        positive(self, "tolerance_per_metre", "occlusion_margin", allow_zero=True)
         if self.min_points < 1:
             raise ConfigError(f"ClusterConfig.min_points: must be >= 1, got {self.min_points}")
         if self.grid_cell >= self.base_tolerance:
@@ -278,10 +264,10 @@ class ShapeConfig:
     taper_min_depth: float = 0.4  # m; a shallower one-sided view is a flat side, no taper to measure
 
     def __post_init__(self) -> None:
-        _choice(self, "mode", ("adaptive", "lshape-bruteforce", "lshape-rotation", "lshape-corner", "ellipse"))
-        _choice(self, "lshape_method", ("bruteforce", "rotation", "corner"))
-        _positive(self, "rotation_step", "rotation_min_distance")
-        _positive(
+        choice(self, "mode", ("adaptive", "lshape-bruteforce", "lshape-rotation", "lshape-corner", "ellipse"))
+        choice(self, "lshape_method", ("bruteforce", "rotation", "corner"))
+        positive(self, "rotation_step", "rotation_min_distance")
+        positive(
             self,
             "corner_min_offset",
             "taper_min_band",
@@ -351,14 +337,14 @@ class EkfConfig:
             raise ConfigError(f"EkfConfig.r_full_std: needs 6 standard deviations, got {len(self.r_full_std)}")
         if not all(math.isfinite(v) and v > 0 for v in self.r_full_std):
             raise ConfigError(f"EkfConfig.r_full_std: all must be finite and > 0, got {self.r_full_std!r}")
-        _choice(self, "inflation_form", ("diagonal", "outer"))
-        _choice(self, "aspect_reference", ("line_of_sight", "sensor_heading"))
-        _positive(self, "visibility_half_range", "visibility_mse_scale", "max_dt", "velocity_valid_std")
-        _positive(self, "r_inflation", "accel_std", "yaw_accel_std", "size_drift_std", allow_zero=True)
-        _positive(self, "init_speed_std", "init_yaw_rate_std", "align_heading_min_speed", allow_zero=True)
-        _positive(self, "partial_tolerance", "beam_ratio", allow_zero=True)
-        _positive(self, "unseen_size_std")
-        _positive(self, "face_min_angle", allow_zero=True)
+        choice(self, "inflation_form", ("diagonal", "outer"))
+        choice(self, "aspect_reference", ("line_of_sight", "sensor_heading"))
+        positive(self, "visibility_half_range", "visibility_mse_scale", "max_dt", "velocity_valid_std")
+        positive(self, "r_inflation", "accel_std", "yaw_accel_std", "size_drift_std", allow_zero=True)
+        positive(self, "init_speed_std", "init_yaw_rate_std", "align_heading_min_speed", allow_zero=True)
+        positive(self, "partial_tolerance", "beam_ratio", allow_zero=True)
+        positive(self, "unseen_size_std")
+        positive(self, "face_min_angle", allow_zero=True)
         for name in ("visibility_aspect_floor", "occluded_visibility"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ConfigError(f"EkfConfig.{name}: must be within [0, 1], got {getattr(self, name)!r}")
@@ -406,8 +392,8 @@ class AssociationConfig:
     reacquire_margin_m: float = 2.0
 
     def __post_init__(self) -> None:
-        _positive(self, "gate", "max_distance", "duplicate_max_speed_diff")
-        _positive(
+        positive(self, "gate", "max_distance", "duplicate_max_speed_diff")
+        positive(
             self,
             "merge_margin",
             "duplicate_shadow_m",
@@ -467,7 +453,7 @@ class StructureConfig:
     moored_face_min_share: float = 0.5
 
     def __post_init__(self) -> None:
-        _positive(
+        positive(
             self,
             "memory_s",
             "static_min_length_m",
@@ -479,15 +465,15 @@ class StructureConfig:
             "moored_min_offset_m",
             allow_zero=True,
         )
-        _positive(self, "moored_min_length_m", "moored_gap_m", "moored_min_extent_m")
+        positive(self, "moored_min_length_m", "moored_gap_m", "moored_min_extent_m")
         if not 0.0 < self.moored_face_min_share <= 1.0:
             raise ConfigError(
                 f"StructureConfig.moored_face_min_share: must be within (0, 1], got {self.moored_face_min_share!r}"
             )
-        _positive(self, "line_max_thickness_m")
+        positive(self, "line_max_thickness_m")
         if not 0.0 < self.line_min_share <= 1.0:
             raise ConfigError(f"StructureConfig.line_min_share: must be within (0, 1], got {self.line_min_share!r}")
-        _positive(self, "cell_m", "half_size_m", "range_m")
+        positive(self, "cell_m", "half_size_m", "range_m")
         if self.half_size_m < self.range_m + 10 * self.cell_m:
             raise ConfigError(
                 f"StructureConfig.half_size_m: {self.half_size_m} leaves no room to move around range_m {self.range_m}"

@@ -28,7 +28,7 @@ from tracker.ego import rotation_matrices
 from tracker.existence import ClutterDensity
 from tracker.radar.config import RadarTrackerConfig
 from tracker.radar.dbscan import dbscan, dbscan_1d_grouped, kd_tree
-from tracker.radar.multipath import MultipathSettings, multipath_ghosts
+from tracker.radar.multipath import multipath_ghosts
 from tracker.radar.shore_lines import ShoreLines
 from tracker.radar.static_map import StaticMap
 from tracker.radar.velocity_profile import (
@@ -101,7 +101,7 @@ class RadarCluster:
             n_points=self.n_points,
             range_m=range_m,
             points=self.points,
-            # RADIAL_ONLY: the radial component, with undetermined_velocity_var across the line of sight
+            # RADIAL_ONLY: the radial component, with velocity.undetermined_var across the line of sight
             velocity=v.velocity.copy() if known else np.full(2, np.nan),
             velocity_cov=v.covariance.copy() if known else None,
             source="radar",
@@ -162,23 +162,16 @@ class RadarDetector:
         self.rng = rng if rng is not None else np.random.default_rng(config.seed)
         self.static_map = StaticMap(config)
         self.shore_lines = ShoreLines(
-            config.shore_line_window_s,
-            config.shore_line_link_m,
-            config.shore_min_extent_m,
-            config.shore_line_max_thickness_m,
-            config.shore_update_interval_s,
-            config.position_std_per_m,
+            config.shore.line_window_s,
+            config.shore.line_link_m,
+            config.shore.min_extent_m,
+            config.shore.line_max_thickness_m,
+            config.shore.update_interval_s,
+            config.kalman.position_std_per_m,
         )
-        self.multipath = MultipathSettings(
-            search_angle=config.multipath_search_angle_rad,
-            orders=tuple(int(k) for k in config.multipath_range_orders),
-            range_tolerance_m=config.multipath_range_tolerance_m,
-            range_tolerance_rel=config.multipath_range_tolerance_rel,
-            doppler_tolerance=config.multipath_doppler_tolerance_mps,
-            min_snr_drop_db=config.multipath_min_snr_drop_db,
-        )
-        self.profile = config.profile_settings()
-        self.ego_profile = config.ego_profile_settings()
+        self.multipath = config.multipath
+        self.profile = config.velocity.settings()
+        self.ego_profile = config.velocity.ego_settings(config.ego)
         self.totals: dict[str, int] = {}
         self.clutter = self.new_clutter()
         self.static_map.clutter_per_m2 = lambda range_m: self.clutter_expected(range_m, 1.0)
@@ -187,7 +180,10 @@ class RadarDetector:
         """The sea clutter's density around the radar, measured from the frames' returns (tracker.existence)."""
         c = self.cfg
         return ClutterDensity(
-            max(c.roi_min_range_m, 0.5), c.roi_max_range_m, 2 * c.roi_max_abs_azimuth_rad, c.clutter_time_constant_s
+            max(c.roi.min_range_m, 0.5),
+            c.roi.max_range_m,
+            2 * c.roi.max_abs_azimuth_rad,
+            c.existence.clutter_time_constant_s,
         )
 
     def measure_clutter(self, out: DetectorOutput, use: np.ndarray) -> None:
@@ -199,8 +195,8 @@ class RadarDetector:
 
     def clutter_expected(self, range_m: np.ndarray, area_m2: np.ndarray | float) -> np.ndarray:
         """(n,) clutter returns a frame expected over ``area_m2`` at ``range_m`` from the radar: the measured density
-        times its peak on the crests (``existence_clutter_peak``)."""
-        return self.clutter.at(range_m) * area_m2 * self.cfg.existence_clutter_peak
+        times its peak on the crests (``existence.clutter_peak``)."""
+        return self.clutter.at(range_m) * area_m2 * self.cfg.existence.clutter_peak
 
     def _count(self, counts: dict[str, int], key: str, n: int) -> None:
         counts[key] = counts.get(key, 0) + int(n)
@@ -214,12 +210,12 @@ class RadarDetector:
         z = xyz_body[:, 2]
         with np.errstate(invalid="ignore"):
             return (
-                (rng >= c.roi_min_range_m)
-                & (rng <= c.roi_max_range_m)
-                & (np.abs(az) <= c.roi_max_abs_azimuth_rad)
-                & (z >= c.roi_min_z_m)
-                & (z <= c.roi_max_z_m)
-                & ~(snr < c.min_snr_db)  # NaN SNR passes
+                (rng >= c.roi.min_range_m)
+                & (rng <= c.roi.max_range_m)
+                & (np.abs(az) <= c.roi.max_abs_azimuth_rad)
+                & (z >= c.roi.min_z_m)
+                & (z <= c.roi.max_z_m)
+                & ~(snr < c.roi.min_snr_db)  # NaN SNR passes
             )
 
     def detect(
@@ -287,7 +283,7 @@ class RadarDetector:
             lever = float(yaw_rate) * np.array([-sensor_body[1], sensor_body[0]])  # omega x r, FRD, yaw rate about z
             v_sensor = np.asarray(velocity, float).reshape(2) + rot @ lever
             source = "autopilot"
-        elif len(xyz) >= c.ego_min_points:
+        elif len(xyz) >= c.ego.min_points:
             ego_est = fit_velocity_profile(los, dop, self.ego_profile, self.rng)
             if ego_est.status is VelocityStatus.FULL:
                 v_sensor = -ego_est.velocity  # static returns: v_r = -v_radar . u
@@ -298,41 +294,41 @@ class RadarDetector:
 
         # 4. multipath
         ghost = np.zeros(len(xyz), bool)
-        if c.multipath_enabled and len(xyz) > 1:
+        if c.multipath.enabled and len(xyz) > 1:
             az_body = np.arctan2(xyz[:, 1] - sensor_body[1], xyz[:, 0] - sensor_body[0])
             ghost = multipath_ghosts(rng, az_body, dop, snr_a, self.multipath)
             self._count(counts, "multipath_ghosts", int(ghost.sum()))
 
         # Only returns at rest over ground go to the static map, so a boat passing the quay leaves no trail in it.
         if source != "none":
-            static = (np.abs(dop_world) <= c.static_doppler_threshold_mps) & ~ghost
+            static = (np.abs(dop_world) <= c.ego.static_doppler_threshold_mps) & ~ghost
         else:
             static = ~ghost
         on_line = np.zeros(len(xyz), bool)
         line_static = static.copy()
         map_extracted = False
-        if c.shore_filter_enabled:
+        if c.shore.enabled:
             # 6a. the shore as known before this frame (used in 6b, after clustering)
             self.static_map.advance_time(t)
             self.static_map.follow(pos)
-            map_extracted = self.static_map.update_shore(t, pos, c.roi_max_range_m)
-        if c.shore_filter_enabled and c.shore_line_window_s > 0:
+            map_extracted = self.static_map.update_shore(t, pos, c.roi.max_range_m)
+        if c.shore.enabled and c.shore.line_window_s > 0:
             on_line[static] = self.shore_lines.mark(t, world[static], sensor_ne, defer=map_extracted)
-        if c.static_map_min_neighbours > 0 and static.any():
+        if c.shore.map_min_neighbours > 0 and static.any():
             # Sea clutter is static-looking but scattered: over minutes it would fill the water near the boat with
             # "occupied" cells. A wall or a hull gives returns with neighbours in the same frame; lone ones are left
             # out. (The map's extraction then asks more of a cell than the clutter there leaves: StaticMap.)
             idx = np.flatnonzero(static)
-            pairs = kd_tree(world[idx]).query_pairs(c.cluster_radius_m, output_type="ndarray")
+            pairs = kd_tree(world[idx]).query_pairs(c.clustering.radius_m, output_type="ndarray")
             nbrs = np.bincount(pairs.reshape(-1), minlength=idx.size)
-            static[idx[nbrs < c.static_map_min_neighbours]] = False
+            static[idx[nbrs < c.shore.map_min_neighbours]] = False
 
         # 5. clustering over the non-ghost returns (paper), or over all returns with the ghost verdict per cluster
-        per_cluster = c.multipath_enabled and c.multipath_per_cluster
+        per_cluster = c.multipath.enabled and c.multipath.per_cluster
         real = np.arange(len(xyz)) if per_cluster else np.flatnonzero(~ghost)
         labels = np.full(len(xyz), -1, np.int64)
         if real.size:
-            spatial = dbscan(world[real], c.cluster_radius_m, c.cluster_min_points)
+            spatial = dbscan(world[real], c.clustering.radius_m, c.clustering.min_points)
             labels[real] = self.split_by_doppler(spatial, dop_world[real] if source != "none" else dop[real])
         n_clusters = int(labels.max()) + 1 if labels.size else 0
         self._count(counts, "clustered_points", int((labels >= 0).sum()))
@@ -340,16 +336,16 @@ class RadarDetector:
         clusters: list[RadarCluster] = []
         for k in range(n_clusters):  # one iteration per cluster (a handful), each vectorised
             idx = np.flatnonzero(labels == k)
-            if per_cluster and np.count_nonzero(ghost[idx]) / idx.size >= c.multipath_cluster_ghost_share:
+            if per_cluster and np.count_nonzero(ghost[idx]) / idx.size >= c.multipath.cluster_ghost_share:
                 self._count(counts, "ghost_clusters", 1)
                 continue
             clusters.append(self._make_cluster(idx, world, xyz, dop, dop_world, snr_a, los, rng))
 
         # 6b. shore filter, with the shore as known before this frame
-        if c.shore_filter_enabled and clusters:
+        if c.shore.enabled and clusters:
             verdict = self.static_map.shore_verdict(sensor_ne, [cl.points for cl in clusters])
             line_share = np.array([np.count_nonzero(on_line[cl.index]) / cl.n_points for cl in clusters])
-            verdict[(verdict == SHORE_KEEP) & (line_share >= c.shore_on_fraction)] = SHORE_ON
+            verdict[(verdict == SHORE_KEEP) & (line_share >= c.shore.on_fraction)] = SHORE_ON
             for cl, v in zip(clusters, verdict, strict=True):
                 cl.shore = int(v)
             self._count(counts, "shore_clusters", int((verdict != SHORE_KEEP).sum()))
@@ -362,12 +358,12 @@ class RadarDetector:
             if cl.shore != SHORE_KEEP:
                 cl.rng = None
         # Returns in no kept cluster, no ghost and not on the shore: too few to start a track, but a track that finds
-        # no cluster this frame may take them (RadarTracker, update_min_points).
+        # no cluster this frame may take them (RadarTracker, association.update_min_points).
         loose = np.ones(len(xyz), bool)
         for cl in kept:
             loose[cl.index] = False
         loose &= ~ghost & ~on_line & (labels < 0)
-        if c.shore_filter_enabled and loose.any():
+        if c.shore.enabled and loose.any():
             loose[loose] = ~self.static_map.on_shore(world[loose])
         out = DetectorOutput(
             t=t,
@@ -389,7 +385,7 @@ class RadarDetector:
             clusters=clusters,
             kept_clusters=kept,
             counts=counts,
-            min_box_size_m=c.min_box_size_m,
+            min_box_size_m=c.clustering.min_box_size_m,
         )
         if update_map:
             self.update_map(out)
@@ -466,11 +462,11 @@ class RadarDetector:
 
     def update_map(self, out: DetectorOutput, exclude: np.ndarray | None = None) -> None:
         """7. Add the frame's static returns to the static map, except rows flagged in ``exclude`` (m,) bool."""
-        if not self.cfg.shore_filter_enabled:
+        if not self.cfg.shore.enabled:
             return
         use = out.static if exclude is None else out.static & ~exclude
         self.static_map.add_points(out.points[use], out.t)
-        if self.cfg.shore_line_window_s > 0:
+        if self.cfg.shore.line_window_s > 0:
             line = out.line_static if exclude is None else out.line_static & ~exclude
             self.shore_lines.add(out.t, out.points[line])
 
@@ -486,7 +482,7 @@ class RadarDetector:
         known = inside & np.isfinite(dop)
         if known.any():
             out[known] = dbscan_1d_grouped(
-                dop[known], spatial[known], c.velocity_cluster_threshold_mps, c.velocity_cluster_min_points
+                dop[known], spatial[known], c.clustering.velocity_threshold_mps, c.clustering.velocity_min_points
             )
         unknown = np.flatnonzero(inside & ~np.isfinite(dop))
         if unknown.size:

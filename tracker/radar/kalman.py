@@ -38,7 +38,7 @@ _TURN_COLS = np.array([2, 3, TURN])
 
 
 def dim_x(cfg: RadarTrackerConfig) -> int:
-    return DIM_X + 1 if cfg.motion_model == "ct" else DIM_X
+    return DIM_X + 1 if cfg.kalman.motion_model == "ct" else DIM_X
 
 
 def turn_rate(kf: KalmanFilter) -> tuple[float, float]:
@@ -56,7 +56,7 @@ def freeze_turn_rate(kf: KalmanFilter) -> None:
 
 
 def transition(dt: float, cfg: RadarTrackerConfig | None = None) -> np.ndarray:
-    cv = cfg is not None and cfg.motion_model == "cv"
+    cv = cfg is not None and cfg.kalman.motion_model == "cv"
     f = np.eye(DIM_X)
     for axis in range(2):
         p, v, a = axis, 2 + axis, 4 + axis
@@ -89,14 +89,14 @@ def process_noise(dt: float, cfg: RadarTrackerConfig) -> np.ndarray:
     or discrete white-acceleration noise on (position, velocity) for the constant-velocity one (the acceleration
     state then stays at zero; "ct" the same, plus a random walk of the turn rate); plus a random walk of the size."""
     q = np.zeros((dim_x(cfg), dim_x(cfg)))
-    if cfg.motion_model == "ct":
-        q[TURN, TURN] = cfg.turn_rate_std**2 * dt
-    if cfg.motion_model in ("cv", "ct"):
-        block = cfg.accel_std**2 * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
+    if cfg.kalman.motion_model == "ct":
+        q[TURN, TURN] = cfg.kalman.turn_rate_std**2 * dt
+    if cfg.kalman.motion_model in ("cv", "ct"):
+        block = cfg.kalman.accel_std**2 * np.array([[dt**4 / 4, dt**3 / 2], [dt**3 / 2, dt**2]])
         q[0::2, 0::2][:2, :2] = block  # rows/columns (px, vx)
         q[1::2, 1::2][:2, :2] = block  # (py, vy)
     else:
-        j2 = cfg.jerk_std**2
+        j2 = cfg.kalman.jerk_std**2
         block = j2 * np.array(
             [
                 [dt**5 / 20, dt**4 / 8, dt**3 / 6],
@@ -106,17 +106,17 @@ def process_noise(dt: float, cfg: RadarTrackerConfig) -> np.ndarray:
         )
         q[0:6:2, 0:6:2] = block  # (px, vx, ax)
         q[1:6:2, 1:6:2] = block  # (py, vy, ay)
-    q[6, 6] = q[7, 7] = cfg.size_std_rate**2 * dt
+    q[6, 6] = q[7, 7] = cfg.kalman.size_std_rate**2 * dt
     return q
 
 
 def position_std(cfg: RadarTrackerConfig, distance: float) -> float:
-    return cfg.position_std_m + cfg.position_std_per_m * distance
+    return cfg.kalman.position_std_m + cfg.kalman.position_std_per_m * distance
 
 
 def doppler_weight(cfg: RadarTrackerConfig, distance: float) -> float:
     """Eq. 7's gamma / d, capped at gamma within the reference distance."""
-    return cfg.fusion_gamma * min(1.0, cfg.fusion_reference_distance_m / max(distance, 1e-6))
+    return cfg.doppler.gamma * min(1.0, cfg.doppler.reference_distance_m / max(distance, 1e-6))
 
 
 def velocity_noise(vel: VelocityEstimate, distance: float, cfg: RadarTrackerConfig) -> np.ndarray:
@@ -124,7 +124,7 @@ def velocity_noise(vel: VelocityEstimate, distance: float, cfg: RadarTrackerConf
     hull's returns differ by yaw rate x lever arm, and the visible side is not the hull's centre), over eq. 7's
     weight. The floor applies along the directions the cluster determines only."""
     cov = np.asarray(vel.covariance, float)
-    floor = cfg.doppler_model_std_mps**2
+    floor = cfg.doppler.model_std_mps**2
     if vel.status is VelocityStatus.RADIAL_ONLY:
         e = vel.radial_direction
         cov = cov + floor * np.outer(e, e)
@@ -135,8 +135,8 @@ def velocity_noise(vel: VelocityEstimate, distance: float, cfg: RadarTrackerConf
 
 def uses_doppler(cfg: RadarTrackerConfig, vel: VelocityEstimate | None) -> bool:
     return (
-        cfg.doppler_measurement_enabled
-        and cfg.fusion_gamma > 0
+        cfg.doppler.enabled
+        and cfg.doppler.gamma > 0
         and vel is not None
         and vel.status is not VelocityStatus.UNDETERMINED
     )
@@ -150,13 +150,13 @@ def new_filter(
     x = np.zeros(n)
     p = np.zeros((n, n))
     if n > TURN:
-        p[TURN, TURN] = cfg.init_turn_rate_std**2
+        p[TURN, TURN] = cfg.kalman.init_turn_rate_std**2
     x[POS] = centre
     x[SIZE] = size
     p[POS, POS] = np.eye(2) * position_std(cfg, distance) ** 2
-    p[ACC, ACC] = np.eye(2) * (cfg.init_accel_std_mps2**2 if cfg.motion_model == "ca" else 0.0)
-    p[SIZE, SIZE] = np.eye(2) * cfg.size_std_m**2
-    prior_info = np.eye(2) / cfg.init_velocity_std_mps**2
+    p[ACC, ACC] = np.eye(2) * (cfg.kalman.init_accel_std_mps2**2 if cfg.kalman.motion_model == "ca" else 0.0)
+    p[SIZE, SIZE] = np.eye(2) * cfg.kalman.size_std_m**2
+    prior_info = np.eye(2) / cfg.kalman.init_velocity_std_mps**2
     if uses_doppler(cfg, vel):
         # Prior "some boat speed" combined with the Doppler velocity: a radial-only measurement fixes the radial part.
         assert vel is not None
@@ -188,10 +188,10 @@ def predict_many(filters: Sequence[KalmanFilter], dts: Sequence[float], cfg: Rad
     # The tracks of a frame are all predicted to its time, so there is mostly one dt: one Q (and F) per distinct dt.
     q_of = {d: process_noise(d, cfg) for d in set(dt.tolist())}
     q = np.array([q_of[d] for d in dt.tolist()])
-    if cfg.motion_model == "ct":
+    if cfg.kalman.motion_model == "ct":
         x, j = ct_transition(x, dt)
         p = j @ p @ j.transpose(0, 2, 1) + q
-        x[:, TURN] = np.minimum(np.maximum(x[:, TURN], -cfg.max_turn_rate), cfg.max_turn_rate)
+        x[:, TURN] = np.minimum(np.maximum(x[:, TURN], -cfg.kalman.max_turn_rate), cfg.kalman.max_turn_rate)
         p = (p + p.transpose(0, 2, 1)) / 2
     else:
         # filterpy's KalmanFilter.predict, without its per-call copies of the prior (nothing here reads them).
@@ -199,7 +199,7 @@ def predict_many(filters: Sequence[KalmanFilter], dts: Sequence[float], cfg: Rad
         f = np.array([f_of[d] for d in dt.tolist()])
         x = (f @ x[:, :, None])[:, :, 0]
         p = f @ p @ f.transpose(0, 2, 1) + q
-    x[:, SIZE] = np.maximum(x[:, SIZE], cfg.min_box_size_m)
+    x[:, SIZE] = np.maximum(x[:, SIZE], cfg.clustering.min_box_size_m)
     for n, (kf, d) in enumerate(moving):
         kf.x = x[n].reshape(-1, 1)
         kf.P = p[n]
@@ -228,7 +228,7 @@ def _velocity_gate(
     """``doppler_consistent`` with the velocity rows ``h_v`` and noise ``r_v`` the update goes on to use."""
     y = vel.velocity - h_v @ kf.x[:, 0]
     d2 = mahalanobis2(y, h_v @ kf.P @ h_v.T + r_v)
-    return math.isfinite(d2) and d2 <= cfg.doppler_gate_chi2
+    return math.isfinite(d2) and d2 <= cfg.doppler.gate_chi2
 
 
 def mahalanobis2(y: np.ndarray, s: np.ndarray) -> float:
@@ -267,24 +267,24 @@ def fused_update(
     (a partly hidden hull, RadarTracker._shadow)."""
     sp = position_std(cfg, distance) ** 2 + position_var_extra
     maneuver = False
-    if cfg.maneuver_nis > 0:
+    if cfg.doppler.maneuver_nis > 0:
         # Manoeuvre: the centre is further from the prediction than the filter's own uncertainty allows (a boat
         # turning 1 rad/s leaves a constant-velocity prediction within a second). The velocity is opened up so this
         # update can turn it, instead of the track sliding off and a new one starting on the boat. Not in the paper.
         y = np.asarray(centre, float) - kf.x[POS, 0]
         s = kf.P[POS, POS] + sp * np.eye(2)
-        maneuver = mahalanobis2(y, s) > cfg.maneuver_nis
+        maneuver = mahalanobis2(y, s) > cfg.doppler.maneuver_nis
         if maneuver:
-            # As if the velocity had taken a random step of maneuver_velocity_std_mps at the start of the last
+            # As if the velocity had taken a random step of doppler.maneuver_velocity_std_mps at the start of the last
             # prediction: position and velocity variance and their coupling grow, so this very update can turn it.
             dt = float(getattr(kf, "last_dt", 0.1))
             g = np.zeros((kf.dim_x, 2))
             g[POS, :] = dt * np.eye(2)
             g[VEL, :] = np.eye(2)
-            kf.P = kf.P + cfg.maneuver_velocity_std_mps**2 * (g @ g.T)
+            kf.P = kf.P + cfg.doppler.maneuver_velocity_std_mps**2 * (g @ g.T)
     # A turning hull's returns carry yaw rate x lever arm (1 m/s and more on a sharp turn, all one way when only one
     # side is seen): during a manoeuvre the Doppler velocity is left out and the positions turn the track.
-    with_v = uses_doppler(cfg, vel) and not (maneuver and cfg.maneuver_skip_doppler)
+    with_v = uses_doppler(cfg, vel) and not (maneuver and cfg.doppler.maneuver_skip_doppler)
     if with_v:
         assert vel is not None
         h_v, r_v = velocity_rows(kf, turn_gain), velocity_noise(vel, distance, cfg)
@@ -295,7 +295,7 @@ def fused_update(
     z[:2], z[2:4] = centre, size
     r = np.zeros((m, m))
     r[0, 0] = r[1, 1] = sp
-    r[2, 2] = r[3, 3] = cfg.size_std_m**2
+    r[2, 2] = r[3, 3] = cfg.kalman.size_std_m**2
     if with_v:
         assert vel is not None
         z[4:] = vel.velocity
@@ -304,9 +304,9 @@ def fused_update(
     if with_v and turn_gain is not None and kf.dim_x > TURN:
         h[4:] = h_v  # the velocity rows also read the turn rate (velocity_rows)
     _update(kf, h, z, r)
-    kf.x[SIZE, 0] = np.maximum(kf.x[SIZE, 0], cfg.min_box_size_m)
+    kf.x[SIZE, 0] = np.maximum(kf.x[SIZE, 0], cfg.clustering.min_box_size_m)
     if kf.dim_x > TURN:
-        kf.x[TURN, 0] = min(max(float(kf.x[TURN, 0]), -cfg.max_turn_rate), cfg.max_turn_rate)
+        kf.x[TURN, 0] = min(max(float(kf.x[TURN, 0]), -cfg.kalman.max_turn_rate), cfg.kalman.max_turn_rate)
 
 
 # Measured states: centre (px, py), size (l, w), and with a Doppler velocity (vx, vy). H only picks states.

@@ -8,15 +8,15 @@ time, and the published speed follows the level (wait: unknown, static: zero, dy
 Where this departs from the paper, and why (each is a config field; the paper's behaviour is one setting away):
 * Sign of eq. 8: the paper prints D + 1 for IoU > c, while Table 1 calls D >= 6 "absolutely dynamic". Hulls that keep
   overlapping are a target that stays put, so here IoU > c counts toward static (D - 1) and IoU <= c toward dynamic.
-* Baseline (motion_hull_baseline_s, 0 = consecutive frames as in the paper): at 10 Hz a boat moves a few cm between
+* Baseline (motion.hull_baseline_s, 0 = consecutive frames as in the paper): at 10 Hz a boat moves a few cm between
   frames, far less than a sparse hull jitters, so the hull is compared with the one about a second older.
-* Point group (motion_group_window_s, 0 = one frame): the hull is taken over the last few frames' returns.
-* Doppler veto (motion_doppler_veto): a cluster whose own Doppler clearly shows motion counts as "moved"; so does a
-  track whose filter speed clearly does (motion_filter_veto_sigmas, the tracker's: a crossing boat has no Doppler).
+* Point group (motion.group_window_s, 0 = one frame): the hull is taken over the last few frames' returns.
+* Doppler veto (motion.doppler_veto): a cluster whose own Doppler clearly shows motion counts as "moved"; so does a
+  track whose filter speed clearly does (motion.filter_veto_sigmas, the tracker's: a crossing boat has no Doppler).
 * The hulls are support polygons in 16 directions laid along the reference group's principal axes
   (hull.support_offsets), not qhull's: the same IoU within a few hundredths, at a quarter of the cost
-  (motion_hull_exact: qhull's).
-* |D| is clamped (motion_counter_limit) so a boat moored for an hour is seen leaving within seconds.
+  (motion.hull_exact: qhull's).
+* |D| is clamped (motion.counter_limit) so a boat moored for an hour is seen leaving within seconds.
 """
 
 from __future__ import annotations
@@ -54,21 +54,21 @@ class MotionDiscriminator:
     def level_of(self, counter: int) -> MotionState:
         """Table 1."""
         c = self.cfg
-        if counter <= c.motion_absolutely_static_max:
+        if counter <= c.motion.absolutely_static_max:
             return MotionState.ABSOLUTELY_STATIC
-        if counter <= c.motion_static_max:
+        if counter <= c.motion.static_max:
             return MotionState.STATIC
-        if counter < c.motion_dynamic_min:
+        if counter < c.motion.dynamic_min:
             return MotionState.WAIT
-        if counter < c.motion_absolutely_dynamic_min:
+        if counter < c.motion.absolutely_dynamic_min:
             return MotionState.DYNAMIC
         return MotionState.ABSOLUTELY_DYNAMIC
 
     def step_iou(self, iou: float) -> MotionState:
         """One comparison of eq. 8 (sign as explained in the module doc)."""
         self.last_iou = float(iou)
-        moved = not iou > self.cfg.motion_iou_threshold  # NaN counts as "moved": no overlap to speak of
-        lim = self.cfg.motion_counter_limit
+        moved = not iou > self.cfg.motion.iou_threshold  # NaN counts as "moved": no overlap to speak of
+        lim = self.cfg.motion.counter_limit
         self.counter = min(max(self.counter + (1 if moved else -1), -lim), lim)
         target = _RANK[self.level_of(self.counter)]
         here = _RANK[self.state]
@@ -78,19 +78,19 @@ class MotionDiscriminator:
     def observe(
         self, t: float, points_ne: np.ndarray, doppler_moving: bool = False, filter_moving: bool = False
     ) -> MotionState:
-        """Compare the hull of the track's recent returns with the newest one at least ``motion_hull_baseline_s``
+        """Compare the hull of the track's recent returns with the newest one at least ``motion.hull_baseline_s``
         older.
 
-        The point group is the returns of the last ``motion_group_window_s``: a dozen returns drawn anew each frame
+        The point group is the returns of the last ``motion.group_window_s``: a dozen returns drawn anew each frame
         from the same hull give hulls whose IoU scatters from 0.4 to 0.8 even at rest; three frames' worth do not.
-        ``doppler_moving``: the cluster's own Doppler shows it moving (counted with ``motion_doppler_veto``);
-        ``filter_moving``: the track's filter does (the tracker applies ``motion_filter_veto_sigmas``). Either makes a
+        ``doppler_moving``: the cluster's own Doppler shows it moving (counted with ``motion.doppler_veto``);
+        ``filter_moving``: the track's filter does (the tracker applies ``motion.filter_veto_sigmas``). Either makes a
         comparison made this frame count as "moved" whatever the overlap (a 3 m boat at 0.8 m/s still overlaps its
         hull of a second ago by ~0.5).
         """
         pts = np.asarray(points_ne, float).reshape(-1, 2)
         self._groups.append((t, pts))
-        while self._groups and self._groups[0][0] <= t - self.cfg.motion_group_window_s:
+        while self._groups and self._groups[0][0] <= t - self.cfg.motion.group_window_s:
             self._groups.popleft()
         group = np.concatenate([g for _, g in self._groups]) if len(self._groups) > 1 else pts
         if not np.isfinite(group).all(axis=1).any():
@@ -98,12 +98,12 @@ class MotionDiscriminator:
         # Hulls are built only when compared: a vetoed comparison needs neither, and a boat that keeps moving is
         # vetoed every frame. A stored entry is [t, group, its own hull or None].
         entry: list = [t, group, None]
-        base = self.cfg.motion_hull_baseline_s
+        base = self.cfg.motion.hull_baseline_s
         ref = None
         while self._hulls and self._hulls[0][0] < t and t - self._hulls[0][0] >= base:
             ref = self._hulls.popleft()  # the newest qualifying hull wins; older ones are never needed again
         if ref is not None:
-            if (doppler_moving and self.cfg.motion_doppler_veto) or filter_moving:
+            if (doppler_moving and self.cfg.motion.doppler_veto) or filter_moving:
                 self.step_iou(0.0)
                 self.last_iou = math.nan  # not computed: the Doppler or the filter decided
             else:
@@ -113,10 +113,10 @@ class MotionDiscriminator:
         return self.state
 
     def _iou(self, ref: list, entry: list) -> float:
-        """Eq. 8's hull IoU: qhull's hulls (``motion_hull_exact``), or support polygons (hull.support_offsets) in
+        """Eq. 8's hull IoU: qhull's hulls (``motion.hull_exact``), or support polygons (hull.support_offsets) in
         the reference group's frame - centre and principal axes, built once per reference - a quarter of the cost."""
-        pad = self.cfg.hull_point_pad_m
-        if self.cfg.motion_hull_exact:
+        pad = self.cfg.motion.hull_point_pad_m
+        if self.cfg.motion.hull_exact:
             for e in (ref, entry):
                 if e[2] is None:
                     e[2] = padded_hull(e[1], pad)

@@ -3,31 +3,23 @@
 A wave that bounces target -> own hull (or radome) -> target -> radar travels k times the direct path, so the radar
 reports a copy of the target at k times its range, on nearly the same bearing, with k times its raw Doppler (the
 path length changes k times as fast) and a weaker echo. A return is called a ghost when some other return on a
-bearing within the search angle explains it that way, and it is weaker by at least ``min_snr_drop_db``. With the
-own boat and the target both at rest the Doppler test cannot tell; the SNR drop then keeps a real, larger boat at
-twice the range of a small one (tested on the simulated paper scene, where it had been removed for minutes).
+bearing within the search angle explains it that way, and it is weaker by at least ``min_snr_drop_db``
+(tracker.radar.config.MultipathConfig holds the settings). With the own boat and the target both at rest the Doppler
+test cannot tell; the SNR drop then keeps a real, larger boat at twice the range of a small one (tested on the
+simulated paper scene, where it had been removed for minutes).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
+
+from tracker.radar.config import MultipathConfig
 
 # Bearings are widened by this much when pairs are gathered; the exact test on each pair then decides (the wrapped
 # difference it computes may round a few ulp away from the plain one).
 _WINDOW_PAD_RAD = 1e-9
-
-
-@dataclass(frozen=True)
-class MultipathSettings:
-    search_angle: float  # rad, half-width of the bearing window
-    orders: tuple[int, ...]  # path multiples to look for (2 = one extra round trip)
-    range_tolerance_m: float
-    range_tolerance_rel: float  # of the expected ghost range
-    doppler_tolerance: float  # m/s; < 0 skips the Doppler test
-    min_snr_drop_db: float = 0.0  # a ghost is at least this much weaker than the return it copies
 
 
 def multipath_ghosts(
@@ -35,7 +27,7 @@ def multipath_ghosts(
     azimuth: np.ndarray,
     doppler: np.ndarray,
     snr: np.ndarray,
-    settings: MultipathSettings,
+    settings: MultipathConfig,
 ) -> np.ndarray:
     """(n,) bool, True for returns explained as a k-bounce copy of another return.
 
@@ -45,25 +37,25 @@ def multipath_ghosts(
     r = np.asarray(range_m, float)
     n = r.size
     ghost = np.zeros(n, bool)
-    if n < 2 or not settings.orders:
+    if n < 2 or not settings.range_orders:
         return ghost
     az = np.asarray(azimuth, float)
     dop = np.asarray(doppler, float)
     snr = np.asarray(snr, float)
     # Only pairs on nearby bearings can match: ~1/6 of all pairs for a 120 deg sector and +-10 deg, so the tests
     # run on those instead of on the full n x n matrix (the same tests, the same verdicts).
-    j, i = _bearing_pairs(az, settings.search_angle + _WINDOW_PAD_RAD)  # ghost candidate j, original i
+    j, i = _bearing_pairs(az, settings.search_angle_rad + _WINDOW_PAD_RAD)  # ghost candidate j, original i
     d_az = (az[j] - az[i] + np.pi) % (2.0 * np.pi) - np.pi
     # NaN SNR on either side compares False: the "weaker" test passes
-    cand = (np.abs(d_az) <= settings.search_angle) & ~(snr[j] > snr[i] - settings.min_snr_drop_db)
+    cand = (np.abs(d_az) <= settings.search_angle_rad) & ~(snr[j] > snr[i] - settings.min_snr_drop_db)
     j, i = j[cand], i[cand]
     hit = np.zeros(j.size, bool)
-    for k in settings.orders:
+    for k in settings.range_orders:
         expect = k * r[i]
         ok = np.abs(r[j] - expect) <= settings.range_tolerance_m + settings.range_tolerance_rel * expect
-        if settings.doppler_tolerance >= 0:
+        if settings.doppler_tolerance_mps >= 0:
             dd = np.abs(dop[j] - k * dop[i])
-            ok &= ~(dd > settings.doppler_tolerance)  # NaN Doppler: cannot contradict
+            ok &= ~(dd > settings.doppler_tolerance_mps)  # NaN Doppler: cannot contradict
         hit |= ok
     ghost[j[hit]] = True
     return ghost

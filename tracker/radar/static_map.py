@@ -56,9 +56,9 @@ class StaticMap:
 
     def __init__(self, config: RadarTrackerConfig) -> None:
         self.cfg = config
-        self.res = float(config.static_map_resolution_m)
-        self.sub = int(config.static_submap_cells)
-        self.size = self.sub * int(config.static_submaps_across)
+        self.res = float(config.shore.map_resolution_m)
+        self.sub = int(config.shore.submap_cells)
+        self.size = self.sub * int(config.shore.submaps_across)
         self.grid = np.zeros((self.size, self.size))
         self.last_hit = np.full((self.size, self.size), -np.inf)  # time of each cell's latest hit
         self.origin: tuple[int, int] | None = None  # world cell (i, j) of grid[0, 0]
@@ -67,7 +67,7 @@ class StaticMap:
         self.shifts = 0
         self.frames = 0.0  # frames added, decayed as the evidence is (same scale): how many a cell could have been hit
         # Clutter returns a frame expected per m^2 at given ranges from the boat (RadarDetector.clutter_expected);
-        # None: the fixed static_occupied_hits alone decides
+        # None: the fixed shore.occupied_hits alone decides
         self.clutter_per_m2: Callable[[np.ndarray], np.ndarray] | None = None
         # Flat indices of the cells holding evidence: the shore scan visits only these, not 1200 x 1200 cells.
         self._touched = np.empty(0, np.int64)
@@ -101,7 +101,7 @@ class StaticMap:
         return np.floor(np.asarray(points_ne, float) / self.res).astype(np.int64)
 
     def _scale(self, t: float) -> float:
-        return math.exp(min((t - self.t_ref) / self.cfg.static_decay_time_s, 700.0))
+        return math.exp(min((t - self.t_ref) / self.cfg.shore.decay_time_s, 700.0))
 
     def advance_time(self, t: float) -> None:
         """Move the map's clock to t (every write and shore update does this); going back in time clears the map."""
@@ -119,7 +119,7 @@ class StaticMap:
     def follow(self, position_ne: np.ndarray) -> None:
         """Keep the boat in the middle sub-map; shift the window by whole sub-maps when it leaves it."""
         boat = self.cells(np.asarray(position_ne, float).reshape(1, 2))[0]
-        half = self.cfg.static_submaps_across // 2
+        half = self.cfg.shore.submaps_across // 2
         want = tuple(int((b // self.sub - half) * self.sub) for b in boat)
         if self.origin is None:
             self.origin = want  # type: ignore[assignment]
@@ -170,7 +170,7 @@ class StaticMap:
 
     def update_shore(self, t: float, position_ne: np.ndarray, max_range_m: float) -> bool:
         """Extract shore structures within ``max_range_m`` of the boat; True if an extraction ran (it runs every
-        ``shore_update_interval_s``).
+        ``shore.update_interval_s``).
 
         Cost follows the number of occupied cells, not the map's area (a harbour window is 800 x 800 cells): the
         occupied cells are OR-ed into blocks of the link radius, blocks are grown by one and labelled (ndimage), so
@@ -178,7 +178,7 @@ class StaticMap:
         cells. Shore cells are then kept as a sorted key list, a k-d tree (distance to the shore) and their contour.
         """
         self.advance_time(t)
-        if self.origin is None or t - self._t_shore < self.cfg.shore_update_interval_s:
+        if self.origin is None or t - self._t_shore < self.cfg.shore.update_interval_s:
             return False
         self._clear_shore()
         self._t_shore = t
@@ -193,8 +193,8 @@ class StaticMap:
         keep = value >= 1e-3 * scale  # evidence decayed to nothing: forget the cell until it is hit again
         self._is_touched[self._touched[~keep]] = False
         self._touched, value = self._touched[keep], value[keep]
-        recent = self.last_hit.flat[self._touched] >= t - self.cfg.static_recent_s
-        pool = max(1, round(self.cfg.static_evidence_pool_m / self.res))
+        recent = self.last_hit.flat[self._touched] >= t - self.cfg.shore.recent_s
+        pool = max(1, round(self.cfg.shore.evidence_pool_m / self.res))
         if pool > 1:
             # Evidence pooled over pool x pool cells: a wall seen through 1 deg of azimuth noise spreads its returns
             # over a metre, so single 0.25 m cells fill up far slower than the wall is really seen.
@@ -207,9 +207,9 @@ class StaticMap:
         else:
             pooled = value
         # Occupied: enough evidence, and seen lately. A structure is judged by what is there now: the returns a slow
-        # boat leaves behind (its Doppler looks static) fall out after static_recent_s instead of adding up to a
+        # boat leaves behind (its Doppler looks static) fall out after shore.recent_s instead of adding up to a
         # "shore" as long as its track.
-        occupied = (pooled >= self.cfg.static_occupied_hits * scale) & recent
+        occupied = (pooled >= self.cfg.shore.occupied_hits * scale) & recent
         boat = self.cells(np.asarray(position_ne, float).reshape(1, 2))[0] - np.asarray(self.origin)
         if self.clutter_per_m2 is not None and occupied.any():
             occupied[occupied] = self._beyond_clutter(self._touched[occupied], pooled[occupied] / scale, boat, pool)
@@ -218,7 +218,7 @@ class StaticMap:
         rc = rc[np.all(np.abs(rc - boat) <= math.ceil(max_range_m / self.res) + 1, axis=1)]
         if rc.size == 0:
             return True
-        block = max(1, round(self.cfg.shore_link_radius_m / self.res))
+        block = max(1, round(self.cfg.shore.link_radius_m / self.res))
         coarse = rc // block
         lo = coarse.min(axis=0) - 1
         coarse -= lo
@@ -236,7 +236,7 @@ class StaticMap:
         np.maximum.at(hi_c, lab, rc[:, 1])
         seen = hi_r >= lo_r
         extent = np.hypot(hi_r[seen] - lo_r[seen] + 1, hi_c[seen] - lo_c[seen] + 1) * self.res
-        big[np.flatnonzero(seen)] = extent >= self.cfg.shore_min_extent_m
+        big[np.flatnonzero(seen)] = extent >= self.cfg.shore.min_extent_m
         shore = rc[big[lab]] + np.asarray(self.origin)  # world cell indices
         if shore.size == 0:
             return True
@@ -253,14 +253,14 @@ class StaticMap:
 
     def _beyond_clutter(self, flat: np.ndarray, hits: np.ndarray, boat_rc: np.ndarray, pool: int) -> np.ndarray:
         """(n,) bool: the pooled hits of these cells are more than the sea's clutter would have left there over the
-        map's decayed frames (Poisson tail at most ``existence_confirm_tail``). Rough water leaves static-looking
+        map's decayed frames (Poisson tail at most ``existence.confirm_tail``). Rough water leaves static-looking
         returns everywhere near the boat; a wall leaves them in the same place frame after frame."""
         assert self.clutter_per_m2 is not None
         rc = np.stack(np.divmod(flat, self.size), axis=1)
         range_m = np.hypot(*((rc - boat_rc) * self.res).T)
         block_area = (pool * self.res) ** 2
         expected = self.clutter_per_m2(range_m) * block_area * (self.frames / self._scale(self.t_last))
-        return clutter_tail(hits, expected) <= self.cfg.existence_confirm_tail
+        return clutter_tail(hits, expected) <= self.cfg.existence.confirm_tail
 
     def _contains(self, cells_rc: np.ndarray) -> np.ndarray:
         keys = _keys(cells_rc)
@@ -269,11 +269,11 @@ class StaticMap:
         return (self._shore_keys[pos] == keys) if len(self._shore_keys) else np.zeros(len(keys), bool)
 
     def on_shore(self, points_ne: np.ndarray) -> np.ndarray:
-        """(n,) bool: within shore_margin_m of a shore cell (its centre, plus half a cell diagonal)."""
+        """(n,) bool: within shore.margin_m of a shore cell (its centre, plus half a cell diagonal)."""
         pts = np.asarray(points_ne, float).reshape(-1, 2)
         if self._tree is None or len(pts) == 0:
             return np.zeros(len(pts), bool)
-        reach = self.cfg.shore_margin_m + self.res * math.sqrt(0.5)
+        reach = self.cfg.shore.margin_m + self.res * math.sqrt(0.5)
         dist, _ = self._tree.query(pts, k=1, distance_upper_bound=reach)
         return np.isfinite(dist)
 
@@ -291,7 +291,7 @@ class StaticMap:
         return (self._shore_rc + 0.5) * self.res
 
     def _bearing_bin(self, rel: np.ndarray) -> np.ndarray:
-        n_bins = round(2 * math.pi / self.cfg.shore_horizon_bin_rad)
+        n_bins = round(2 * math.pi / self.cfg.shore.horizon_bin_rad)
         az = np.arctan2(rel[:, 1], rel[:, 0])
         return np.floor((az + math.pi) / (2 * math.pi) * n_bins).astype(np.int64) % n_bins
 
@@ -299,16 +299,16 @@ class StaticMap:
         """Range of the nearest shore cell per bearing bin as seen from the radar (inf where no shore).
 
         A bin also takes its neighbours' minimum, so a wall with a missing cell or two still hides what is behind
-        it. Shore cells within shore_margin_m of the radar are ignored: the own boat may lie alongside the quay.
+        it. Shore cells within shore.margin_m of the radar are ignored: the own boat may lie alongside the quay.
         """
         key = (float(sensor_ne[0]), float(sensor_ne[1]))
         if self._horizon is not None and self._horizon[0] == key:
             return self._horizon[1]  # same shore, radar not moved (a moored boat): same horizon
-        n_bins = round(2 * math.pi / self.cfg.shore_horizon_bin_rad)
+        n_bins = round(2 * math.pi / self.cfg.shore.horizon_bin_rad)
         horizon = np.full(n_bins, np.inf)
         rel = self.shore_cells() - np.asarray(sensor_ne, float).reshape(2)
         rng = np.hypot(rel[:, 0], rel[:, 1])
-        far = rng > self.cfg.shore_margin_m
+        far = rng > self.cfg.shore.margin_m
         np.minimum.at(horizon, self._bearing_bin(rel[far]), rng[far])
         horizon = ndimage.minimum_filter1d(horizon, size=3, mode="wrap")
         horizon.flags.writeable = False  # cached and shared between calls
@@ -318,8 +318,8 @@ class StaticMap:
     def shore_verdict(self, sensor_ne: np.ndarray, clusters: list[np.ndarray]) -> np.ndarray:
         """(k,) int per cluster of (n_i, 2) world points: 0 keep, 1 on the shore, 2 behind it (seen from the radar).
 
-        On: at least shore_on_fraction of its points within shore_margin_m of shore cells. Behind: its centre is
-        farther than the shore horizon on its bearing, plus shore_margin_m.
+        On: at least shore.on_fraction of its points within shore.margin_m of shore cells. Behind: its centre is
+        farther than the shore horizon on its bearing, plus shore.margin_m.
         """
         k = len(clusters)
         verdict = np.zeros(k, np.int8)
@@ -330,12 +330,12 @@ class StaticMap:
         on = self.on_shore(pts).astype(float)
         owner = np.repeat(np.arange(k), sizes)
         frac = np.bincount(owner, weights=on, minlength=k) / np.maximum(sizes, 1)
-        verdict[frac >= self.cfg.shore_on_fraction] = 1
+        verdict[frac >= self.cfg.shore.on_fraction] = 1
         # Behind: farther than the shore seen from the radar on the same bearing (polar "shore horizon").
         horizon = self.shore_horizon(sensor_ne)
         centres = np.stack([np.bincount(owner, weights=pts[:, a], minlength=k) for a in (0, 1)], axis=1)
         rel = centres / np.maximum(sizes, 1)[:, None] - np.asarray(sensor_ne, float).reshape(2)
         b = self._bearing_bin(rel)
-        behind = (np.hypot(rel[:, 0], rel[:, 1]) > horizon[b] + self.cfg.shore_margin_m) & (sizes > 0)
+        behind = (np.hypot(rel[:, 0], rel[:, 1]) > horizon[b] + self.cfg.shore.margin_m) & (sizes > 0)
         verdict[behind & (verdict == 0)] = 2
         return verdict

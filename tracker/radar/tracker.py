@@ -71,8 +71,8 @@ def association_cost(track_boxes: np.ndarray, det_boxes: np.ndarray, cfg: RadarT
     ct = (track_boxes[:, :2] + track_boxes[:, 2:]) / 2
     cd = (det_boxes[:, :2] + det_boxes[:, 2:]) / 2
     dist = np.linalg.norm(ct[:, None, :] - cd[None, :, :], axis=2)
-    gate = cfg.association_distance_gate_m
-    return np.where(iou >= cfg.association_min_iou, 1.0 - iou, np.where(dist <= gate, 1.0 + dist / gate, np.inf))
+    gate = cfg.association.distance_gate_m
+    return np.where(iou >= cfg.association.min_iou, 1.0 - iou, np.where(dist <= gate, 1.0 + dist / gate, np.inf))
 
 
 @dataclass
@@ -91,7 +91,7 @@ class RadarTrackState:
         x = self.kf.x[:, 0]
         v = x[kalman.VEL].copy()
         motion: MotionState | None = None
-        if cfg.motion_discriminator_enabled:
+        if cfg.motion.enabled:
             motion = self.motion.state
             v = self.motion.velocity(v)
         return Track(
@@ -122,7 +122,7 @@ class RadarTracker:
         self.cfg = config or RadarTrackerConfig()
         self.rng = np.random.default_rng(self.cfg.seed)
         self.detector = RadarDetector(self.cfg, self.rng)
-        self.lifecycle = Lifecycle(self.cfg.lifecycle(), ids)
+        self.lifecycle = Lifecycle(self.cfg.lifecycle, ids)
         self.tracks: list[RadarTrackState] = []
         self.t_last = -math.inf
         self.last: DetectorOutput | None = None
@@ -230,7 +230,7 @@ class RadarTracker:
         kalman.predict_many([tr.kf for tr in self.tracks], [t - tr.t for tr in self.tracks], cfg)
         for tr in self.tracks:
             tr.t = t
-            far = float(np.hypot(*(tr.kf.x[kalman.POS, 0] - out.sensor_ne))) > cfg.turn_model_max_range_m
+            far = float(np.hypot(*(tr.kf.x[kalman.POS, 0] - out.sensor_ne))) > cfg.kalman.turn_model_max_range_m
             if far and tr.kf.dim_x > kalman.TURN:
                 kalman.freeze_turn_rate(tr.kf)  # before the update, so it cannot learn a rate either
         self._boxes = self._predicted_boxes()
@@ -265,12 +265,12 @@ class RadarTracker:
         """Eq. 7 with the cluster the track was given: centre (visible sides, lit edge when partly hidden), size from
         the outline, Doppler velocity with its turn-rate row; then the lifecycle and the motion discriminator."""
         cfg = self.cfg
-        box_centre, box_size, distance = cl.measured_box(out.sensor_ne, cfg.min_box_size_m)
+        box_centre, box_size, distance = cl.measured_box(out.sensor_ne, cfg.clustering.min_box_size_m)
         outline = self._outline(tr, cl)
         size = self._outline_size(outline if tr.shape else None, box_size)
         centre = self._centre(outline, cl, box_centre, out.sensor_ne)
         hidden = tr.shadowed = 0.0 if shadow is None else np.count_nonzero(shadow) / shadow.size
-        if cfg.occlusion_lit_edge:
+        if cfg.occlusion.lit_edge:
             centre = occlusion.lit_edge_centre(
                 centre, cl.points, tr.kf.x[kalman.POS, 0], tr.kf.x[kalman.SIZE, 0], shadow, out.sensor_ne
             )
@@ -282,28 +282,28 @@ class RadarTracker:
             cl.velocity,
             cfg,
             self._turn_gain(tr, cl),
-            position_var_extra=cfg.occlusion_position_var_m2 * hidden * hidden,
+            position_var_extra=cfg.occlusion.position_var_m2 * hidden * hidden,
         )
         self._remember_shape(tr, cl, t)
         tr.life.hit(t, proven=tr.life.confirmed or self._proven(tr))
         tr.points = cl.points
-        if cfg.motion_discriminator_enabled:
+        if cfg.motion.enabled:
             tr.motion.observe(t, cl.points, self._doppler_moving(cl), self._filter_moving(tr))
 
     def _ashore(self, lost: list[int]) -> np.ndarray:
         """(len(lost),) bool: the lost track's centre now lies on the shore (map or shore lines), with
-        ``drop_tracks_on_shore``; one query for all of them."""
+        ``shore.drop_tracks_on_shore``; one query for all of them."""
         cfg = self.cfg
-        if not (lost and cfg.shore_filter_enabled and cfg.drop_tracks_on_shore):
+        if not (lost and cfg.shore.enabled and cfg.shore.drop_tracks_on_shore):
             return np.zeros(len(lost), bool)
         centres = np.array([self.tracks[ti].kf.x[kalman.POS, 0] for ti in lost])
-        return self.detector.static_map.on_shore(centres) | self.detector.shore_lines.near(centres, cfg.shore_margin_m)
+        return self.detector.static_map.on_shore(centres) | self.detector.shore_lines.near(centres, cfg.shore.margin_m)
 
     def _miss_track(
         self, tr: RadarTrackState, t: float, frame_dt: float, ashore: bool, shadow: np.ndarray | None
     ) -> None:
-        """No cluster this frame. A confirmed track at least ``occluded_min_share`` in a nearer object's shadow may
-        coast ``max_unseen_time_occluded_s``, its velocity and turn rate relaxing toward zero meanwhile. One whose
+        """No cluster this frame. A confirmed track at least ``occlusion.min_share`` in a nearer object's shadow may
+        coast ``lifecycle.max_unseen_time_occluded``, its velocity and turn rate relaxing toward zero meanwhile. One whose
         centre now lies on the shore (``ashore``) is deleted."""
         cfg = self.cfg
         if ashore:
@@ -313,9 +313,9 @@ class RadarTracker:
         hidden = False
         if self._coasts_in_shadow(tr):
             tr.shadowed = 0.0 if shadow is None else np.count_nonzero(shadow) / shadow.size
-            hidden = tr.shadowed >= cfg.occluded_min_share
-        if hidden and cfg.occluded_velocity_decay_s > 0:
-            decay = math.exp(-frame_dt / cfg.occluded_velocity_decay_s)
+            hidden = tr.shadowed >= cfg.occlusion.min_share
+        if hidden and cfg.occlusion.velocity_decay_s > 0:
+            decay = math.exp(-frame_dt / cfg.occlusion.velocity_decay_s)
             tr.kf.x[kalman.VEL, 0] *= decay
             if tr.kf.dim_x > kalman.TURN:
                 tr.kf.x[kalman.TURN, 0] *= decay
@@ -323,10 +323,10 @@ class RadarTracker:
 
     def _start_track(self, cl: RadarCluster, sparse: bool, t: float, out: DetectorOutput) -> RadarTrackState:
         cfg = self.cfg
-        centre, size, distance = cl.measured_box(out.sensor_ne, cfg.min_box_size_m)
-        if cfg.visible_side_enabled:
+        centre, size, distance = cl.measured_box(out.sensor_ne, cfg.clustering.min_box_size_m)
+        if cfg.visible_side.enabled:
             centre = visible_side_centre(
-                cl.points, out.sensor_ne, cl.points - centre, cfg.visible_depth_gain, cfg.visible_width_gain
+                cl.points, out.sensor_ne, cl.points - centre, cfg.visible_side.depth_gain, cfg.visible_side.width_gain
             )
         tr = RadarTrackState(
             life=self.lifecycle.start(t),
@@ -335,10 +335,10 @@ class RadarTracker:
             t=t,
             points=cl.points,
             sparse=sparse,
-            evidence=ExistenceEvidence(cfg.existence_window_frames),
+            evidence=ExistenceEvidence(cfg.existence.window_frames),
         )
         self._remember_shape(tr, cl, t)
-        if cfg.motion_discriminator_enabled:
+        if cfg.motion.enabled:
             tr.motion.observe(t, cl.points, self._doppler_moving(cl))
         return tr
 
@@ -346,39 +346,41 @@ class RadarTracker:
         """Every track's count of the frame's candidate returns (kept clusters, loose) in its predicted box against the
         clutter expected there (tracker.existence), before any update moves the boxes; then the frame's candidates
         into the clutter density, less those of tracks confirmed for longer than the density remembers
-        (clutter_time_constant_s). Boats moored across the radar's view otherwise became their own ring's "clutter"
+        (existence.clutter_time_constant_s). Boats moored across the radar's view otherwise became their own ring's "clutter"
         and lost the test; a clutter track never lives that long, so it cannot calm the sea's measure (leaving out
         every confirmed track did: held out, radar-only false-obstacle bins 0.77 -> 2.2 %)."""
         cfg = self.cfg
         cand = out.candidate
         boxes = self._boxes
-        inside = boxes_members(out.points[cand], boxes, cfg.existence_pad_m)  # (tracks, candidates)
+        inside = boxes_members(out.points[cand], boxes, cfg.existence.pad_m)  # (tracks, candidates)
         measured = cand.copy()
         if len(boxes):
             mu = self._clutter_in(boxes, out.sensor_ne)
             for tr, ni, mi in zip(self.tracks, inside.sum(axis=1).tolist(), mu.tolist(), strict=True):
                 tr.evidence.add(ni, mi)
-            old = np.array([tr.life.confirmed and tr.life.age >= cfg.clutter_time_constant_s for tr in self.tracks])
+            old = np.array(
+                [tr.life.confirmed and tr.life.age >= cfg.existence.clutter_time_constant_s for tr in self.tracks]
+            )
             if old.any():
                 measured[np.flatnonzero(cand)[inside[old].any(axis=0)]] = False
         self.detector.measure_clutter(out, measured)
 
     def _proven(self, tr: RadarTrackState) -> bool:
-        """The track's recent returns are more than the clutter at its place explains (``existence_confirm_tail``)."""
-        return tr.evidence.tail() <= self.cfg.existence_confirm_tail
+        """The track's recent returns are more than the clutter at its place explains (``existence.confirm_tail``)."""
+        return tr.evidence.tail() <= self.cfg.existence.confirm_tail
 
     def _drop_unproven(self) -> None:
-        """A confirmed track whose last ``existence_window_frames`` frames of returns clutter explains as well
-        (``existence_keep_tail``) is deleted: it was a bunch of clutter, or its boat no longer stands out of the sea.
+        """A confirmed track whose last ``existence.window_frames`` frames of returns clutter explains as well
+        (``existence.keep_tail``) is deleted: it was a bunch of clutter, or its boat no longer stands out of the sea.
         One hidden in a nearer object's shadow is expected to show nothing and is left to coast."""
         cfg = self.cfg
-        if cfg.existence_keep_tail >= 1.0:
+        if cfg.existence.keep_tail >= 1.0:
             return
         for tr in self.tracks:
             ev = tr.evidence
-            if not (tr.life.confirmed and ev.full) or tr.shadowed >= cfg.occluded_min_share:
+            if not (tr.life.confirmed and ev.full) or tr.shadowed >= cfg.occlusion.min_share:
                 continue
-            if ev.tail() > cfg.existence_keep_tail:
+            if ev.tail() > cfg.existence.keep_tail:
                 tr.life.status = TrackStatus.DELETED
 
     def _predicted_boxes(self) -> np.ndarray:
@@ -394,7 +396,7 @@ class RadarTracker:
         """Clusters per track, and the clusters that start tracks.
 
         One-to-one assignment first (sec. 2.3-1). A sparse hull often comes as two or three DBSCAN clusters; a
-        cluster left over whose box lies within ``merge_gap_m`` of a track's predicted box and whose Doppler agrees
+        cluster left over whose box lies within ``association.merge_gap_m`` of a track's predicted box and whose Doppler agrees
         joins that track's measurement instead of starting a duplicate track (not in the paper).
         """
         cfg = self.cfg
@@ -407,25 +409,25 @@ class RadarTracker:
         a = gated_assignment(association_cost(track_boxes, det_boxes, cfg), _GATE)
         claims: dict[int, list[int]] = {int(ti): [int(di)] for ti, di in a.matches}
         spawn: list[int] = []
-        if cfg.merge_gap_m <= 0 or a.unmatched_cols.size == 0:
+        if cfg.association.merge_gap_m <= 0 or a.unmatched_cols.size == 0:
             return claims, [int(di) for di in a.unmatched_cols]
         gaps = box_gap_matrix(track_boxes, det_boxes[a.unmatched_cols])
         for col, di in enumerate(a.unmatched_cols):
             order = np.argsort(gaps[:, col])
             ti = int(order[0])
-            if gaps[ti, col] <= cfg.merge_gap_m and self._doppler_agrees(ti, clusters[di]):
+            if gaps[ti, col] <= cfg.association.merge_gap_m and self._doppler_agrees(ti, clusters[di]):
                 claims.setdefault(ti, []).append(int(di))
             else:
                 spawn.append(int(di))
-        if cfg.recovery_gate_m > 0 and spawn:
+        if cfg.association.recovery_gate_m > 0 and spawn:
             spawn = self._recover(claims, spawn, det_boxes)
         return claims, spawn
 
     def _recover(self, claims: dict[int, list[int]], spawn: list[int], det_boxes: np.ndarray) -> list[int]:
-        """A confirmed track left without a cluster takes the nearest would-be new track within ``recovery_gate_m``
+        """A confirmed track left without a cluster takes the nearest would-be new track within ``association.recovery_gate_m``
         of its prediction (not in the paper). A boat turning hard leaves its predicted box within a second; without
         this a second track starts on it and the first coasts off on the old course, an id switch and a false track.
-        The update that follows opens the velocity up (maneuver_nis)."""
+        The update that follows opens the velocity up (doppler.maneuver_nis)."""
         lost = [ti for ti, tr in enumerate(self.tracks) if ti not in claims and tr.life.confirmed]
         if not lost:
             return spawn
@@ -437,7 +439,7 @@ class RadarTracker:
         taken: set[int] = set()
         for flat in np.argsort(dist, axis=None):  # nearest pairs first; a handful of entries
             r, c = divmod(int(flat), len(cand))
-            if dist[r, c] > self.cfg.recovery_gate_m:
+            if dist[r, c] > self.cfg.association.recovery_gate_m:
                 break
             if lost[r] in claims or int(cand[c]) in taken:
                 continue
@@ -446,9 +448,9 @@ class RadarTracker:
         return [int(d) for d in cand if int(d) not in taken]
 
     def _outline(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray | None:
-        """(k, 2) the track's returns of the last ``shape_window_s`` and this cluster's, relative to the track's
+        """(k, 2) the track's returns of the last ``visible_side.shape_window_s`` and this cluster's, relative to the track's
         centre (world axes); None without the visible-side centre (which keeps them)."""
-        if not self.cfg.visible_side_enabled:
+        if not self.cfg.visible_side.enabled:
             return None
         return np.concatenate([g for _, g in tr.shape] + [cl.points - tr.kf.x[kalman.POS, 0]])
 
@@ -459,17 +461,19 @@ class RadarTracker:
         cfg = self.cfg
         if outline is None:
             return box_centre
-        return visible_side_centre(cl.points, sensor_ne, outline, cfg.visible_depth_gain, cfg.visible_width_gain)
+        return visible_side_centre(
+            cl.points, sensor_ne, outline, cfg.visible_side.depth_gain, cfg.visible_side.width_gain
+        )
 
     def _outline_size(self, outline: np.ndarray | None, size: np.ndarray) -> np.ndarray:
-        """(2,) size measurement: the frame's box, or the extent of the track's returns over ``shape_window_s`` when
+        """(2,) size measurement: the frame's box, or the extent of the track's returns over ``visible_side.shape_window_s`` when
         larger (not in the paper). A far hull gives 1-3 returns a frame, whose box is a fraction of the hull (the box of
         two returns is their distance): measured so, the track's size shrinks to the 0.5 m floor, its box no longer
         covers its own returns next frame (association, shadow test) and its bearing span misses a nearer boat
         shadowing it. The returns of the last second relative to the track's centre fill in the outline; their q to 1 - q
-        quantile spread (``outline_size_quantile``, robust to a stray return) is 1 - 2q of the extent they cover when
+        quantile spread (``visible_side.outline_size_quantile``, robust to a stray return) is 1 - 2q of the extent they cover when
         spread evenly along the hull's sides, hence the division."""
-        q = self.cfg.outline_size_quantile
+        q = self.cfg.visible_side.outline_size_quantile
         if q <= 0 or outline is None or outline.shape[0] < 3:
             return size
         cover = 1.0 - 2.0 * q
@@ -496,13 +500,18 @@ class RadarTracker:
         casters = self._shadow_casters(out, groups)
         boxes = self._boxes[need]
         found = occlusion.shadows(
-            boxes, casters, out.sensor_ne, cfg.occlusion_margin_m, cfg.merge_gap_m, cfg.hull_point_pad_m
+            boxes,
+            casters,
+            out.sensor_ne,
+            cfg.occlusion.margin_m,
+            cfg.association.merge_gap_m,
+            cfg.motion.hull_point_pad_m,
         )
         return dict(zip(need, found, strict=True))
 
     def _coasts_in_shadow(self, tr: RadarTrackState) -> bool:
         """A lost track's shadow matters: it is confirmed and a hidden track may coast longer."""
-        return tr.life.confirmed and self.cfg.max_unseen_time_occluded_s > self.cfg.max_unseen_time_s
+        return tr.life.confirmed and self.cfg.lifecycle.max_unseen_time_occluded > self.cfg.lifecycle.max_unseen_time
 
     def _turn_gain(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray | None:
         """(2,) how the cluster's fitted Doppler velocity moves per rad/s of the hull's turn rate, or None.
@@ -512,7 +521,7 @@ class RadarTracker:
         M is about the range (a turn looks like tangential speed), along it the cross-range offset of the returns.
         With a turn-rate state ("ct", not in the paper) this is the measurement's row for omega (kalman)."""
         v = cl.velocity
-        if not self.cfg.turn_doppler_compensation or tr.kf.dim_x <= kalman.TURN:
+        if not self.cfg.kalman.turn_doppler_compensation or tr.kf.dim_x <= kalman.TURN:
             return None
         if v.status is VelocityStatus.UNDETERMINED:
             return None
@@ -533,79 +542,81 @@ class RadarTracker:
         return e * float(a @ g) / max(float(a @ a), 1e-9)
 
     def _remember_shape(self, tr: RadarTrackState, cl: RadarCluster, t: float) -> None:
-        if not self.cfg.visible_side_enabled:
+        if not self.cfg.visible_side.enabled:
             return
         tr.shape.append((t, cl.points - tr.kf.x[kalman.POS, 0]))
-        while tr.shape and tr.shape[0][0] <= t - self.cfg.shape_window_s:
+        while tr.shape and tr.shape[0][0] <= t - self.cfg.visible_side.shape_window_s:
             tr.shape.popleft()
 
     def _merge_births(self, fresh: list[RadarCluster]) -> list[RadarCluster]:
-        """New clusters within ``merge_gap_m`` of each other whose Doppler agrees start one track, not one each: the
+        """New clusters within ``association.merge_gap_m`` of each other whose Doppler agrees start one track, not one each: the
         same rule that joins a leftover cluster to a track (pieces of one sparse hull)."""
         cfg = self.cfg
-        if len(fresh) < 2 or cfg.merge_gap_m <= 0:
+        if len(fresh) < 2 or cfg.association.merge_gap_m <= 0:
             return fresh
         boxes = np.array([c.box() for c in fresh])
         dop = np.array([np.nanmedian(c.doppler_world) if np.isfinite(c.doppler_world).any() else np.nan for c in fresh])
-        close = box_gap_matrix(boxes, boxes) <= cfg.merge_gap_m
-        close &= ~(np.abs(dop[:, None] - dop[None, :]) > cfg.merge_doppler_tolerance_mps)  # NaN: cannot tell apart
+        close = box_gap_matrix(boxes, boxes) <= cfg.association.merge_gap_m
+        close &= ~(
+            np.abs(dop[:, None] - dop[None, :]) > cfg.association.merge_doppler_tolerance_mps
+        )  # NaN: cannot tell apart
         a, b = np.nonzero(np.triu(close, 1))
         comp = component_labels(len(fresh), a, b)
         return [self.detector.merge_clusters([fresh[i] for i in np.flatnonzero(comp == c)]) for c in np.unique(comp)]
 
     def _near_clutter(self, cl: RadarCluster) -> bool:
-        """Too few returns, too near the radar, to start a track (``near_birth_min_points``)."""
+        """Too few returns, too near the radar, to start a track (``births.near_min_points``)."""
         cfg = self.cfg
-        return cl.n_points < cfg.near_birth_min_points and small_median(cl.range_m) < cfg.near_birth_range_m
+        return cl.n_points < cfg.births.near_min_points and small_median(cl.range_m) < cfg.births.near_range_m
 
     def _stand_out(self, clusters: list[RadarCluster], out: DetectorOutput, frames: int) -> list[RadarCluster]:
-        """The ``clusters`` whose returns the clutter expected over their box (grown by ``existence_pad_m``, times
-        ``frames`` for returns pooled over frames) explains with at most ``existence_birth_tail`` chance."""
+        """The ``clusters`` whose returns the clutter expected over their box (grown by ``existence.pad_m``, times
+        ``frames`` for returns pooled over frames) explains with at most ``existence.birth_tail`` chance."""
         cfg = self.cfg
-        if cfg.existence_birth_tail >= 1.0 or not clusters:
+        if cfg.existence.birth_tail >= 1.0 or not clusters:
             return clusters
         mu = frames * self._clutter_in(np.array([cl.box() for cl in clusters]), out.sensor_ne)
         tail = clutter_tail(np.array([cl.n_points for cl in clusters]), mu)
-        return [cl for cl, q in zip(clusters, (tail <= cfg.existence_birth_tail).tolist(), strict=True) if q]
+        return [cl for cl, q in zip(clusters, (tail <= cfg.existence.birth_tail).tolist(), strict=True) if q]
 
     def _clutter_in(self, boxes: np.ndarray, sensor_ne: np.ndarray) -> np.ndarray:
         """(boxes,) clutter returns a frame expected in each box [min0, min1, max0, max1] grown by
-        ``existence_pad_m``, at its centre's range from the radar."""
+        ``existence.pad_m``, at its centre's range from the radar."""
         centre = (boxes[:, :2] + boxes[:, 2:]) / 2
         return self.detector.clutter_expected(
-            np.linalg.norm(centre - sensor_ne, axis=1), boxes_area(boxes, self.cfg.existence_pad_m)
+            np.linalg.norm(centre - sensor_ne, axis=1), boxes_area(boxes, self.cfg.existence.pad_m)
         )
 
     def _pooled_births(self, out: DetectorOutput, groups: dict[int, RadarCluster]) -> list[RadarCluster]:
-        """New tracks from the loose returns of the last ``birth_window_frames`` frames clustered together (not in the
-        paper, which clusters one frame). A boat 45 m away gives 2-3 returns a frame, never the cluster_min_points of
-        one frame; over three frames it does. Only returns beyond ``birth_pool_min_range_m`` are pooled: nearer, a boat
+        """New tracks from the loose returns of the last ``births.window_frames`` frames clustered together (not in the
+        paper, which clusters one frame). A boat 45 m away gives 2-3 returns a frame, never the clustering.min_points of
+        one frame; over three frames it does. Only returns beyond ``births.pool_min_range_m`` are pooled: nearer, a boat
         fills a cluster in one frame while sea clutter, dense near the radar, would fill one over three. A pooled
-        cluster must hold returns of this frame and of an earlier one, and lie clear of every track (``merge_gap_m``
-        from its box, ``recovery_gate_m`` from its centre); its returns are then spent."""
+        cluster must hold returns of this frame and of an earlier one, and lie clear of every track (``association.merge_gap_m``
+        from its box, ``association.recovery_gate_m`` from its centre); its returns are then spent."""
         cfg = self.cfg
-        free = out.loose & (out.range_m >= cfg.birth_pool_min_range_m)
+        free = out.loose & (out.range_m >= cfg.births.pool_min_range_m)
         for cl in groups.values():
             free[cl.index] = False
         self._pool.append((out, free))
-        while len(self._pool) > max(cfg.birth_window_frames, 1):
+        while len(self._pool) > max(cfg.births.window_frames, 1):
             self._pool.popleft()
-        if cfg.birth_window_frames <= 1 or len(self._pool) < 2 or not free.any():
+        if cfg.births.window_frames <= 1 or len(self._pool) < 2 or not free.any():
             return []
         frame = np.concatenate([np.full(int(m.sum()), k) for k, (_, m) in enumerate(self._pool)])
         rows = np.concatenate([np.flatnonzero(m) for _, m in self._pool])
-        if rows.size < cfg.cluster_min_points:
+        if rows.size < cfg.clustering.min_points:
             return []
         pts = np.concatenate([o.points[m] for o, m in self._pool])
         dop = np.concatenate([o.doppler_world[m] for o, m in self._pool])
-        spatial = dbscan(pts, cfg.cluster_radius_m, cfg.cluster_min_points)
+        spatial = dbscan(pts, cfg.clustering.radius_m, cfg.clustering.min_points)
         labels = self.detector.split_by_doppler(spatial, dop)
         members = [np.flatnonzero(labels == lab) for lab in self._pooled_candidates(pts, labels, frame)]
         if members:  # a candidate's returns are spent, whether it starts a track or lies on the shore
             spent = np.concatenate(members)
             for k, (_, m) in enumerate(self._pool):
                 m[rows[spent[frame[spent] == k]]] = False
-        if members and cfg.shore_filter_enabled:
+        if members and cfg.shore.enabled:
             # Judged on the pooled points, which are the birth's returns in its own order (frame, then row), before
             # any cluster is built: most candidates near a quay are shore.
             clear = self._clear_of_shore(out, [pts[idx] for idx in members])
@@ -616,11 +627,11 @@ class RadarTracker:
         """Per group of (k, 2) world returns: neither on or behind the mapped shore nor mostly on a shore line."""
         cfg = self.cfg
         verdict = self.detector.static_map.shore_verdict(out.sensor_ne, groups)
-        near_line = self.detector.shore_lines.near(np.concatenate(groups), cfg.shore_margin_m)
+        near_line = self.detector.shore_lines.near(np.concatenate(groups), cfg.shore.margin_m)
         sizes = np.array([len(g) for g in groups])
         owner = np.repeat(np.arange(len(groups)), sizes)
         on_line = np.bincount(owner, near_line, len(groups)) / sizes
-        return [bool(v == 0 and f < cfg.shore_on_fraction) for v, f in zip(verdict, on_line, strict=True)]
+        return [bool(v == 0 and f < cfg.shore.on_fraction) for v, f in zip(verdict, on_line, strict=True)]
 
     def _pooled_cluster(self, idx: np.ndarray, rows: np.ndarray, frame: np.ndarray) -> RadarCluster:
         """The cluster of pooled returns ``idx``: one piece per frame it spans, merged."""
@@ -653,32 +664,35 @@ class RadarTracker:
             box = np.concatenate([lo, hi], axis=1)
             centre = (box[:, :2] + box[:, 2:]) / 2
             near = np.linalg.norm((boxes[:, None, :2] + boxes[:, None, 2:]) / 2 - centre[None], axis=2).min(axis=0)
-            ok &= ~((box_gap_matrix(boxes, box).min(axis=0) <= cfg.merge_gap_m) | (near <= cfg.recovery_gate_m))
+            ok &= ~(
+                (box_gap_matrix(boxes, box).min(axis=0) <= cfg.association.merge_gap_m)
+                | (near <= cfg.association.recovery_gate_m)
+            )
         return np.flatnonzero(ok).tolist()
 
     def _gather_loose(self, out: DetectorOutput, lost: list[int]) -> dict[int, RadarCluster]:
-        """Confirmed tracks (and tentative ones born sparse) without a cluster this frame take the loose returns within ``merge_gap_m`` of their predicted box
-        (each return to the nearest such track), if there are ``update_min_points`` of them (one beyond
-        ``update_single_return_range_m``) and their Doppler agrees.
+        """Confirmed tracks (and tentative ones born sparse) without a cluster this frame take the loose returns within ``association.merge_gap_m`` of their predicted box
+        (each return to the nearest such track), if there are ``association.update_min_points`` of them (one beyond
+        ``association.update_single_return_range_m``) and their Doppler agrees.
         A far boat gives 2-3 returns a frame: too few to start a track, enough to keep one on it."""
         cfg = self.cfg
         # Tentative tracks only when born from pooled returns: one born from sea clutter would live on clutter.
         cand = [ti for ti in lost if self.tracks[ti].life.confirmed or self.tracks[ti].sparse]
         idx = np.flatnonzero(out.loose)
-        if cfg.update_min_points <= 0 or not cand or idx.size == 0:
+        if cfg.association.update_min_points <= 0 or not cand or idx.size == 0:
             return {}
         boxes = self._boxes[cand]
         pts = out.points[idx]
         gaps = box_gap_matrix(boxes, np.concatenate([pts, pts], axis=1))
         owner = np.argmin(gaps, axis=0)
-        near = gaps[owner, np.arange(idx.size)] <= cfg.merge_gap_m
+        near = gaps[owner, np.arange(idx.size)] <= cfg.association.merge_gap_m
         found: dict[int, RadarCluster] = {}
         far = np.linalg.norm((boxes[:, :2] + boxes[:, 2:]) / 2 - out.sensor_ne, axis=1) >= (
-            cfg.update_single_return_range_m
+            cfg.association.update_single_return_range_m
         )
         for k in np.unique(owner[near]):  # one iteration per track that found returns
             mine = idx[near & (owner == k)]
-            enough = mine.size >= cfg.update_min_points or (
+            enough = mine.size >= cfg.association.update_min_points or (
                 far[k] and mine.size >= 1 and bool(np.isfinite(out.doppler_world[mine]).all())
             )  # one return only with a Doppler to check it against the track (no Doppler: any stray return would do)
             if not enough:
@@ -692,7 +706,7 @@ class RadarTracker:
         """The cluster's Doppler is what the track predicts along its lines of sight (no Doppler: yes).
 
         With a turn-rate state the prediction includes each return's rotation Doppler, for any turn rate within
-        ``merge_turn_rate_sigmas`` standard deviations of the track's: the two ends of a hull turning at 1.2 rad/s
+        ``association.merge_turn_rate_sigmas`` standard deviations of the track's: the two ends of a hull turning at 1.2 rad/s
         differ by 2-3 m/s, and a track that has seen only part of the turn underestimates its rate.
         """
         ok = np.isfinite(cl.doppler_world)
@@ -701,36 +715,36 @@ class RadarTracker:
         tr = self.tracks[ti]
         miss = cl.doppler_world[ok] - cl.los[ok] @ tr.kf.x[kalman.VEL, 0]
         w, w_var = kalman.turn_rate(tr.kf)
-        if tr.kf.dim_x > kalman.TURN and self.cfg.turn_doppler_compensation:
+        if tr.kf.dim_x > kalman.TURN and self.cfg.kalman.turn_doppler_compensation:
             r = cl.points[ok] - tr.kf.x[kalman.POS, 0]
             g = cl.los[ok, 1] * r[:, 0] - cl.los[ok, 0] * r[:, 1]  # rotation Doppler per rad/s
-            spread = self.cfg.merge_turn_rate_sigmas * math.sqrt(max(w_var, 0.0))
+            spread = self.cfg.association.merge_turn_rate_sigmas * math.sqrt(max(w_var, 0.0))
             gg = float(g @ g)
             best = float(g @ miss) / gg if gg > 1e-12 else w
-            w = min(max(best, w - spread, -self.cfg.max_turn_rate), w + spread, self.cfg.max_turn_rate)
+            w = min(max(best, w - spread, -self.cfg.kalman.max_turn_rate), w + spread, self.cfg.kalman.max_turn_rate)
             miss = miss - w * g
-        return bool(abs(small_median(miss)) <= self.cfg.merge_doppler_tolerance_mps)
+        return bool(abs(small_median(miss)) <= self.cfg.association.merge_doppler_tolerance_mps)
 
     def _prune_duplicates(self) -> None:
         """Two tracks on one boat (born from pieces of one hull before either was established): the younger goes.
 
-        Duplicates are tracks whose boxes overlap by ``duplicate_iou`` or whose centres are within
-        ``duplicate_distance_m``, moving alike (``duplicate_velocity_mps``); two boats passing each other move
+        Duplicates are tracks whose boxes overlap by ``association.duplicate_iou`` or whose centres are within
+        ``association.duplicate_distance_m``, moving alike (``association.duplicate_velocity_mps``); two boats passing each other move
         differently and are left alone. Not in the paper.
         """
         cfg = self.cfg
-        if len(self.tracks) < 2 or cfg.duplicate_distance_m <= 0:
+        if len(self.tracks) < 2 or cfg.association.duplicate_distance_m <= 0:
             return
         boxes = np.array([kalman.box_of(tr.kf) for tr in self.tracks])
         iou = box_iou_matrix(boxes, boxes)
         x = np.array([tr.kf.x[:4, 0] for tr in self.tracks])
         pv = np.array([tr.kf.P[kalman.VEL, kalman.VEL] for tr in self.tracks])
         dist = np.linalg.norm(x[:, None, :2] - x[None, :, :2], axis=2)
-        near = (iou >= cfg.duplicate_iou) | (dist <= cfg.duplicate_distance_m)
+        near = (iou >= cfg.association.duplicate_iou) | (dist <= cfg.association.duplicate_distance_m)
         np.fill_diagonal(near, False)
         if not near.any():
             return
-        # Moving alike: velocities within duplicate_velocity_mps, or, when one of them is still tentative, not told
+        # Moving alike: velocities within association.duplicate_velocity_mps, or, when one of them is still tentative, not told
         # apart by their own uncertainty (a track born a few frames ago knows little of its velocity). Two confirmed
         # tracks must really move alike: boats crossing each other do not.
         i, j = np.nonzero(np.triu(near))
@@ -741,8 +755,8 @@ class RadarTracker:
             s[:, 1, 1] * dv[:, 0] ** 2 - 2 * s[:, 0, 1] * dv[:, 0] * dv[:, 1] + s[:, 0, 0] * dv[:, 1] ** 2
         ) / np.where(det > 0, det, np.inf)
         young = np.array([not tr.life.confirmed for tr in self.tracks])
-        alike = (np.linalg.norm(dv, axis=1) <= cfg.duplicate_velocity_mps) | (
-            (young[i] | young[j]) & (m2 <= cfg.duplicate_velocity_chi2)
+        alike = (np.linalg.norm(dv, axis=1) <= cfg.association.duplicate_velocity_mps) | (
+            (young[i] | young[j]) & (m2 <= cfg.association.duplicate_velocity_chi2)
         )
         dup = np.zeros_like(near)
         dup[i[alike], j[alike]] = dup[j[alike], i[alike]] = True
@@ -774,13 +788,13 @@ class RadarTracker:
         if out is None or out.ego_source == "none":
             return 0.0
         if out.ego_source == "autopilot" or out.ego_estimate is None:
-            return self.cfg.ego_velocity_std_mps**2
+            return self.cfg.ego.velocity_std_mps**2
         cov = np.asarray(out.ego_estimate.covariance, float)
         return float(np.trace(cov)) / 2 if np.all(np.isfinite(cov)) else 0.0
 
     def _doppler_moving(self, cl: RadarCluster) -> bool:
         """The cluster's Doppler profile alone shows motion: speed along its best-known direction above
-        ``motion_veto_speed_mps`` by three standard deviations of the fit and of the own velocity (common to every
+        ``motion.veto_speed_mps`` by three standard deviations of the fit and of the own velocity (common to every
         return: an error of the autopilot's velocity, or of the Doppler ego fit, makes a moored boat look moving)."""
         v = cl.velocity
         if v.status is VelocityStatus.UNDETERMINED:
@@ -788,14 +802,14 @@ class RadarTracker:
         e = v.radial_direction
         speed = abs(float(e @ v.velocity))
         var = max(float(e @ v.covariance @ e), 0.0) + self._ego_velocity_var()
-        return speed > self.cfg.motion_veto_speed_mps + 3.0 * math.sqrt(var)
+        return speed > self.cfg.motion.veto_speed_mps + 3.0 * math.sqrt(var)
 
     def _filter_moving(self, tr: RadarTrackState) -> bool:
-        """The track's filter shows it moving: speed above ``motion_filter_veto_speed_mps`` and
-        ``motion_filter_veto_sigmas`` standard deviations of its own along its velocity (0 sigmas: never)."""
-        k = self.cfg.motion_filter_veto_sigmas
+        """The track's filter shows it moving: speed above ``motion.filter_veto_speed_mps`` and
+        ``motion.filter_veto_sigmas`` standard deviations of its own along its velocity (0 sigmas: never)."""
+        k = self.cfg.motion.filter_veto_sigmas
         return k > 0 and self._filter_speed_above(
-            tr, self.cfg.motion_filter_veto_speed_mps, k, self._ego_velocity_var()
+            tr, self.cfg.motion.filter_veto_speed_mps, k, self._ego_velocity_var()
         )
 
     @staticmethod
@@ -810,7 +824,7 @@ class RadarTracker:
         return speed > sigmas * math.sqrt(max(var_along, 0.0))
 
     def _moving(self, tr: RadarTrackState, cl: RadarCluster | None = None) -> bool:
-        """Clearly moving: filter speed above ``map_exclude_min_speed_mps`` and twice its own standard deviation, and
+        """Clearly moving: filter speed above ``shore.map_exclude_min_speed_mps`` and twice its own standard deviation, and
         (with a cluster) that velocity explains the cluster's Doppler.
 
         A boat crossing the line of sight has near-zero Doppler, so its returns pass as static; left in the map, a
@@ -818,7 +832,7 @@ class RadarTracker:
         before the shore is known may pick up a spurious filter velocity; its Doppler (zero) contradicts it, so its
         returns still build the shore.
         """
-        if not self._filter_speed_above(tr, self.cfg.map_exclude_min_speed_mps, 2.0):
+        if not self._filter_speed_above(tr, self.cfg.shore.map_exclude_min_speed_mps, 2.0):
             return False
         if cl is None:
             return True
@@ -826,7 +840,7 @@ class RadarTracker:
         if not ok.any():
             return True
         miss = small_median(cl.doppler_world[ok] - cl.los[ok] @ tr.kf.x[kalman.VEL, 0])
-        return abs(miss) <= self.cfg.map_exclude_doppler_tolerance_mps
+        return abs(miss) <= self.cfg.shore.map_exclude_doppler_tolerance_mps
 
     def current_tracks(self) -> list[Track]:
         return [tr.to_track(self.cfg) for tr in self.tracks]
