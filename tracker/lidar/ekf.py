@@ -14,7 +14,8 @@ end-on or broadside (relative heading 0 or 90 deg), when only one side shows and
 
 Heading lives on a circle and a fitted shape does not know which way is forward: a box's heading is only known
 modulo 90 deg (with length and width swapped for odd quarter turns), an ellipse's modulo 180 deg (and modulo 90
-once cut to a bow-on view, see :func:`heading_aliases`). Before each
+once cut to a bow-on view: the visible arc is wider than deep, the cut makes the across-hull extent the longer
+side, and the fitted heading is 90 deg off; so both kinds offer all four quarter turns). Before each
 update the measurement is replaced by the alias with the smallest Mahalanobis distance in (heading, length,
 width) to the prediction, and the heading residual is wrapped; so a box seen from a new side never flips the
 track. Once the track's speed is clearly known, its heading is turned once by 180 deg if it points astern.
@@ -45,7 +46,7 @@ Z_PN, Z_PE, Z_PSI, Z_LEN, Z_WID, Z_HGT = range(6)
 H_FULL = np.zeros((DIM_Z, DIM_X))
 H_FULL[[0, 1, 2, 3, 4, 5], [PN, PE, PSI, LEN, WID, HGT]] = 1.0
 H_POSITION = H_FULL[:2]
-# Heading aliases (see heading_aliases): state and measurement indices of (heading, length, width), and the four
+# Heading aliases (the module's doc): state and measurement indices of (heading, length, width), and the four
 # quarter turns, the odd ones swapping length and width.
 _ALIAS_STATE = np.array([[PSI], [LEN], [WID]])
 _ALIAS_MEAS = np.array([[Z_PSI], [Z_LEN], [Z_WID]])
@@ -159,26 +160,6 @@ class Measurement:
 
     def vector(self) -> np.ndarray:
         return np.array([self.center[0], self.center[1], self.heading, self.length, self.width, self.height])
-
-
-def heading_aliases(m: Measurement) -> list[tuple[float, float, float]]:
-    """(heading, length, width) quadruples that describe the same measured footprint.
-
-    A box is symmetric under quarter turns with length and width swapped. So, in practice, is a cut ellipse: seen
-    bow-on, the visible arc is wider than deep, the cut makes the across-hull extent the longer side, and the
-    fitted heading is 90 deg off. Both kinds therefore offer all four; the Mahalanobis choice in
-    :meth:`EkfBank.choose_alias` weighs heading and size, so a well-seen ellipse never takes a quarter turn.
-    """
-    return [
-        (m.heading + k * 0.5 * math.pi, *((m.length, m.width) if k % 2 == 0 else (m.width, m.length))) for k in range(4)
-    ]
-
-
-def _residual(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    y = np.subtract(a, b)
-    if y.shape[0] > Z_PSI:
-        y[Z_PSI] = wrap_angle(float(y[Z_PSI]))
-    return y
 
 
 def faces_seen(

@@ -4,7 +4,7 @@ Two questions about a return are answered by its neighbours in that image, not b
 
 * Is it part of a surface? A hull, a quay or a buoy returns the neighbouring firings (0.2 deg along the ring, 2 deg
   to the next laser) at nearly the same range; a rain drop or a spray droplet is alone: the firings beside it pass
-  it by. (``continuous``)
+  it by. (``continuous_and_vertical``)
 * Is it on a vertical face? A wall or a hull side returns the lasers above and below at the same horizontal range;
   the sea surface returns the next laser up much farther out, or not at all. (``vertical``)
 
@@ -147,11 +147,6 @@ class RangeImage:
             near = np.abs(other - r[:, None]) <= (abs_tol + rel_tol * r)[:, None]
         return np.count_nonzero(near, axis=1)
 
-    def continuous(self, r: np.ndarray, abs_tol: float, rel_tol: float) -> np.ndarray:
-        """(N,) neighbours among the 8 around each return (the firings beside it on its ring, and the lasers above
-        and below within one sequence) at a range within abs_tol + rel_tol * r of its own."""
-        return self._count(r, CONTINUITY_OFFSETS, abs_tol, rel_tol)
-
     def vertical(self, r: np.ndarray, abs_tol: float, rel_tol: float) -> np.ndarray:
         """(N,) bool: a laser one or two rings above or below, within one sequence, returned at the same horizontal
         range (within abs_tol + rel_tol * r): the return lies on a vertical face."""
@@ -205,8 +200,10 @@ class RangeImage:
     def continuous_and_vertical(
         self, r: np.ndarray, continuity_tol: tuple[float, float], vertical_tol: tuple[float, float]
     ) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`continuous` and :meth:`vertical` (each with its (abs, rel) tolerance) in one go: the two share
-        six of their offsets, and each difference between neighbouring cells is taken once for both."""
+        """(N,) neighbours among the 8 around each return (the firings beside it on its ring, and the lasers above
+        and below within one sequence) at a range within abs + rel * r of its own, and :meth:`vertical`, each with
+        its (abs, rel) tolerance, in one go: the two share six of their offsets, and each difference between
+        neighbouring cells is taken once for both."""
         neighbours, vertical = self._counts(
             r, [(CONTINUITY_OFFSETS, *continuity_tol), (VERTICAL_OFFSETS, *vertical_tol)]
         )

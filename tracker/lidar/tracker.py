@@ -29,7 +29,6 @@ from tracker.lidar.ekf import (
     WID,
     EkfBank,
     Measurement,
-    measurement_noise,
     measurement_noises,
     visibility,
 )
@@ -372,26 +371,10 @@ class LidarTracker:
         self._detection_clusters = clusters_out
         return out
 
-    def measurement(
-        self, det: Detection, own_position: np.ndarray, own_yaw: float, occluded: bool = False
-    ) -> Measurement:
-        """A detection with its eq. 11 covariance, from its eq. 10 visibility."""
-        cfg = self.config.ekf
-        if cfg.aspect_reference == "sensor_heading":
-            reference = own_yaw
-        else:
-            d = det.center - np.asarray(own_position, dtype=float)[:2]
-            reference = math.atan2(d[1], d[0])
-        p_vis = visibility(det.range_m, det.mse, det.heading - reference, cfg, occluded, use_aspect=not cfg.view_aware)
-        r = measurement_noise(p_vis, cfg)
-        sensor = np.asarray(own_position, dtype=float)[:2].copy()
-        completed = det.shape is ShapeKind.BOX and getattr(det, "completed", False)
-        return Measurement(det.center, det.heading, det.length, det.width, det.height, det.shape, r, sensor, completed)
-
     def measurements(
         self, detections: list[Detection], own_position: np.ndarray, own_yaw: float, occluded: list[bool]
     ) -> list[Measurement]:
-        """:meth:`measurement` for every detection, the eq. 11 covariances computed as one stack."""
+        """Every detection with its eq. 11 covariance from its eq. 10 visibility, computed as one stack."""
         cfg = self.config.ekf
         own = np.asarray(own_position, dtype=float)[:2]
         p_vis = []
