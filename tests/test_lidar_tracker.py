@@ -425,6 +425,50 @@ def test_a_piece_of_a_hull_behind_a_tracked_piece_as_seen_from_the_boat_is_no_se
     assert sorted(round(float(tr.position[0])) for tr in confirmed) == [35, 42]
 
 
+def _hull_with_a_piece_astern(speed: float, end_gap_m: float) -> list[list[Track]]:
+    """A 10 x 3 m boat broadside 30 m north running east at ``speed`` (m/s). From 2.5 s a clump of returns (a dinghy
+    towed close, a davit, a far hull's stern coming back alone) keeps 2.1-2.9 m astern of it, beyond the
+    clustering's reach of the hull's returns (1.55 m at 30 m): a cluster, and a track, of its own."""
+    config = LidarTrackerConfig()
+    config.association.duplicate_end_gap_m = end_gap_m
+    tracker = LidarTracker(config)
+    rng = np.random.default_rng(7)
+    history = []
+    for k in range(60):
+        t = k * DT
+        east = -10.0 + speed * t
+        pts = scan_objects([SyntheticObject((30.0, east), math.pi / 2, 10.0, 3.0, 1.0, ShapeKind.BOX)], ORIGIN)
+        if t >= 2.5:
+            clump = np.column_stack(
+                [rng.uniform(29.3, 30.7, 30), rng.uniform(east - 7.9, east - 7.1, 30), rng.uniform(-1.5, -0.5, 30)]
+            )
+            pts = np.concatenate([pts, clump])
+        history.append(tracker.step(pts, t, ORIGIN, 0.0))
+    return history
+
+
+def _confirmed_astern(tracks: list[Track], t: float, speed: float) -> int:
+    astern = np.array([30.0, -10.0 + speed * t - 7.5])
+    return sum(1 for tr in tracks if tr.confirmed and np.hypot(*(tr.position - astern)) < 2.0)
+
+
+def test_a_piece_off_a_moving_hulls_stern_is_no_second_vessel() -> None:
+    """Off the stern of a boat running at 3 m/s (its velocity known), a piece whose own velocity is not known yet is
+    the same hull (duplicate_end_gap_m): no confirmed track astern on any scan, the hull's one track throughout.
+    With the rule off the piece becomes a second confirmed "vessel"; behind a boat at rest it stays one (two boats
+    moored in line are left to the other tests)."""
+    history = _hull_with_a_piece_astern(3.0, 2.5)
+    for k, tracks in enumerate(history):
+        t = k * DT
+        assert _confirmed_astern(tracks, t, 3.0) == 0, f"t = {t:.1f} s"
+    hull_ids = {tr.id for tr in history[-1] if tr.confirmed and abs(tr.position[1] - (-10.0 + 3.0 * 59 * DT)) < 2.0}
+    assert len(hull_ids) == 1
+    off = _hull_with_a_piece_astern(3.0, 0.0)
+    assert _confirmed_astern(off[-1], 59 * DT, 3.0) == 1
+    at_rest = _hull_with_a_piece_astern(0.0, 2.5)
+    assert _confirmed_astern(at_rest[-1], 59 * DT, 0.0) == 1
+
+
 ANCHORED_NEAR = SyntheticObject((30.0, 0.0), math.pi / 2, 10.0, 3.0, 1.0, ShapeKind.BOX)
 ANCHORED_FAR_CABIN = np.array([40.0, 0.0])  # centre of the far boat's cabin, the part the LiDAR sees
 

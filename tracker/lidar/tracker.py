@@ -574,6 +574,15 @@ class LidarTracker:
             across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin
         )
         overlap = inside | inside.T
+        velocity = x[:, [VN, VE]]
+        known = self._velocity_known(self.bank.covariances())
+        if cfg.duplicate_end_gap_m > 0:
+            moving = known & (np.hypot(velocity[:, 0], velocity[:, 1]) >= cfg.duplicate_end_min_speed_mps)
+            guest_half = 0.5 * np.maximum(x[:, LEN], x[:, WID])
+            off_end = (along <= 0.5 * x[:, [LEN]] + guest_half[None, :] + cfg.duplicate_end_gap_m) & (
+                across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin
+            )
+            overlap |= off_end & moving[:, None] & ~known[None, :]
         if cfg.duplicate_shadow_m > 0:
             centres, half = x[:, [PN, PE]], 0.5 * np.maximum(x[:, LEN], x[:, WID])
             shadow = in_shadow(centres, half, centres, own, cfg.duplicate_shadow_m, cfg.duplicate_margin)
@@ -581,8 +590,6 @@ class LidarTracker:
                 old = np.array([life.age >= cfg.duplicate_shadow_settled_s for life in self._lives])
                 shadow &= ~(old[:, None] & old[None, :])
             overlap |= shadow | shadow.T
-        velocity = x[:, [VN, VE]]
-        known = self._velocity_known(self.bank.covariances())
         dv = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
         same_motion = (dv <= cfg.duplicate_max_speed_diff) | ~(known[:, None] & known[None, :])
         # the guest loses to a confirmed host with more hits (ties: the younger, later-born guest loses)
