@@ -468,7 +468,7 @@ class LidarTracker:
         lapsed = [i for i, life in enumerate(self._lives) if not life.alive]
         self._remember_lost(t, lapsed)
         dead = lapsed + self._static_structure(t)
-        dead += self._duplicates(set(dead), own)
+        dead += self._duplicates(set(dead), own, known)
         dead = sorted(set(dead))
         if dead:
             self.bank.remove(dead)
@@ -549,9 +549,11 @@ class LidarTracker:
         """(T,) bool for states ``x`` (T, DIM_X): at least ``static_min_length_m`` long or wide."""
         return np.maximum(x[:, LEN], x[:, WID]) >= self.config.structure.static_min_length_m
 
-    def _duplicates(self, dying: set[int], own: np.ndarray) -> list[int]:
+    def _duplicates(self, dying: set[int], own: np.ndarray, known: np.ndarray) -> list[int]:
         """Tracks that share a hull with a confirmed track: of each pair where either centre lies in the other's
-        footprint or in its shadow seen from ``own`` (``duplicate_shadow_m``), the one with fewer hits.
+        footprint or in its shadow seen from ``own`` (``duplicate_shadow_m``), or where one whose velocity is not
+        ``known`` lies off the other's bow or stern while that one moves (``duplicate_end_gap_m``), the one with
+        fewer hits.
 
         A hull seen end-on shows a short face, and its far end or superstructure can come back as a second cluster
         beyond it that no merge gate reaches; that cluster starts a track, and the two then share the hull's
@@ -575,7 +577,6 @@ class LidarTracker:
         )
         overlap = inside | inside.T
         velocity = x[:, [VN, VE]]
-        known = self._velocity_known(self.bank.covariances())
         if cfg.duplicate_end_gap_m > 0:
             moving = known & (np.hypot(velocity[:, 0], velocity[:, 1]) >= cfg.duplicate_end_min_speed_mps)
             guest_half = 0.5 * np.maximum(x[:, LEN], x[:, WID])
