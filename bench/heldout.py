@@ -163,12 +163,12 @@ def same_truth(rows: list[dict[str, Any]]) -> str:
     parts = []
     for mode in ("lidar", "radar"):
         alone = np.array([r[mode]["mota_all_returned"] for r in rows])
-        idf1 = np.mean([r[mode]["idf1_all_returned"] for r in rows])
+        idf1 = np.nanmean([r[mode]["idf1_all_returned"] for r in rows])
         parts.append(
             f"{mode} alone MOTA {np.nanmean(alone):.4f} (worst {np.nanmin(alone):.3f}), IDF1 {idf1:.3f}; fused above it "
             f"in {int((fused > alone).sum())} scenes, below in {int((fused < alone).sum())}"
         )
-    idf1 = np.mean([r["fused"]["idf1_all_returned"] for r in rows])
+    idf1 = np.nanmean([r["fused"]["idf1_all_returned"] for r in rows])
     return (
         f"Scored on one truth (every vessel either sensor returned): fused MOTA {np.nanmean(fused):.4f} "
         f"(worst {np.nanmin(fused):.3f}), IDF1 {idf1:.3f}; " + "; ".join(parts) + "."

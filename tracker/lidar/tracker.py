@@ -572,20 +572,17 @@ class LidarTracker:
         c, s = np.cos(x[:, PSI])[:, None], np.sin(x[:, PSI])[:, None]
         along = np.abs(rel[..., 0] * c + rel[..., 1] * s)
         across = np.abs(rel[..., 1] * c - rel[..., 0] * s)
-        inside = (along <= 0.5 * x[:, [LEN]] + cfg.duplicate_margin) & (
-            across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin
-        )
+        beside = across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin  # within the host's beam, plus the margin
+        inside = (along <= 0.5 * x[:, [LEN]] + cfg.duplicate_margin) & beside
         overlap = inside | inside.T
         velocity = x[:, [VN, VE]]
+        half = 0.5 * np.maximum(x[:, LEN], x[:, WID])
         if cfg.duplicate_end_gap_m > 0:
             moving = known & (np.hypot(velocity[:, 0], velocity[:, 1]) >= cfg.duplicate_end_min_speed_mps)
-            guest_half = 0.5 * np.maximum(x[:, LEN], x[:, WID])
-            off_end = (along <= 0.5 * x[:, [LEN]] + guest_half[None, :] + cfg.duplicate_end_gap_m) & (
-                across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin
-            )
+            off_end = (along <= 0.5 * x[:, [LEN]] + half[None, :] + cfg.duplicate_end_gap_m) & beside
             overlap |= off_end & moving[:, None] & ~known[None, :]
         if cfg.duplicate_shadow_m > 0:
-            centres, half = x[:, [PN, PE]], 0.5 * np.maximum(x[:, LEN], x[:, WID])
+            centres = x[:, [PN, PE]]
             shadow = in_shadow(centres, half, centres, own, cfg.duplicate_shadow_m, cfg.duplicate_margin)
             if cfg.duplicate_shadow_settled_s > 0:
                 old = np.array([life.age >= cfg.duplicate_shadow_settled_s for life in self._lives])
