@@ -22,7 +22,10 @@ def describe_port(path: str) -> str:
     """``/dev/serial/by-id/...`` names are stable; the ttyACM they point to is what the kernel logs name."""
     if not path:
         return "(none)"
-    real = os.path.realpath(path)
+    try:
+        real = os.path.realpath(path)
+    except OSError:  # a by-id link removed between its lstat and readlink: the cable was pulled just then
+        return f"{path} (gone)"
     return path if real == path else f"{path} -> {real}"
 
 
