@@ -141,6 +141,32 @@ def test_at_many_matches_at_and_marks_unknown_rows_nan() -> None:
     np.testing.assert_allclose(yaw[inside], wrap_angle(3.0 + 0.8 * q[inside]), atol=1e-9)
 
 
+def test_a_query_reads_the_same_pose_whatever_else_is_asked_with_it() -> None:
+    """at_many copies only the samples its queries can reach; a time's answer must not depend on that window: the
+    same bits asked alone, with its neighbours, or beside the history's whole span (a gap longer than max_gap,
+    both ends of the history, exact sample times, NaN)."""
+    h = PoseHistory(max_extrapolation=0.3, max_gap=1.0)
+    rng = np.random.default_rng(11)
+    sample_t = np.concatenate([np.arange(0.0, 3.0, 0.05), np.arange(4.5, 6.0, 0.05)])  # 1.55 s gap
+    for t in sample_t:
+        h.add(pose(t, pos=(2 * t, math.sin(t), 0.0), vel=(2, math.cos(t), 0), roll=0.1 * math.sin(3 * t), yaw=t))
+    q = np.concatenate([rng.uniform(-0.5, 6.5, 300), sample_t[::7], [2.96, 3.1, 3.5, 4.4, 4.5, np.nan]])
+    together = h.at_many(q)
+    wide = h.at_many(np.concatenate([q, [-1.0, 7.0]]))
+    for k in range(4):
+        np.testing.assert_array_equal(wide[k][: q.size], together[k])
+    for i, t in enumerate(q):
+        alone = h.at_many(np.array([t]))
+        for k in range(4):
+            np.testing.assert_array_equal(alone[k][0], together[k][i])
+    pos = together[0]
+    assert np.isnan(pos[q.size - 4]).all()  # 3.5 s: 0.55 s past the gap's start, 1 s before its end: unknown
+    # 3.1 s reckoned on from the last sample before the gap (2.95 s), 4.4 s back from the first after it (4.5 s)
+    np.testing.assert_allclose(pos[q.size - 5], [2 * 3.1, math.sin(2.95) + math.cos(2.95) * 0.15, 0], atol=1e-9)
+    np.testing.assert_allclose(pos[q.size - 3], [2 * 4.4, math.sin(4.5) - math.cos(4.5) * 0.1, 0], atol=1e-9)
+    np.testing.assert_allclose(pos[q.size - 2, 0], 2 * 4.5, atol=1e-12)
+
+
 def test_bounded_capacity_keeps_the_newest() -> None:
     h = PoseHistory(capacity=50)
     for i in range(275):
