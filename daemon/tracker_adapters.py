@@ -9,6 +9,7 @@ crew edits a mount in one place only.
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -66,14 +67,28 @@ def lidar_tracker_table(config: Any) -> dict[str, Any]:
 
 def radar_tracker_table(config: Any) -> dict[str, Any]:
     m = config.radar.mount
-    import math
-
     derived = {
         "sensor_position_body": [m.x, m.y],
         "sensor_yaw_body_rad": math.radians(m.yaw),
+        "max_radial_speed_mps": _profile_max_velocity(config.radar.profile),
         "roi": {"max_range_m": config.radar.max_range_m, "max_abs_azimuth_rad": math.radians(config.radar.fov_deg / 2)},
     }
     return _merge(_merge(derived, DAEMON_RADAR_DEFAULTS), config.tracker.radar)
+
+
+def _profile_max_velocity(path: str) -> float:
+    """The chirp profile's unambiguous radial speed (m/s); 0 where the profile cannot be read (the runner and
+    check-config name that problem): the Doppler is then taken as measured."""
+    from drivers.awr1843.errors import RadarProfileError
+    from drivers.awr1843.profile import load_profile
+
+    if not path:
+        return 0.0
+    try:
+        v_max = float(load_profile(path).max_velocity_mps)
+    except (RadarProfileError, ValueError, ArithmeticError):
+        return 0.0
+    return v_max if math.isfinite(v_max) and v_max > 0 else 0.0
 
 
 def tracker_factories(config: Any) -> tuple[Callable[[], Any] | None, Callable[[], Any] | None, Any]:

@@ -23,19 +23,31 @@ on ``seed`` and the frame number, so frames are reproducible in any order.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, fields
+from pathlib import Path
 
 import numpy as np
 
+from drivers.awr1843.profile import load_profile
 from drivers.mount import TI_TO_FRD, Mount
 from simulator.scene import LABEL_CLUTTER, LABEL_GHOST, LABEL_SHORE, MAX_VERTICES, Scene
 from simulator.sea import Sea
 from tracker.ego import rotation_matrices
 
 log = logging.getLogger(__name__)
+
+SHIPPED_PROFILE = Path(__file__).resolve().parent.parent / "daemon" / "profiles" / "awr1843_50m.cfg"
+
+
+@functools.lru_cache(maxsize=1)
+def shipped_max_velocity() -> float:
+    """The shipped chirp profile's unambiguous radial speed (m/s): the simulated radar wraps its Doppler there, as
+    the radar configured with that profile (the one the simulator's captures and demo name) does."""
+    return float(load_profile(SHIPPED_PROFILE).max_velocity_mps)
 
 _RATE_STEP_S = 1e-3  # half-step of the central differences that give the roll, pitch and heave rates
 # The window in which SensorConditions states its clutter rates: 1-50 m and +-60 deg (the shipped 50 m profile).
@@ -214,7 +226,7 @@ class Awr1843Model:
         azimuth_noise_deg: float = 1.0,
         elevation_noise_deg: float = 2.0,
         doppler_noise: float = 0.05,
-        v_max: float = 8.0,
+        v_max: float | None = None,
         alias: bool = True,
         seed: int = 0,
         frame_period: float = 0.1,
@@ -247,6 +259,7 @@ class Awr1843Model:
         clutter_sea_state_3 = c.radar_clutter_sea_state_3 if clutter_sea_state_3 is None else clutter_sea_state_3
         snr_loss_db = c.radar_snr_loss_db if snr_loss_db is None else snr_loss_db
         mirror_loss_db = c.radar_mirror_loss_db if mirror_loss_db is None else mirror_loss_db
+        v_max = shipped_max_velocity() if v_max is None else v_max
         if frame_period <= 0 or max_range <= min_range or v_max <= 0:
             raise ValueError("need frame_period > 0, max_range > min_range and v_max > 0")
         if not 0 <= ghost_probability <= 1:

@@ -25,13 +25,13 @@ from drivers.vlp16.packet import encode_data_packet, encode_position_packet
 from simulator.autopilot import SimAutopilot
 from simulator.awr1843_device import Awr1843Emulator, DevicePoints
 from simulator.lidar_model import Vlp16Model
-from simulator.radar_model import Awr1843Model
+from simulator.radar_model import SHIPPED_PROFILE, Awr1843Model
 from simulator.scenarios import get_scenario
 from simulator.scene import Scene
 
 log = logging.getLogger(__name__)
 
-RADAR_PROFILE = Path(__file__).resolve().parent.parent / "daemon" / "profiles" / "awr1843_50m.cfg"
+RADAR_PROFILE = SHIPPED_PROFILE
 
 
 @dataclass

@@ -549,6 +549,10 @@ class RadarTrackerConfig:
     # Radar origin in body FRD (x fwd, y stbd), metres: line of sight and lever-arm velocity start here.
     sensor_position_body: tuple[float, float] = (0.0, 0.0)
     sensor_yaw_body_rad: float = 0.0  # radar boresight in body FRD (0 = bow, + starboard): centre of the ROI sector
+    # The chirp profile's unambiguous radial speed (m/s, drivers.awr1843.profile max_velocity_mps): a Doppler beyond
+    # +-this wraps round. With it, each return's speed over ground is taken in [-this, this) (see detector.py);
+    # 0: the Doppler is taken as measured.
+    max_radial_speed_mps: float = 0.0
     roi: RoiConfig = field(default_factory=RoiConfig)
     ego: EgoMotionConfig = field(default_factory=EgoMotionConfig)
     clustering: ClusteringConfig = field(default_factory=ClusteringConfig)
@@ -570,6 +574,8 @@ class RadarTrackerConfig:
         no_nan(self)
         if len(self.sensor_position_body) != 2:
             raise ConfigError("RadarTrackerConfig.sensor_position_body must be (x, y)")
+        if self.max_radial_speed_mps < 0:
+            raise ConfigError("RadarTrackerConfig.max_radial_speed_mps must be >= 0 (0: Doppler not unwrapped)")
 
     def replaced(self, **changes: Any) -> RadarTrackerConfig:
         """A copy with ``changes``: a group's name with a dict of its fields to change

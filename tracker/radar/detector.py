@@ -291,6 +291,15 @@ class RadarDetector:
             else:
                 log.debug("radar: no Doppler ego velocity this frame (%s)", ego_est.reason)
         dop_world = dop + los @ v_sensor if source != "none" else np.full(len(dop), np.nan)
+        v_max = c.max_radial_speed_mps
+        if v_max > 0 and source == "autopilot":
+            # The radar measures the Doppler modulo 2 v_max: a boat closing at 11 m/s while the own boat makes 4.5
+            # is reported receding at 4.7, and compensated, at 9.2 m/s over ground instead of -6.8: its track then
+            # runs away from its returns and is never confirmed, head-on, where it matters most. Speeds over ground
+            # of vessels in a harbour lie within v_max (8.3 m/s, 16 kn, with the shipped profile), so the
+            # compensated Doppler is taken in [-v_max, v_max): right whatever the own boat's speed. (Estimated from
+            # the static returns' own Doppler, the ego velocity is as aliased as they are: left as it is.)
+            dop_world = np.mod(dop_world + v_max, 2.0 * v_max) - v_max
 
         # 4. multipath
         ghost = np.zeros(len(xyz), bool)
