@@ -128,7 +128,11 @@ class WaterSurface:
             res = ch - design @ coef
             res_in = res[inlier]
             sigma = 1.4826 * _median(np.abs(res_in - _median(res_in)))
-            inlier = np.abs(res) <= max(3.0 * sigma, 0.05)
+            kept = np.abs(res) <= max(3.0 * sigma, 0.05)
+            settled = np.array_equal(kept, inlier)
+            inlier = kept
+            if settled:  # the next pass would fit the same returns to the same plane
+                break
         n_in = int(np.count_nonzero(inlier))
         tilt = math.tan(cfg.max_tilt)
         in_sectors = np.count_nonzero(np.bincount(sector[inlier], minlength=N_SECTORS + 1))
