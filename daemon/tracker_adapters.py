@@ -78,15 +78,19 @@ def radar_tracker_table(config: Any) -> dict[str, Any]:
 
 def _profile_max_velocity(path: str) -> float:
     """The chirp profile's unambiguous radial speed (m/s); 0 where the profile cannot be read (the runner and
-    check-config name that problem): the Doppler is then taken as measured."""
+    check-config name that problem) or turns on the demo's own velocity disambiguation (``extendedMaxVelocity``,
+    which reports speeds beyond it): the Doppler is then taken as measured."""
     from drivers.awr1843.errors import RadarProfileError
     from drivers.awr1843.profile import load_profile
 
     if not path:
         return 0.0
     try:
-        v_max = float(load_profile(path).max_velocity_mps)
+        profile = load_profile(path)
+        v_max = float(profile.max_velocity_mps)
     except (RadarProfileError, ValueError, ArithmeticError):
+        return 0.0
+    if any(line.command == "extendedMaxVelocity" and line.args[1:2] != ("0",) for line in profile.lines):
         return 0.0
     return v_max if math.isfinite(v_max) and v_max > 0 else 0.0
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from daemon.config import Config
-from daemon.tracker_adapters import tracker_factories
+from daemon.tracker_adapters import radar_tracker_table, tracker_factories
 from drivers.awr1843.parser import RadarFrameParser, encode_frame
 from drivers.awr1843.profile import load_profile
 from simulator.radar_model import SHIPPED_PROFILE, Awr1843Model
@@ -92,3 +92,19 @@ def test_a_boat_closing_head_on_faster_than_v_max_is_tracked_at_its_speed() -> N
 
 def test_without_the_unwrap_the_closing_boat_is_not_tracked_at_its_speed() -> None:
     assert not any(np.allclose(v, [-BOAT_SPEED, 0.0], atol=0.5) for v in _confirmed_velocities(0.0))
+
+
+def test_the_daemon_takes_v_max_from_the_radar_profile_it_sends(tmp_path) -> None:
+    """From [radar] profile; none without a readable profile, and none when the profile turns on the demo's own
+    velocity disambiguation (extendedMaxVelocity), whose speeds may lie beyond the chirp's v_max."""
+    config = Config()
+    config.radar.profile = str(SHIPPED_PROFILE)
+    assert radar_tracker_table(config)["max_radial_speed_mps"] == pytest.approx(8.3264, abs=1e-4)
+    config.radar.profile = str(tmp_path / "missing.cfg")
+    assert radar_tracker_table(config)["max_radial_speed_mps"] == 0.0
+    extended = tmp_path / "extended.cfg"
+    text = SHIPPED_PROFILE.read_text()
+    assert "extendedMaxVelocity -1 0" in text
+    extended.write_text(text.replace("extendedMaxVelocity -1 0", "extendedMaxVelocity -1 1"))
+    config.radar.profile = str(extended)
+    assert radar_tracker_table(config)["max_radial_speed_mps"] == 0.0
