@@ -49,6 +49,7 @@ def shipped_max_velocity() -> float:
     the radar configured with that profile (the one the simulator's captures and demo name) does."""
     return float(load_profile(SHIPPED_PROFILE).max_velocity_mps)
 
+
 _RATE_STEP_S = 1e-3  # half-step of the central differences that give the roll, pitch and heave rates
 # The window in which SensorConditions states its clutter rates: 1-50 m and +-60 deg (the shipped 50 m profile).
 CLUTTER_REF_RANGES = (1.0, 50.0)

@@ -18,44 +18,59 @@ from tracker.types import Track
 
 def on_tracked_hulls(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float) -> np.ndarray:
     """(L,) bool: the point lies inside some confirmed track's footprint box grown by ``grow_m`` on every side."""
-    return _inside_grown_boxes(points_ne, tracks, grow_m)[0].any(axis=1)
+    point, _ = _pairs_inside(points_ne, tracks, grow_m)
+    inside = np.zeros(np.asarray(points_ne).reshape(-1, 2).shape[0], dtype=bool)
+    inside[point] = True
+    return inside
 
 
 def tracked_hull_of(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float) -> np.ndarray:
     """(L,) int: the index in ``tracks`` of a confirmed track whose footprint box, grown by ``grow_m`` on every
     side, holds the point (the nearest centre where several do), -1 for none."""
-    inside, which, dist2 = _inside_grown_boxes(points_ne, tracks, grow_m)
-    if not which.size:
-        return np.full(inside.shape[0], -1, dtype=np.int64)
-    best = np.argmin(np.where(inside, dist2, np.inf), axis=1)
-    return np.where(inside.any(axis=1), which[best], -1)
+    pts = np.asarray(points_ne, dtype=float).reshape(-1, 2)
+    point, track = _pairs_inside(pts, tracks, grow_m)
+    out = np.full(pts.shape[0], -1, dtype=np.int64)
+    if point.size:
+        centre = np.array([tracks[i].position[:2] for i in range(len(tracks))], dtype=float).reshape(-1, 2)
+        dn = pts[point, 0] - centre[track, 0]
+        de = pts[point, 1] - centre[track, 1]
+        dist2 = dn * dn + de * de
+        # nearest centre per point, the lower track index among equals (the pairs come sorted by point, then
+        # track, and lexsort is stable)
+        order = np.lexsort((dist2, point))
+        first = np.ones(order.size, dtype=bool)
+        first[1:] = point[order[1:]] != point[order[:-1]]
+        out[point[order[first]]] = track[order[first]]
+    return out
 
 
-def _inside_grown_boxes(
-    points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(L, T) bool: point l inside the grown box of confirmed track ``which[t]``; ``which`` (T,) their indices in
-    ``tracks``; (L, T) squared distances to their centres.
+def _pairs_inside(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Every (point, track) pair with point l inside the grown box of confirmed track t (t indexes ``tracks``), as
+    two (K,) arrays, sorted by point then track; a track without a finite size or heading counts as none.
 
-    Work is (points x confirmed tracks) array operations; a track without a finite size or heading counts as
-    none."""
+    Work is (points x confirmed tracks) for a square around each box (its half-diagonal either way), then the box
+    test on the few pairs within it: a revolution's margin returns lie mostly far from any hull."""
     pts = np.asarray(points_ne, dtype=float).reshape(-1, 2)
     which = np.array([i for i, t in enumerate(tracks) if t.confirmed and _finite_box(t)], dtype=np.int64)
     if pts.shape[0] == 0 or not which.size:
-        empty = np.zeros((pts.shape[0], 0))
-        return empty.astype(bool), which, empty
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty
     hull = [tracks[i] for i in which]
     centre = np.array([t.position[:2] for t in hull])  # (T, 2)
     heading = np.array([t.heading for t in hull])
     half_len = np.array([t.length for t in hull]) / 2 + grow_m
     half_wid = np.array([t.width for t in hull]) / 2 + grow_m
+    reach = np.hypot(half_len, half_wid) * (1.0 + 1e-9) + 1e-9  # a little over: never closer than the box test
     # (L, T) per coordinate: an (L, T, 2) difference array cost as much as all the rest
     dn = pts[:, 0, None] - centre[None, :, 0]
     de = pts[:, 1, None] - centre[None, :, 1]
-    c, s = np.cos(heading), np.sin(heading)
+    point, k = np.nonzero((np.abs(dn) <= reach) & (np.abs(de) <= reach))
+    dn, de = dn[point, k], de[point, k]
+    c, s = np.cos(heading)[k], np.sin(heading)[k]
     along = dn * c + de * s
     across = de * c - dn * s
-    return (np.abs(along) <= half_len) & (np.abs(across) <= half_wid), which, dn * dn + de * de
+    inside = (np.abs(along) <= half_len[k]) & (np.abs(across) <= half_wid[k])
+    return point[inside], which[k[inside]]
 
 
 def _finite_box(track: Track) -> bool:
