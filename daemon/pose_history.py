@@ -175,7 +175,8 @@ class PoseHistory:
         """Copies of the rows that queries at times ``q`` can read: from the sample before the earliest finite
         query to the first at or after the latest, as ``_evaluate`` brackets them (the nearer of a gap's two ends,
         the last or the first for extrapolation), so the answers are those of the whole history. Copying the whole
-        history instead cost a replay, whose history holds up to 100,000 samples, 3 ms a tick after a minute."""
+        history made a query's cost grow with it: a replay's holds up to 100,000 samples (0.8 ms a query on 12,000
+        in a fresh process, against 0.14 ms now)."""
         finite = q[np.isfinite(q)]
         with self._lock:
             s, e = self._start, self._end
