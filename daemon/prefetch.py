@@ -1,9 +1,9 @@
 """Run a decoding iterator ahead of its consumer in a producer thread, through a bounded queue.
 
-The replay's tick loop used to pull each revolution and radar frame out of its decoder itself, so every tick
-waited for the pcap's packets to be read and assembled before the tracker could start. A producer thread decodes
-the next items while the tracker works on the current ones; the queue's bound keeps at most ``maxsize`` decoded
-items in memory (a revolution is ~1 MB) and makes the producer wait when it is that far ahead.
+A producer thread decodes the next items while the consumer works on the current ones; the queue's bound keeps at
+most ``maxsize`` decoded items in memory (a revolution is ~1 MB) and makes the producer wait when it is that far
+ahead. The replay uses it only when asked (``ReplayOptions.prefetch``): its tick loop decoding for itself measured
+faster, since a Python decoder thread holds the interpreter lock the tracker then waits for (bench/replay_speed.py).
 
 Order and content are the iterator's own, so a replay through it is exactly as deterministic as without it. An
 exception in the producer is raised in the consumer at the point where the items ran out.

@@ -1,9 +1,10 @@
 """The streams a replay is fed from: LiDAR revolutions from a pcap, radar frames from a data-port dump, poses from a
-MAVLink .tlog, each in its recorded order with its recorded stamps, decoded ahead in a producer thread.
+MAVLink .tlog, each in its recorded order with its recorded stamps.
 
-Every stream runs through ``Prefetch``: the decoders (pcap reading and revolution assembly above all, about a fifth
-of a fused replay's time when the tick loop ran them itself) work while the tracker ticks, and the tick loop only
-waits on them when they fall behind (bench/replay_speed.py counts the times).
+By default the tick loop pulls each item out of its decoder itself. With ``prefetch`` every stream runs through
+``Prefetch`` instead, a producer thread that decodes ahead while the tracker ticks; bench/replay_speed.py measured
+that slower on every run (fused 5.5x against 6.1x real time at stop 39, 6.9x against 8.4x at stop 37): the decoder
+threads hold the interpreter lock the tracker then waits for.
 """
 
 from __future__ import annotations
@@ -61,7 +62,7 @@ def _ahead(name: str, it: Iterator[T], maxsize: int, prefetch: bool) -> Iterator
     return Prefetch(name, it, maxsize) if prefetch else it
 
 
-def lidar_scans(config: Config, prefetch: bool = True) -> Iterator[LidarScan] | None:
+def lidar_scans(config: Config, prefetch: bool = False) -> Iterator[LidarScan] | None:
     if not config.lidar.enabled:
         return None
     from daemon.runner import build_lidar_source
@@ -72,7 +73,7 @@ def lidar_scans(config: Config, prefetch: bool = True) -> Iterator[LidarScan] | 
     return _ahead("lidar", src.scans(None), LIDAR_AHEAD, prefetch)
 
 
-def radar_frames(config: Config, start_time: float | None, prefetch: bool = True) -> Iterator[RadarFrame] | None:
+def radar_frames(config: Config, start_time: float | None, prefetch: bool = False) -> Iterator[RadarFrame] | None:
     """``start_time``: where frames of a dump without a ``.times`` sidecar begin (the LiDAR's first revolution)."""
     if not config.radar.enabled:
         return None
@@ -120,7 +121,7 @@ class _NeverStop:
         return False
 
 
-def tlog_messages(path: str, prefetch: bool = True) -> Iterator[Any]:
+def tlog_messages(path: str, prefetch: bool = False) -> Iterator[Any]:
     """The pose messages of a .tlog in file order, each with its recorded time in ``_timestamp``."""
 
     def gen() -> Iterator[Any]:
