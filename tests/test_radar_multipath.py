@@ -138,18 +138,3 @@ def test_bearing_windows_wrap_round_the_back() -> None:
     az = np.radians([179.0, -179.0])
     got = multipath_ghosts(r, az, np.array([1.0, 2.0]), np.array([20.0, 9.0]), SETTINGS)
     np.testing.assert_array_equal(got, [False, True])
-
-
-def test_a_double_bounce_whose_doppler_wrapped_round_is_still_a_ghost() -> None:
-    """A boat the own boat closes on at 4.5 m/s: its double bounce at 9 m/s is reported wrapped at 2 v_max (16.65 m/s
-    with the shipped profile), at +7.65 m/s. Compared modulo 2 v_max it is the boat's copy; as measured, it is not.
-    A return whose Doppler differs by more than the tolerance from k times the original's, modulo 2 v_max, is none."""
-    v_max = 8.3264
-    r = np.array([20.0, 40.2, 40.1])
-    az = np.radians([5.0, 6.0, 5.5])
-    closing = -4.5
-    dop = np.array([closing, 2 * closing + 2 * v_max, 2 * closing + 2 * v_max - 1.0])
-    snr = np.array([22.0, 10.0, 10.0])
-    assert dop[1] == pytest.approx(7.6528, abs=1e-4)
-    assert multipath_ghosts(r, az, dop, snr, SETTINGS, v_max).tolist() == [False, True, False]
-    assert multipath_ghosts(r, az, dop, snr, SETTINGS).tolist() == [False, False, False]

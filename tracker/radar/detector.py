@@ -305,7 +305,7 @@ class RadarDetector:
         ghost = np.zeros(len(xyz), bool)
         if c.multipath.enabled and len(xyz) > 1:
             az_body = np.arctan2(xyz[:, 1] - sensor_body[1], xyz[:, 0] - sensor_body[0])
-            ghost = multipath_ghosts(rng, az_body, dop, snr_a, self.multipath, c.max_radial_speed_mps)
+            ghost = multipath_ghosts(rng, az_body, dop, snr_a, self.multipath)
             self._count(counts, "multipath_ghosts", int(ghost.sum()))
 
         # Only returns at rest over ground go to the static map, so a boat passing the quay leaves no trail in it.

@@ -28,16 +28,11 @@ def multipath_ghosts(
     doppler: np.ndarray,
     snr: np.ndarray,
     settings: MultipathConfig,
-    max_radial_speed: float = 0.0,
 ) -> np.ndarray:
     """(n,) bool, True for returns explained as a k-bounce copy of another return.
 
     All inputs are per return, measured from the radar: range (m), azimuth (rad), raw Doppler as the radar reports it
     (m/s, not ego-compensated: the k-fold relation holds for the raw value), SNR (dB; NaN skips the "weaker" test).
-    ``max_radial_speed`` (m/s, the chirp's v_max; 0: none): the radar reports the Doppler modulo 2 v_max, so k times
-    the original's is compared with the copy's modulo 2 v_max too. A boat 4.5 m/s off in Doppler has its double
-    bounce at 9 m/s, reported at -7.65 with the shipped profile: taken as measured, the pair did not match and the
-    copy stayed a target at twice the range.
     """
     r = np.asarray(range_m, float)
     n = r.size
@@ -59,10 +54,7 @@ def multipath_ghosts(
         expect = k * r[i]
         ok = np.abs(r[j] - expect) <= settings.range_tolerance_m + settings.range_tolerance_rel * expect
         if settings.doppler_tolerance_mps >= 0:
-            dd = dop[j] - k * dop[i]
-            if max_radial_speed > 0:
-                dd = (dd + max_radial_speed) % (2.0 * max_radial_speed) - max_radial_speed
-            dd = np.abs(dd)
+            dd = np.abs(dop[j] - k * dop[i])
             ok &= ~(dd > settings.doppler_tolerance_mps)  # NaN Doppler: cannot contradict
         hit |= ok
     ghost[j[hit]] = True
