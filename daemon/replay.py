@@ -85,7 +85,7 @@ class ReplayOptions:
     publisher: ObstaclePublisher | None = None  # where OBSTACLE_DISTANCE & co. go (`--to URL`)
     progress: ReplayProgress | None = None
     # Decoders in producer threads; the default decodes in the tick loop, which bench/replay_speed.py measured
-    # faster (6.1x against 5.5x real time, fused): the threads hold the interpreter lock the tracker waits for.
+    # faster (fused 5.6x against 5.1x real time): the threads hold the interpreter lock the tracker waits for.
     prefetch: bool = False
     view: Any = None  # daemon.view.publisher.FoxgloveView (--foxglove/--mcap): every tick published to it
 

@@ -3,7 +3,7 @@ MAVLink .tlog, each in its recorded order with its recorded stamps.
 
 By default the tick loop pulls each item out of its decoder itself. With ``prefetch`` every stream runs through
 ``Prefetch`` instead, a producer thread that decodes ahead while the tracker ticks; bench/replay_speed.py measured
-that slower on every run (fused 5.5x against 6.1x real time at stop 39, 6.9x against 8.4x at stop 37): the decoder
+that slower on every run (fused 5.1x against 5.6x real time at stop 39, 6.9x against 8.4x at stop 37): the decoder
 threads hold the interpreter lock the tracker then waits for.
 """
 

@@ -90,7 +90,7 @@ def _profile_max_velocity(path: str) -> float:
         v_max = float(profile.max_velocity_mps)
     except (RadarProfileError, ValueError, ArithmeticError):
         return 0.0
-    if any(line.command == "extendedMaxVelocity" and line.args[1:2] != ("0",) for line in profile.lines):
+    if profile.extends_max_velocity:
         return 0.0
     return v_max if math.isfinite(v_max) and v_max > 0 else 0.0
 

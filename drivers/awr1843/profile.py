@@ -199,6 +199,12 @@ class RadarProfile:
     def sends_sensor_start(self) -> bool:
         return any(line.command == "sensorStart" for line in self.lines)
 
+    @property
+    def extends_max_velocity(self) -> bool:
+        """The demo's own velocity disambiguation is on (``extendedMaxVelocity`` with a non-zero flag): it then
+        reports radial speeds beyond ``max_velocity_mps``."""
+        return any(line.command == "extendedMaxVelocity" and line.args[1:2] != ("0",) for line in self.lines)
+
 
 def load_profile(path: str | Path) -> RadarProfile:
     """Parse a cfg file; raises ``RadarProfileError`` naming the file and line on malformed input."""

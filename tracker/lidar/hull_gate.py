@@ -18,8 +18,9 @@ from tracker.types import Track
 
 def on_tracked_hulls(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float) -> np.ndarray:
     """(L,) bool: the point lies inside some confirmed track's footprint box grown by ``grow_m`` on every side."""
-    point, _ = _pairs_inside(points_ne, tracks, grow_m)
-    inside = np.zeros(np.asarray(points_ne).reshape(-1, 2).shape[0], dtype=bool)
+    pts = np.asarray(points_ne, dtype=float).reshape(-1, 2)
+    point, _, _ = _pairs_inside(pts, tracks, grow_m)
+    inside = np.zeros(pts.shape[0], dtype=bool)
     inside[point] = True
     return inside
 
@@ -28,13 +29,9 @@ def tracked_hull_of(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: floa
     """(L,) int: the index in ``tracks`` of a confirmed track whose footprint box, grown by ``grow_m`` on every
     side, holds the point (the nearest centre where several do), -1 for none."""
     pts = np.asarray(points_ne, dtype=float).reshape(-1, 2)
-    point, track = _pairs_inside(pts, tracks, grow_m)
+    point, track, dist2 = _pairs_inside(pts, tracks, grow_m)
     out = np.full(pts.shape[0], -1, dtype=np.int64)
     if point.size:
-        centre = np.array([tracks[i].position[:2] for i in range(len(tracks))], dtype=float).reshape(-1, 2)
-        dn = pts[point, 0] - centre[track, 0]
-        de = pts[point, 1] - centre[track, 1]
-        dist2 = dn * dn + de * de
         # nearest centre per point, the lower track index among equals (the pairs come sorted by point, then
         # track, and lexsort is stable)
         order = np.lexsort((dist2, point))
@@ -44,17 +41,17 @@ def tracked_hull_of(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: floa
     return out
 
 
-def _pairs_inside(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """Every (point, track) pair with point l inside the grown box of confirmed track t (t indexes ``tracks``), as
-    two (K,) arrays, sorted by point then track; a track without a finite size or heading counts as none.
+def _pairs_inside(pts: np.ndarray, tracks: Sequence[Track], grow_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every (point, track) pair with point l of ``pts`` (L, 2) inside the grown box of confirmed track t (t indexes
+    ``tracks``), as (K,) arrays of l and t sorted by l then t, and each pair's squared distance to the track's
+    centre; a track without a finite size or heading counts as none.
 
     Work is (points x confirmed tracks) for a square around each box (its half-diagonal either way), then the box
     test on the few pairs within it: a revolution's margin returns lie mostly far from any hull."""
-    pts = np.asarray(points_ne, dtype=float).reshape(-1, 2)
     which = np.array([i for i, t in enumerate(tracks) if t.confirmed and _finite_box(t)], dtype=np.int64)
     if pts.shape[0] == 0 or not which.size:
         empty = np.zeros(0, dtype=np.int64)
-        return empty, empty
+        return empty, empty, np.zeros(0)
     hull = [tracks[i] for i in which]
     centre = np.array([t.position[:2] for t in hull])  # (T, 2)
     heading = np.array([t.heading for t in hull])
@@ -70,7 +67,8 @@ def _pairs_inside(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float)
     along = dn * c + de * s
     across = de * c - dn * s
     inside = (np.abs(along) <= half_len[k]) & (np.abs(across) <= half_wid[k])
-    return point[inside], which[k[inside]]
+    dn, de = dn[inside], de[inside]
+    return point[inside], which[k[inside]], dn * dn + de * de
 
 
 def _finite_box(track: Track) -> bool:
