@@ -118,7 +118,7 @@ def run_tracker(rec: Recording, cfg: RadarTrackerConfig) -> TrackerRun:
             tracks = tracker.step_frame(frame, pose)
         out.seconds[k] = time.perf_counter() - t0
         out.cpu_seconds[k] = time.thread_time() - c0
-        conf = [tr for tr in tracks if tr.confirmed]
+        conf = [tr for tr in tracks if tr.confirmed and tr.part_of is None]  # as the daemon publishes them
         out.ids.append(np.array([tr.id for tr in conf], int))
         out.pos.append(np.array([tr.position for tr in conf], float).reshape(-1, 2))
         out.vel.append(np.array([tr.velocity for tr in conf], float).reshape(-1, 2))

@@ -4,6 +4,7 @@ in the gap between its beams, or with the LiDAR blind, the radar speaks alone.""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from drivers.frames import LidarScan, RadarFrame
 from drivers.mount import Mount
@@ -183,3 +184,31 @@ def test_a_radar_only_track_whose_motion_is_not_settled_is_an_obstacle_but_not_y
     assert d[0] == 3900 and tracks == []
     _, tracks = run([waiting], lidar=False)  # with the LiDAR blind the radar speaks alone, settled or not
     assert [tr.source for tr in tracks] == ["radar"]
+
+
+def hull_piece(north: float, east: float, host: int) -> Track:
+    """A confirmed radar track (2 x 2 m) on a piece of track ``host``'s hull (tracker.radar.pieces)."""
+    piece = radar_track(north, east)
+    piece.id, piece.part_of = 2, host
+    return piece
+
+
+def test_a_piece_of_a_radar_hull_is_an_obstacle_but_no_vessel_when_the_lidar_is_blind() -> None:
+    """A hull's track 30 m dead ahead and a piece of it 38 m off, 5 deg to starboard (bin 1): one vessel sent, both
+    outlines in the bins."""
+    d, tracks = run([radar_track(30.0, 0.0), hull_piece(37.9, 3.3, host=1)], lidar=False)
+    assert [tr.id for tr in tracks] == [1]
+    assert d[0] == 2900
+    assert d[1] == pytest.approx(3697, abs=2)  # the piece's 2 x 2 m box, its near corner 36.97 m off
+
+
+def test_a_piece_is_an_obstacle_only_where_the_radar_speaks_for_the_lidar() -> None:
+    """As a radar track alone: in the gap between the LiDAR's beams (40-45 m) the piece's outline is an obstacle; at
+    24 m, in the -3 deg beam's band, the revolution returned no solid there and the piece is none. Never a vessel."""
+    d, tracks = run([radar_track(40.0, 0.0), hull_piece(44.8, 3.9, host=1)], lidar=True)
+    assert [tr.id for tr in tracks] == [1]
+    assert d[0] == 3900
+    assert d[1] == pytest.approx(4390, abs=2)  # the piece's 2 x 2 m box, its near corner 43.9 m off
+    d, tracks = run([radar_track(40.0, 0.0), hull_piece(24.0, 0.0, host=1)], lidar=True)
+    assert [tr.id for tr in tracks] == [1]
+    assert d[0] == 3900

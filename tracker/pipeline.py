@@ -324,13 +324,19 @@ class PerceptionPipeline:
             alone = [tr for tr in tracks if tr.source == "radar"]
             world = np.array([tr.position[:2] for tr in alone])
             speaks = self._radar_speaks_at(world_to_body_2d(world, own[0][:2], own[3]), lidar_fresh)
-            no_vessel = np.array([tr.age < s.radar_alone_min_age_s or not tr.speed_valid for tr in alone])
+            # and a piece of another radar track's hull (tracker.radar.pieces) left alone: an outline, no vessel
+            no_vessel = np.array(
+                [tr.age < s.radar_alone_min_age_s or not tr.speed_valid or tr.part_of is not None for tr in alone]
+            )
             if self.lidar_tracker is not None and s.radar_on_structure_gate_m >= 0:
                 no_vessel |= self.lidar_tracker.on_structure(t, world, s.radar_on_structure_gate_m)
             no_vessel &= speaks
             outline_only = [tr for tr, q in zip(alone, no_vessel, strict=True) if q]
             muted = {id(tr) for tr, ok in zip(alone, speaks & ~no_vessel, strict=True) if not ok}
             tracks = [tr for tr in tracks if id(tr) not in muted]
+        if any(tr.part_of is not None for tr in tracks):  # the LiDAR blind: a radar hull's pieces are its outline
+            outline_only += [tr for tr in tracks if tr.part_of is not None]
+            tracks = [tr for tr in tracks if tr.part_of is None]
         if own is not None:
             # Returns measured this cycle are the truth about a hull; an estimated outline is only added where the
             # LiDAR did not sweep the track's bearing this cycle (a partial sweep) or the radar saw it sparsely. A

@@ -70,6 +70,9 @@ class Track:
     hits: int = 0
     age: float = 0.0  # s since the first detection
     time_since_update: float = 0.0
+    # The id of the track whose hull this one is a piece of (tracker.radar.pieces): an outline for the obstacle
+    # array, not a vessel of its own. None: a vessel.
+    part_of: int | None = None
 
     @property
     def speed_valid(self) -> bool:

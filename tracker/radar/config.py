@@ -399,10 +399,21 @@ class AssociationConfig:
     duplicate_distance_m: float = 2.5
     duplicate_velocity_mps: float = 1.0
     duplicate_velocity_chi2: float = 9.21  # or their difference within 99 % of chi2(2) of the two filters' covariance
+    # Not in the paper: a hull's strong scatterers (bow, cabin, stern) 5-10 m apart come back as clusters of their
+    # own, each holding a confirmed track. A confirmed track moving alike with a better one (their velocities within
+    # duplicate_velocity_mps, or not told apart within duplicate_velocity_chi2 of the filters' covariance), both at
+    # piece_min_speed_mps or more, within piece_along_m of it along their common course and piece_across_m across
+    # it, is a piece of that hull (tracker.radar.pieces): its outline still goes to the obstacle array, it is no
+    # vessel of its own. Tuning seeds 1-32, radar alone: 12 m along, 3.5 m across (against 2.5 m) took the false
+    # track-frames from 37.1 to 18.9 % of matches, MOTA 0.429 -> 0.555, no seed worse. piece_along_m = 0 disables.
+    piece_along_m: float = 12.0
+    piece_across_m: float = 3.5
+    piece_min_speed_mps: float = 1.0
 
     def __post_init__(self) -> None:
         no_nan(self)
         positive(self, "distance_gate_m", allow_inf=True)
+        positive(self, "piece_along_m", "piece_across_m", "piece_min_speed_mps", allow_zero=True)
         positive(
             self,
             "merge_gap_m",

@@ -26,6 +26,7 @@ from tracker.radar.dbscan import component_labels, dbscan
 from tracker.radar.detector import SHORE_KEEP, DetectorOutput, RadarCluster, RadarDetector
 from tracker.radar.motion import MotionDiscriminator
 from tracker.radar.occlusion import ShadowCasters
+from tracker.radar.pieces import hull_pieces, velocity_m2
 from tracker.radar.static_map import StaticMap
 from tracker.radar.velocity_profile import VelocityStatus
 from tracker.radar.visible_side import spreads, visible_side_centre
@@ -749,11 +750,7 @@ class RadarTracker:
         # tracks must really move alike: boats crossing each other do not.
         i, j = np.nonzero(np.triu(near))
         dv = x[i, 2:] - x[j, 2:]
-        s = pv[i] + pv[j]
-        det = s[:, 0, 0] * s[:, 1, 1] - s[:, 0, 1] * s[:, 1, 0]
-        m2 = (
-            s[:, 1, 1] * dv[:, 0] ** 2 - 2 * s[:, 0, 1] * dv[:, 0] * dv[:, 1] + s[:, 0, 0] * dv[:, 1] ** 2
-        ) / np.where(det > 0, det, np.inf)
+        m2 = velocity_m2(dv, pv[i] + pv[j])
         young = np.array([not tr.life.confirmed for tr in self.tracks])
         alike = (np.linalg.norm(dv, axis=1) <= cfg.association.duplicate_velocity_mps) | (
             (young[i] | young[j]) & (m2 <= cfg.association.duplicate_velocity_chi2)
@@ -843,4 +840,20 @@ class RadarTracker:
         return abs(miss) <= self.cfg.shore.map_exclude_doppler_tolerance_mps
 
     def current_tracks(self) -> list[Track]:
-        return [tr.to_track(self.cfg) for tr in self.tracks]
+        """Every live track; one on a piece of another's hull names it in ``part_of`` (tracker.radar.pieces)."""
+        out = [tr.to_track(self.cfg) for tr in self.tracks]
+        a = self.cfg.association
+        if a.piece_along_m > 0 and len(out) > 1:
+            velocities = np.array([tr.kf.x[kalman.VEL, 0] for tr in self.tracks])
+            covs = np.array([tr.kf.P[kalman.VEL, kalman.VEL] for tr in self.tracks])
+            hull_pieces(
+                out,
+                velocities,
+                covs,
+                a.piece_along_m,
+                a.piece_across_m,
+                a.piece_min_speed_mps,
+                a.duplicate_velocity_mps,
+                a.duplicate_velocity_chi2,
+            )
+        return out

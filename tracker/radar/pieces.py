@@ -1,0 +1,73 @@
+"""Radar tracks that are pieces of another track's hull (not in paper 001).
+
+The radar sees a hull as a few strong scatterers (bow, cabin, stern, a mast). On a hull of 9-15 m they lie 5-10 m
+apart, beyond the clustering's reach and the duplicate test's (``duplicate_distance_m``), so each comes back as a
+cluster of its own and holds a confirmed track: on the tuning scenes (radar alone, seeds 1-32) two thirds of the
+false track-frames were such second tracks on a hull another track had. Two boats moving alike, one ahead of the
+other within a hull's length and no further apart than a beam, are rarer than one boat seen twice; moving alike
+is what tells them from two boats passing, which this leaves alone.
+
+A piece is not deleted: its track keeps explaining its scatterer's returns (deleted, they start a new track every
+few frames) and its outline still goes to the obstacle array, where the hull is. It is only no vessel of its own:
+``Track.part_of`` names the host.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tracker.types import Track
+
+
+def velocity_m2(dv: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Squared Mahalanobis length of velocity differences ``dv`` (..., 2) under covariances ``s`` (..., 2, 2), in
+    closed form; inf where ``s`` is singular."""
+    det = s[..., 0, 0] * s[..., 1, 1] - s[..., 0, 1] * s[..., 1, 0]
+    num = s[..., 1, 1] * dv[..., 0] ** 2 - 2 * s[..., 0, 1] * dv[..., 0] * dv[..., 1] + s[..., 0, 0] * dv[..., 1] ** 2
+    return num / np.where(det > 0, det, np.inf)
+
+
+def hull_pieces(
+    tracks: list[Track],
+    velocities: np.ndarray,
+    velocity_covs: np.ndarray,
+    along_m: float,
+    across_m: float,
+    min_speed: float,
+    max_speed_diff: float,
+    chi2: float,
+) -> None:
+    """Set ``part_of`` on each confirmed track of ``tracks`` that lies within ``along_m`` of a better confirmed
+    track along their common course and within ``across_m`` across it, both at ``min_speed`` or more, moving alike:
+    velocities within ``max_speed_diff`` or their difference within ``chi2`` of the two covariances. Better: more
+    hits, then older (lower id); a piece hosts no piece.
+
+    ``velocities`` (T, 2) m/s and ``velocity_covs`` (T, 2, 2) world north, east: the filters' own estimates, one
+    row per track (a track whose motion is not judged yet publishes no velocity, but its filter knows it moves
+    with the other)."""
+    idx = [i for i, tr in enumerate(tracks) if tr.confirmed]
+    if along_m <= 0 or len(idx) < 2:
+        return
+    p = np.array([tracks[i].position[:2] for i in idx], dtype=float)
+    v = np.asarray(velocities, dtype=float)[idx]
+    cov = np.asarray(velocity_covs, dtype=float)[idx]
+    fast = np.hypot(v[:, 0], v[:, 1]) >= min_speed
+    course = v[:, None, :] + v[None, :, :]
+    course /= np.maximum(np.linalg.norm(course, axis=2), 1e-9)[..., None]
+    rel = p[None, :, :] - p[:, None, :]
+    along = np.abs(np.einsum("ijk,ijk->ij", rel, course))
+    across = np.abs(rel[..., 0] * course[..., 1] - rel[..., 1] * course[..., 0])
+    dv = v[:, None, :] - v[None, :, :]
+    alike = (np.linalg.norm(dv, axis=2) <= max_speed_diff) | (velocity_m2(dv, cov[:, None] + cov[None, :]) <= chi2)
+    pair = (along <= along_m) & (across <= across_m) & alike & fast[:, None] & fast[None, :]
+    np.fill_diagonal(pair, False)
+    if not pair.any():
+        return
+    rank = sorted(range(len(idx)), key=lambda k: (-tracks[idx[k]].hits, tracks[idx[k]].id))
+    hosts: list[int] = []
+    for k in rank:
+        host = next((h for h in hosts if pair[h, k]), None)
+        if host is None:
+            hosts.append(k)
+        else:
+            tracks[idx[k]].part_of = tracks[idx[host]].id
