@@ -43,10 +43,12 @@ def _track(
     )
 
 
-def _pieces(tracks: list[Track], covs: np.ndarray | None = None) -> list[int | None]:
+def _pieces(
+    tracks: list[Track], covs: np.ndarray | None = None, apart: set[tuple[int, int]] | None = None
+) -> list[int | None]:
     velocities = np.array([tr.velocity for tr in tracks])
     covs = np.repeat(SMALL_COV[None], len(tracks), axis=0) if covs is None else covs
-    hull_pieces(tracks, velocities, covs, ALONG, ACROSS, MIN_SPEED, SPEED_DIFF, CHI2)
+    hull_pieces(tracks, velocities, covs, ALONG, ACROSS, MIN_SPEED, SPEED_DIFF, CHI2, set() if apart is None else apart)
     return [tr.part_of for tr in tracks]
 
 
@@ -97,6 +99,22 @@ def test_a_young_velocity_not_told_apart_counts_as_alike() -> None:
     covs = np.array([SMALL_COV, np.eye(2) * 1.5**2])
     assert _pieces([_track(1, 0.0, 0.0, (4.0, 0.0), 20), _track(2, 6.0, 0.0, (4.0, 2.0), 5)], covs) == [None, 1]
     assert velocity_m2(np.array([0.0, 2.0]), SMALL_COV + np.eye(2) * 1.5**2) == pytest.approx(4.0 / 2.26)
+
+
+def test_two_boats_once_seen_apart_stay_two_when_they_fall_in_line() -> None:
+    """A convoy: 30 m apart, then one 8 m behind the other at the same speed. A hull's pieces are never further apart
+    than 12 + 3.5 m, so these are two boats for good."""
+    apart: set[tuple[int, int]] = set()
+    assert _pieces([_track(1, 0.0, 0.0, (4.0, 0.0), 20), _track(2, -30.0, 0.0, (4.0, 0.0), 10)], apart=apart) == [
+        None,
+        None,
+    ]
+    assert apart == {(1, 2)}
+    assert _pieces([_track(1, 40.0, 0.0, (4.0, 0.0), 30), _track(2, 32.0, 0.0, (4.0, 0.0), 20)], apart=apart) == [
+        None,
+        None,
+    ]
+    assert _pieces([_track(1, 40.0, 0.0, (4.0, 0.0), 30), _track(2, 32.0, 0.0, (4.0, 0.0), 20)]) == [None, 1]
 
 
 def _vessel_counts(piece_along_m: float) -> list[int]:

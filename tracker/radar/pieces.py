@@ -10,6 +10,10 @@ is what tells them from two boats passing, which this leaves alone.
 A piece is not deleted: its track keeps explaining its scatterer's returns (deleted, they start a new track every
 few frames) and its outline still goes to the obstacle array, where the hull is. It is only no vessel of its own:
 ``Track.part_of`` names the host.
+
+Two boats that come to run in line at one speed (a convoy; the radar paper's Titan and Xi for a stretch of their
+laps) were seen apart before: once two confirmed tracks have been further apart than a hull's pieces can be, they
+are two boats for good.
 """
 
 from __future__ import annotations
@@ -36,11 +40,13 @@ def hull_pieces(
     min_speed: float,
     max_speed_diff: float,
     chi2: float,
+    apart: set[tuple[int, int]],
 ) -> None:
     """Set ``part_of`` on each confirmed track of ``tracks`` that lies within ``along_m`` of a better confirmed
     track along their common course and within ``across_m`` across it, both at ``min_speed`` or more, moving alike:
     velocities within ``max_speed_diff`` or their difference within ``chi2`` of the two covariances. Better: more
-    hits, then older (lower id); a piece hosts no piece.
+    hits, then older (lower id); a piece hosts no piece. ``apart`` holds the (lower, higher) id pairs of confirmed
+    tracks once seen further apart than ``along_m + across_m``: never a hull and its piece. Updated in place.
 
     ``velocities`` (T, 2) m/s and ``velocity_covs`` (T, 2, 2) world north, east: the filters' own estimates, one
     row per track (a track whose motion is not judged yet publishes no velocity, but its filter knows it moves
@@ -60,7 +66,14 @@ def hull_pieces(
     dv = v[:, None, :] - v[None, :, :]
     alike = (np.linalg.norm(dv, axis=2) <= max_speed_diff) | (velocity_m2(dv, cov[:, None] + cov[None, :]) <= chi2)
     pair = (along <= along_m) & (across <= across_m) & alike & fast[:, None] & fast[None, :]
+    ids = np.array([tracks[i].id for i in idx])
+    lo, hi = np.minimum.outer(ids, ids), np.maximum.outer(ids, ids)
+    far = np.triu(np.linalg.norm(rel, axis=2) > along_m + across_m, 1)
+    apart.update(zip(lo[far].tolist(), hi[far].tolist(), strict=True))
     np.fill_diagonal(pair, False)
+    for a, b in zip(*np.nonzero(pair), strict=True):
+        if (int(lo[a, b]), int(hi[a, b])) in apart:
+            pair[a, b] = False
     if not pair.any():
         return
     rank = sorted(range(len(idx)), key=lambda k: (-tracks[idx[k]].hits, tracks[idx[k]].id))

@@ -125,6 +125,8 @@ class RadarTracker:
         self.detector = RadarDetector(self.cfg, self.rng)
         self.lifecycle = Lifecycle(self.cfg.lifecycle, ids)
         self.tracks: list[RadarTrackState] = []
+        # id pairs of confirmed tracks once seen too far apart to be one hull's pieces (tracker.radar.pieces)
+        self._apart: set[tuple[int, int]] = set()
         self.t_last = -math.inf
         self.last: DetectorOutput | None = None
         self._pool: deque[tuple[DetectorOutput, np.ndarray]] = deque()  # recent frames and their unused loose returns
@@ -158,6 +160,7 @@ class RadarTracker:
     def reset(self) -> None:
         """Forget tracks and the map (ids keep counting up)."""
         self.tracks = []
+        self._apart = set()
         self.t_last = -math.inf
         self.last = None
         self.detector.static_map.reset()
@@ -855,5 +858,8 @@ class RadarTracker:
                 a.piece_min_speed_mps,
                 a.duplicate_velocity_mps,
                 a.duplicate_velocity_chi2,
+                self._apart,
             )
+            live = {tr.life.id for tr in self.tracks}
+            self._apart = {pair for pair in self._apart if pair[0] in live and pair[1] in live}
         return out
