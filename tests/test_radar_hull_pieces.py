@@ -17,7 +17,8 @@ from daemon.tracker_adapters import tracker_factories
 from drivers.awr1843.parser import RadarFrameParser, encode_frame
 from simulator.radar_model import SHIPPED_PROFILE, Awr1843Model
 from simulator.scene import OwnBoat, Scene, Trajectory, Vessel
-from tracker.radar.pieces import hull_pieces, velocity_m2
+from tracker.radar.kalman import mahalanobis2_many
+from tracker.radar.pieces import hull_pieces
 from tracker.types import Track
 
 ALONG, ACROSS, MIN_SPEED, SPEED_DIFF, CHI2 = 12.0, 3.5, 1.0, 1.0, 9.21
@@ -98,7 +99,7 @@ def test_a_young_velocity_not_told_apart_counts_as_alike() -> None:
     """2 m/s apart, but the piece's filter is unsure by 1.5 m/s a side: within 99 % of chi2(2), alike."""
     covs = np.array([SMALL_COV, np.eye(2) * 1.5**2])
     assert _pieces([_track(1, 0.0, 0.0, (4.0, 0.0), 20), _track(2, 6.0, 0.0, (4.0, 2.0), 5)], covs) == [None, 1]
-    assert velocity_m2(np.array([0.0, 2.0]), SMALL_COV + np.eye(2) * 1.5**2) == pytest.approx(4.0 / 2.26)
+    assert mahalanobis2_many(np.array([0.0, 2.0]), SMALL_COV + np.eye(2) * 1.5**2) == pytest.approx(4.0 / 2.26)
 
 
 def test_two_boats_once_seen_apart_stay_two_when_they_fall_in_line() -> None:

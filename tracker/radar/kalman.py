@@ -242,6 +242,13 @@ def mahalanobis2(y: np.ndarray, s: np.ndarray) -> float:
     return (d * y0 * y0 - (b + c) * y0 * y1 + a * y1 * y1) / det
 
 
+def mahalanobis2_many(y: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """``mahalanobis2`` for many at once: y (..., 2) under covariances s (..., 2, 2); inf where det S <= 0."""
+    det = s[..., 0, 0] * s[..., 1, 1] - s[..., 0, 1] * s[..., 1, 0]
+    num = s[..., 1, 1] * y[..., 0] ** 2 - 2 * s[..., 0, 1] * y[..., 0] * y[..., 1] + s[..., 0, 0] * y[..., 1] ** 2
+    return num / np.where(det > 0, det, np.inf)
+
+
 def velocity_rows(kf: KalmanFilter, turn_gain: np.ndarray | None = None) -> np.ndarray:
     """(2, n) rows of the Doppler velocity measurement: the velocity, plus turn_gain x the turn rate (see
     RadarTracker._turn_gain) when the filter has a turn-rate state."""

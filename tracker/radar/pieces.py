@@ -20,15 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tracker.radar.kalman import mahalanobis2_many
 from tracker.types import Track
-
-
-def velocity_m2(dv: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Squared Mahalanobis length of velocity differences ``dv`` (..., 2) under covariances ``s`` (..., 2, 2), in
-    closed form; inf where ``s`` is singular."""
-    det = s[..., 0, 0] * s[..., 1, 1] - s[..., 0, 1] * s[..., 1, 0]
-    num = s[..., 1, 1] * dv[..., 0] ** 2 - 2 * s[..., 0, 1] * dv[..., 0] * dv[..., 1] + s[..., 0, 0] * dv[..., 1] ** 2
-    return num / np.where(det > 0, det, np.inf)
 
 
 def hull_pieces(
@@ -64,7 +57,9 @@ def hull_pieces(
     along = np.abs(np.einsum("ijk,ijk->ij", rel, course))
     across = np.abs(rel[..., 0] * course[..., 1] - rel[..., 1] * course[..., 0])
     dv = v[:, None, :] - v[None, :, :]
-    alike = (np.linalg.norm(dv, axis=2) <= max_speed_diff) | (velocity_m2(dv, cov[:, None] + cov[None, :]) <= chi2)
+    alike = (np.linalg.norm(dv, axis=2) <= max_speed_diff) | (
+        mahalanobis2_many(dv, cov[:, None] + cov[None, :]) <= chi2
+    )
     pair = (along <= along_m) & (across <= across_m) & alike & fast[:, None] & fast[None, :]
     ids = np.array([tracks[i].id for i in idx])
     lo, hi = np.minimum.outer(ids, ids), np.maximum.outer(ids, ids)

@@ -26,7 +26,7 @@ from tracker.radar.dbscan import component_labels, dbscan
 from tracker.radar.detector import SHORE_KEEP, DetectorOutput, RadarCluster, RadarDetector
 from tracker.radar.motion import MotionDiscriminator
 from tracker.radar.occlusion import ShadowCasters
-from tracker.radar.pieces import hull_pieces, velocity_m2
+from tracker.radar.pieces import hull_pieces
 from tracker.radar.static_map import StaticMap
 from tracker.radar.velocity_profile import VelocityStatus
 from tracker.radar.visible_side import spreads, visible_side_centre
@@ -753,7 +753,7 @@ class RadarTracker:
         # tracks must really move alike: boats crossing each other do not.
         i, j = np.nonzero(np.triu(near))
         dv = x[i, 2:] - x[j, 2:]
-        m2 = velocity_m2(dv, pv[i] + pv[j])
+        m2 = kalman.mahalanobis2_many(dv, pv[i] + pv[j])
         young = np.array([not tr.life.confirmed for tr in self.tracks])
         alike = (np.linalg.norm(dv, axis=1) <= cfg.association.duplicate_velocity_mps) | (
             (young[i] | young[j]) & (m2 <= cfg.association.duplicate_velocity_chi2)
