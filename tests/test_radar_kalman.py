@@ -127,3 +127,31 @@ def test_doppler_turn_row_explains_a_turning_hulls_velocity_profile() -> None:
     v = radial(2.4, np.array([1.0, 0.0]))
     assert kalman.doppler_consistent(kf, v, 20.0, CT, gain)
     assert not kalman.doppler_consistent(kf, v, 20.0, CT)  # read as the centre's velocity it contradicts the track
+
+
+def test_filters_updated_in_one_stack_end_as_each_updated_alone() -> None:
+    """fused_update_many groups the filters by measurement size (with and without a Doppler row, a manoeuvre
+    opening one up): every filter ends bit for bit where its own update takes it."""
+    jump = np.array([26.0, 1.0])  # 6 m off a settled track: the manoeuvre rule fires
+    cases = [
+        (np.array([20.2, 0.1]), None, None),
+        (np.array([20.1, -0.1]), radial(0.4, np.array([1.0, 0.0])), np.array([2.0, 0.0])),
+        (jump, radial(0.3, np.array([1.0, 0.2])), None),
+        (np.array([19.9, 0.0]), radial(-0.2, np.array([1.0, -0.3])), np.array([0.5, 1.0])),
+    ]
+    alone, stacked = [settled(CT) for _ in cases], [settled(CT) for _ in cases]
+    for kf, (centre, vel, gain) in zip(alone, cases, strict=True):
+        kalman.fused_update(kf, centre, np.array([3.0, 1.5]), 20.0, vel, CT, gain, position_var_extra=0.2)
+    kalman.fused_update_many(
+        stacked,
+        [kalman.Measurement(c, np.array([3.0, 1.5]), 20.0, v, g, 0.2) for c, v, g in cases],
+        CT,
+    )
+    for a, b in zip(alone, stacked, strict=True):
+        np.testing.assert_array_equal(a.x, b.x)
+        np.testing.assert_array_equal(a.P, b.P)
+    assert {
+        len(kalman._measurement_rows(settled(CT), kalman.Measurement(c, np.ones(2), 20.0, v), CT)[1])
+        for c, v, _ in cases
+    } == {4, 6}
+    assert alone[2].x[kalman.VEL, 0][0] > 1.0  # the manoeuvre opened the jump's velocity up

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
@@ -259,6 +260,17 @@ def velocity_rows(kf: KalmanFilter, turn_gain: np.ndarray | None = None) -> np.n
     return h
 
 
+class Measurement(NamedTuple):
+    """What one track's cluster gives eq. 7 (see fused_update)."""
+
+    centre: np.ndarray  # (2,) world N/E, m
+    size: np.ndarray  # (2,) north and east extents, m
+    distance: float  # m, radar to the centre
+    vel: VelocityEstimate | None  # the cluster's Doppler velocity profile fit
+    turn_gain: np.ndarray | None = None  # (2,) RadarTracker._turn_gain
+    position_var_extra: float = 0.0  # m^2 added to the centre's variance (a partly hidden hull)
+
+
 def fused_update(
     kf: KalmanFilter,
     centre: np.ndarray,
@@ -269,16 +281,45 @@ def fused_update(
     turn_gain: np.ndarray | None = None,
     position_var_extra: float = 0.0,
 ) -> None:
-    """Eq. 7: position and size, plus the distance-weighted Doppler velocity when the cluster determines one and it
-    agrees with the track (see doppler_consistent). ``position_var_extra`` (m^2) is added to the centre's variance
-    (a partly hidden hull, RadarTracker._shadow)."""
-    sp = position_std(cfg, distance) ** 2 + position_var_extra
+    """Eq. 7 for one filter: :func:`fused_update_many` of one."""
+    fused_update_many([kf], [Measurement(centre, size, distance, vel, turn_gain, position_var_extra)], cfg)
+
+
+def fused_update_many(
+    filters: Sequence[KalmanFilter], measured: Sequence[Measurement], cfg: RadarTrackerConfig
+) -> None:
+    """Eq. 7 for each filter with its measurement: position and size, plus the distance-weighted Doppler velocity
+    when the cluster determines one and it agrees with the track (see doppler_consistent). The Joseph updates of
+    filters with measurements of one size run in one stack (tracker.kalman_update: a filter's result does not depend
+    on how many share the stack): per filter, the update's dozens of small numpy calls cost more than its
+    arithmetic."""
+    plans = [_measurement_rows(kf, m, cfg) for kf, m in zip(filters, measured, strict=True)]
+    for size in sorted({h.shape[0] for h, _, _ in plans}):
+        group = [k for k, (h, _, _) in enumerate(plans) if h.shape[0] == size]
+        x = np.array([filters[k].x[:, 0] for k in group])
+        h = np.array([plans[k][0] for k in group])
+        y = np.array([plans[k][1] - plans[k][0] @ filters[k].x[:, 0] for k in group])
+        x1, p1, _, _ = joseph_update(
+            x, np.array([filters[k].P for k in group]), h, y, np.array([plans[k][2] for k in group])
+        )
+        x1[:, SIZE] = np.maximum(x1[:, SIZE], cfg.clustering.min_box_size_m)
+        if x1.shape[1] > TURN:
+            x1[:, TURN] = np.minimum(np.maximum(x1[:, TURN], -cfg.kalman.max_turn_rate), cfg.kalman.max_turn_rate)
+        for n, k in enumerate(group):
+            filters[k].x, filters[k].P = x1[n].reshape(-1, 1), p1[n]
+
+
+def _measurement_rows(
+    kf: KalmanFilter, m: Measurement, cfg: RadarTrackerConfig
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(H, z, R) of eq. 7 for this filter and measurement; opens up the filter's covariance first on a manoeuvre."""
+    sp = position_std(cfg, m.distance) ** 2 + m.position_var_extra
     maneuver = False
     if cfg.doppler.maneuver_nis > 0:
         # Manoeuvre: the centre is further from the prediction than the filter's own uncertainty allows (a boat
         # turning 1 rad/s leaves a constant-velocity prediction within a second). The velocity is opened up so this
         # update can turn it, instead of the track sliding off and a new one starting on the boat. Not in the paper.
-        y = np.asarray(centre, float) - kf.x[POS, 0]
+        y = np.asarray(m.centre, float) - kf.x[POS, 0]
         s = kf.P[POS, POS] + sp * np.eye(2)
         maneuver = mahalanobis2(y, s) > cfg.doppler.maneuver_nis
         if maneuver:
@@ -291,16 +332,17 @@ def fused_update(
             kf.P = kf.P + cfg.doppler.maneuver_velocity_std_mps**2 * (g @ g.T)
     # A turning hull's returns carry yaw rate x lever arm (1 m/s and more on a sharp turn, all one way when only one
     # side is seen): during a manoeuvre the Doppler velocity is left out and the positions turn the track.
+    vel = m.vel
     with_v = uses_doppler(cfg, vel) and not (maneuver and cfg.doppler.maneuver_skip_doppler)
     if with_v:
         assert vel is not None
-        h_v, r_v = velocity_rows(kf, turn_gain), velocity_noise(vel, distance, cfg)
+        h_v, r_v = velocity_rows(kf, m.turn_gain), velocity_noise(vel, m.distance, cfg)
         with_v = _velocity_gate(kf, vel, h_v, r_v, cfg)  # doppler_consistent
     rows = _Z_POS_SIZE_VEL if with_v else _Z_POS_SIZE
-    m = rows.size
-    z = np.empty(m)
-    z[:2], z[2:4] = centre, size
-    r = np.zeros((m, m))
+    n = rows.size
+    z = np.empty(n)
+    z[:2], z[2:4] = m.centre, m.size
+    r = np.zeros((n, n))
     r[0, 0] = r[1, 1] = sp
     r[2, 2] = r[3, 3] = cfg.kalman.size_std_m**2
     if with_v:
@@ -308,24 +350,14 @@ def fused_update(
         z[4:] = vel.velocity
         r[4:, 4:] = r_v
     h = selection_matrix(rows, kf.dim_x)
-    if with_v and turn_gain is not None and kf.dim_x > TURN:
+    if with_v and m.turn_gain is not None and kf.dim_x > TURN:
         h[4:] = h_v  # the velocity rows also read the turn rate (velocity_rows)
-    _update(kf, h, z, r)
-    kf.x[SIZE, 0] = np.maximum(kf.x[SIZE, 0], cfg.clustering.min_box_size_m)
-    if kf.dim_x > TURN:
-        kf.x[TURN, 0] = min(max(float(kf.x[TURN, 0]), -cfg.kalman.max_turn_rate), cfg.kalman.max_turn_rate)
+    return h, z, r
 
 
 # Measured states: centre (px, py), size (l, w), and with a Doppler velocity (vx, vy). H only picks states.
 _Z_POS_SIZE = np.array([0, 1, 6, 7])
 _Z_POS_SIZE_VEL = np.array([0, 1, 6, 7, 2, 3])
-
-
-def _update(kf: KalmanFilter, h: np.ndarray, z: np.ndarray, r: np.ndarray) -> None:
-    """The Joseph-form update both trackers take (tracker.kalman_update), for one filter."""
-    x = kf.x[:, 0]
-    x1, p1, _, _ = joseph_update(x[None], kf.P[None], h[None], (z - h @ x)[None], r[None])
-    kf.x, kf.P = x1[0].reshape(-1, 1), p1[0]
 
 
 def box_of(kf: KalmanFilter) -> np.ndarray:

@@ -251,8 +251,7 @@ class RadarTracker:
         used = list(groups.items())
         self.detector.fit_clusters([cl for _, cl in used] + [cl for cl, _ in births])
         shadows = self._shadows(out, groups, lost)
-        for ti, cl in used:
-            self._update_track(self.tracks[ti], cl, t, out, shadows[ti])
+        self._update_tracks([(self.tracks[ti], cl, shadows[ti]) for ti, cl in used], t, out)
         for ti, ashore in zip(lost, self._ashore(lost), strict=True):
             self._miss_track(self.tracks[ti], t, frame_dt, ashore, shadows.get(ti))
         for cl, sparse in births:
@@ -263,11 +262,27 @@ class RadarTracker:
         self.tracks = [tr for tr in self.tracks if tr.life.alive]
         return self.current_tracks()
 
-    def _update_track(
-        self, tr: RadarTrackState, cl: RadarCluster, t: float, out: DetectorOutput, shadow: np.ndarray | None
+    def _update_tracks(
+        self, updates: list[tuple[RadarTrackState, RadarCluster, np.ndarray | None]], t: float, out: DetectorOutput
     ) -> None:
-        """Eq. 7 with the cluster the track was given: centre (visible sides, lit edge when partly hidden), size from
-        the outline, Doppler velocity with its turn-rate row; then the lifecycle and the motion discriminator."""
+        """Eq. 7 for each track with the cluster it was given (and its shadow): centre (visible sides, lit edge when
+        partly hidden), size from the outline, Doppler velocity with its turn-rate row, the filters updated in one
+        stack; then each track's lifecycle and motion discriminator."""
+        if not updates:
+            return
+        measured = [self._measurement(tr, cl, out, shadow) for tr, cl, shadow in updates]
+        kalman.fused_update_many([tr.kf for tr, _, _ in updates], measured, self.cfg)
+        for tr, cl, _ in updates:
+            self._remember_shape(tr, cl, t)
+            tr.life.hit(t, proven=tr.life.confirmed or self._proven(tr))
+            tr.points = cl.points
+            if self.cfg.motion.enabled:
+                tr.motion.observe(t, cl.points, self._doppler_moving(cl), self._filter_moving(tr))
+
+    def _measurement(
+        self, tr: RadarTrackState, cl: RadarCluster, out: DetectorOutput, shadow: np.ndarray | None
+    ) -> kalman.Measurement:
+        """What the cluster gives the track's filter (sets the track's shadowed share)."""
         cfg = self.cfg
         box_centre, box_size, distance = cl.measured_box(out.sensor_ne, cfg.clustering.min_box_size_m)
         outline = self._outline(tr, cl)
@@ -278,21 +293,14 @@ class RadarTracker:
             centre = occlusion.lit_edge_centre(
                 centre, cl.points, tr.kf.x[kalman.POS, 0], tr.kf.x[kalman.SIZE, 0], shadow, out.sensor_ne
             )
-        kalman.fused_update(
-            tr.kf,
+        return kalman.Measurement(
             centre,
             size,
             distance,
             cl.velocity,
-            cfg,
             self._turn_gain(tr, cl),
             position_var_extra=cfg.occlusion.position_var_m2 * hidden * hidden,
         )
-        self._remember_shape(tr, cl, t)
-        tr.life.hit(t, proven=tr.life.confirmed or self._proven(tr))
-        tr.points = cl.points
-        if cfg.motion.enabled:
-            tr.motion.observe(t, cl.points, self._doppler_moving(cl), self._filter_moving(tr))
 
     def _ashore(self, lost: list[int]) -> np.ndarray:
         """(len(lost),) bool: the lost track's centre now lies on the shore (map or shore lines), with
