@@ -359,10 +359,10 @@ class RadarDetector:
                 cl.shore = int(v)
             self._count(counts, "shore_clusters", int((verdict != SHORE_KEEP).sum()))
         kept = [cl for cl in clusters if cl.shore == SHORE_KEEP]
-        # The kept clusters' velocity fits draw from the tracker's RNG here, in cluster order, whatever reads them
-        # later; a shore cluster's fit, made only if someone asks, draws from a generator of its own. So reading
-        # velocities outside the tracker cannot change the random draws, and a replay gives the same tracks.
-        self.fit_clusters(kept)
+        # The kept clusters' velocity fits are left to the tracker (RadarTracker.step), which fits those its tracks
+        # and births use in one batch and gives the rest generators of their own; a shore cluster's fit, made only if
+        # someone asks, draws from a generator of its own. So reading velocities outside the tracker cannot change
+        # the random draws, and a replay gives the same tracks.
         for cl in clusters:
             if cl.shore != SHORE_KEEP:
                 cl.rng = None

@@ -250,6 +250,9 @@ class RadarTracker:
         births += [(cl, True) for cl in self._stand_out(pooled, out, len(self._pool))]
         used = list(groups.items())
         self.detector.fit_clusters([cl for _, cl in used] + [cl for cl, _ in births])
+        for cl in clusters:
+            if cl._velocity is None:
+                cl.rng = None  # no track reads its fit: one made later draws from a generator of its own
         shadows = self._shadows(out, groups, lost)
         self._update_tracks([(self.tracks[ti], cl, shadows[ti]) for ti, cl in used], t, out)
         for ti, ashore in zip(lost, self._ashore(lost), strict=True):
