@@ -39,7 +39,7 @@ def _run(read_every_fit: bool) -> tuple[list[np.ndarray], int]:
             states.append(np.array([[tr.id, *tr.position, *tr.velocity] for tr in tracks]).reshape(-1, 5))
             if read_every_fit:
                 for cl in tracker.last_clusters:
-                    if cl._velocity is None:
+                    if not cl.fitted:
                         # a fit the tracker left undone has no claim on its generator
                         assert cl.rng is not tracker.detector.rng
                         reads += 1

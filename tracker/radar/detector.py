@@ -71,6 +71,11 @@ class RadarCluster:
         return self._velocity
 
     @property
+    def fitted(self) -> bool:
+        """The velocity fit is made (reading ``velocity`` costs nothing and draws nothing)."""
+        return self._velocity is not None
+
+    @property
     def n_points(self) -> int:
         return int(self.points.shape[0])
 
@@ -441,7 +446,7 @@ class RadarDetector:
         """The velocity fits of those ``clusters`` not fitted yet, in one batch (velocity_profile.fit_velocity_profiles),
         drawing from the tracker's RNG in their order (a shore cluster's, on a generator of its own, is left to
         ``RadarCluster.velocity``)."""
-        todo = [cl for cl in clusters if cl._velocity is None and cl.rng is self.rng]
+        todo = [cl for cl in clusters if not cl.fitted and cl.rng is self.rng]
         if not todo:
             return
         fits = fit_velocity_profiles([cl.los for cl in todo], [cl.doppler_world for cl in todo], self.profile, self.rng)

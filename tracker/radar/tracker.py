@@ -251,7 +251,7 @@ class RadarTracker:
         used = list(groups.items())
         self.detector.fit_clusters([cl for _, cl in used] + [cl for cl, _ in births])
         for cl in clusters:
-            if cl._velocity is None:
+            if not cl.fitted:
                 cl.rng = None  # no track reads its fit: one made later draws from a generator of its own
         shadows = self._shadows(out, groups, lost)
         self._update_tracks([(self.tracks[ti], cl, shadows[ti]) for ti, cl in used], t, out)
