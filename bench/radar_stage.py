@@ -6,7 +6,8 @@ The frames are bench/cycle.py's worst case (20 vessels, sea state 3, a quay basi
 made by the radar model and parsed by the real frame parser, with the own boat's pose from the scene. Each pass runs
 a fresh tracker, built as the daemon builds it, over the same frames and takes the thread's CPU time per frame (wall
 time on a shared machine measures the neighbours too). Prints p50/p99/max over the frames after the first few of
-each pass (tracks start up there), per pass; nothing is saved.
+each pass (tracks start up there), per pass, and saves them to bench/results/radar_stage.md (and .json). Issue 12's
+goal is p99 <= 5 ms.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from bench._common import save
 from bench.cycle import worst_scene
 from daemon.config import Config
 from daemon.tracker_adapters import tracker_factories
@@ -66,12 +68,31 @@ def main() -> None:
     args = ap.parse_args()
     scene = worst_scene()
     frames = radar_frames(scene, 10.0, args.frames)
-    points = np.mean([f.n_points for f, _ in frames])
+    points = float(np.mean([f.n_points for f, _ in frames]))
     print(f"{len(frames)} frames, {points:.0f} radar points a frame")
+    passes = []
     for k in range(args.passes):
         cpu = one_pass(scene, frames)
         p50, p99 = np.percentile(cpu, [50, 99])
+        passes.append(
+            {"p50_ms": round(float(p50), 2), "p99_ms": round(float(p99), 2), "max_ms": round(float(cpu.max()), 2)}
+        )
         print(f"  pass {k + 1}: CPU p50 {p50:.2f} ms, p99 {p99:.2f} ms, max {cpu.max():.2f} ms")
+    rows = "\n".join(
+        f"| {k + 1} | {p['p50_ms']:.2f} | {p['p99_ms']:.2f} | {p['max_ms']:.2f} |" for k, p in enumerate(passes)
+    )
+    quiet = min(passes, key=lambda p: p["p99_ms"])
+    markdown = f"""`python bench/radar_stage.py`: the radar stage alone (`RadarTracker.step_frame`, built as the daemon builds it)
+on bench/cycle.py's worst case, {len(frames)} frames of {points:.0f} radar points on average through the real parser;
+thread CPU time per frame after the first {WARMUP_FRAMES} of each pass, a fresh tracker each pass. Goal (issue 12): p99 <= 5 ms.
+
+| pass | CPU p50 (ms) | p99 (ms) | max (ms) |
+|---|---|---|---|
+{rows}
+
+Quietest pass: p50 {quiet["p50_ms"]:.2f} ms, p99 {quiet["p99_ms"]:.2f} ms.
+"""
+    save("radar_stage", {"frames": len(frames), "points_per_frame": round(points, 1), "passes": passes}, markdown)
 
 
 if __name__ == "__main__":
