@@ -114,31 +114,32 @@ def test_coasting_deletion_and_no_reused_ids() -> None:
     # ... and is deleted once unseen for longer than max_unseen_time.
     assert tracker.step(np.zeros((0, 3)), 2.0, ORIGIN, 0.0) == []
     # The same boat again, later than reacquire_s after the deletion, is a new track with a new id.
-    assert cfg.association.reacquire_s == 2.0
-    for k in range(41, 45):
+    assert cfg.association.reacquire_s == 6.0
+    for k in range(81, 85):
         tracks = tracker.step(pts, k * DT, ORIGIN, 0.0)
     assert [tr.id for tr in tracks] == [first_id + 1]
 
 
-def test_a_vessel_seen_again_soon_after_its_track_was_deleted_gets_it_back_confirmed() -> None:
-    """A 6 m boat running east at 3 m/s, 40 m north, unseen for 4 s (its track deleted after max_unseen_time, 3 s)
-    and back 1 s later where its velocity puts it: the first scan back continues the old track, confirmed, same
-    id, instead of a tentative new one (reacquire_s); a detection 10 m off that prediction starts a new track."""
+@pytest.mark.parametrize("back_at_s", [7.0, 11.0])
+def test_a_vessel_seen_again_soon_after_its_track_was_deleted_gets_it_back_confirmed(back_at_s: float) -> None:
+    """A 6 m boat running east at 3 m/s, 40 m north, unseen from 3 s (its track deleted after max_unseen_time, 3 s)
+    and back at ``back_at_s`` where its velocity puts it, 1 or 5 s after the deletion (within reacquire_s, 6 s; the
+    5 s case was a new track with the 2 s of stops 30-40): the first scan back continues the old track, confirmed,
+    same id, instead of a tentative new one; a detection 10 m off that prediction starts a new track."""
 
     def run(offset_m: float) -> tuple[int, list[Track]]:
         tracker = LidarTracker()
         first_id = -1
-        for k in range(80):
+        back = round(back_at_s / DT)
+        for k in range(back + 1):
             t = k * DT
             boat = SyntheticObject((40.0 + (offset_m if t >= 4.0 else 0.0), 3.0 * t - 20.0), math.pi / 2, 6.0, 2.5)
-            pts = scan_objects([boat], ORIGIN) if not 3.0 <= t < 7.0 else np.zeros((0, 3))
+            pts = scan_objects([boat], ORIGIN) if not 3.0 <= t < back_at_s else np.zeros((0, 3))
             tracks = tracker.step(pts, t, ORIGIN, 0.0)
             if k == 29:
                 assert len(tracks) == 1 and tracks[0].confirmed
                 first_id = tracks[0].id
-            if k == 70:
-                return first_id, tracks
-        raise AssertionError("unreachable")
+        return first_id, tracks
 
     first_id, back = run(0.0)
     assert [(tr.id, tr.confirmed) for tr in back] == [(first_id, True)]
