@@ -206,6 +206,32 @@ def test_static_object_seen_from_a_moving_turning_boat() -> None:
     assert tracks[0].position == pytest.approx([40.0, 10.0], abs=0.6)
 
 
+def test_a_vessel_alone_is_confirmed_on_its_second_scan_one_beside_a_track_on_its_third() -> None:
+    """A boat appearing where nothing is tracked is confirmed on the second revolution that returns it (two
+    detections alone, ``confirm_hits_alone``; 3 of 5 before); one appearing 7 m from a tracked boat (where the
+    tracker's false tracks are born: a hull's bow, cabin or a piece cut off by a shadow) on the third."""
+    assert LidarTrackerConfig().association.alone_m == 10.0
+    host = SyntheticObject((30.0, 0.0), 0.0, 6.0, 2.5, 2.0)  # heading north: its side spans east +-1.25 m
+    beside = SyntheticObject((30.0, 7.0), 0.0, 6.0, 2.5, 2.0)  # 4.5 m of water between them
+    lone = SyntheticObject((-25.0, -30.0), 1.0, 6.0, 2.5, 2.0)
+    tracker = LidarTracker()
+    for k in range(10):
+        tracks = tracker.step(scan_objects([host], ORIGIN), k * DT, ORIGIN, 0.0)
+    assert [tr.confirmed for tr in tracks] == [True]
+    confirmed_after = []
+    for k in range(10, 14):
+        tracks = tracker.step(scan_objects([host, beside, lone], ORIGIN), k * DT, ORIGIN, 0.0)
+        confirmed_after.append(
+            {name: len(near(tracks, obj, 1.5)) for name, obj in (("beside", beside), ("lone", lone))}
+        )
+    assert confirmed_after[:3] == [
+        {"beside": 0, "lone": 0},  # born
+        {"beside": 0, "lone": 1},  # the lone one's second detection
+        {"beside": 1, "lone": 1},  # 3 of 3
+    ]
+    assert len([tr for tr in tracks if tr.confirmed]) == 3
+
+
 def test_clutter_never_confirms() -> None:
     rng = np.random.default_rng(9)
     tracker = LidarTracker()

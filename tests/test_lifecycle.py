@@ -30,6 +30,22 @@ def test_unproven_hits_leave_a_track_tentative_until_its_evidence_stands_out() -
     assert life.hits == 5
 
 
+def test_two_hits_that_stood_alone_confirm_a_track_others_need_m_of_n() -> None:
+    """``confirm_hits_alone`` 2: a track born alone and hit alone once more is confirmed then; one hit near
+    something else (not alone) waits for M of N like any other."""
+    lc = make(confirm_hits=3, confirm_window=5, confirm_hits_alone=2)
+    lone = lc.start(0.0, alone=True)
+    assert lone.hit(0.1, alone=True) is TrackStatus.CONFIRMED
+    crowded = lc.start(0.0, alone=True)
+    assert crowded.hit(0.1, alone=False) is TrackStatus.TENTATIVE
+    assert crowded.hit(0.2, alone=False) is TrackStatus.CONFIRMED  # 3 of 3
+    late = lc.start(0.0, alone=False)
+    assert late.miss(0.1) is TrackStatus.TENTATIVE
+    assert late.hit(0.2, alone=True) is TrackStatus.TENTATIVE  # one hit alone
+    assert late.hit(0.3, alone=True) is TrackStatus.CONFIRMED  # two
+    assert make(confirm_hits=3, confirm_window=5).start(0.0, alone=True).hit(0.1, alone=True) is TrackStatus.TENTATIVE
+
+
 def test_tentative_deleted_once_m_is_out_of_reach() -> None:
     life = make(confirm_hits=3, confirm_window=5, max_unseen_time_tentative=10.0).start(0.0)
     assert life.miss(0.1) is TrackStatus.TENTATIVE  # 1 hit, 3 cycles left: can still reach 3
@@ -90,6 +106,8 @@ def test_shared_id_source_between_lifecycles() -> None:
 def test_bad_m_of_n_is_rejected(m: int, n: int) -> None:
     with pytest.raises(ValueError, match="confirm_hits"):
         LifecycleConfig(confirm_hits=m, confirm_window=n)
+    with pytest.raises(ValueError, match="confirm_hits_alone"):
+        LifecycleConfig(confirm_hits=3, confirm_window=5, confirm_hits_alone=4)
 
 
 def test_negative_unseen_time_is_rejected() -> None:

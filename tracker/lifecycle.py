@@ -4,6 +4,8 @@ A tracker owns the filters; this module owns only the bookkeeping every tracker 
 
 * a new track is TENTATIVE; it becomes CONFIRMED once it has been hit in ``confirm_hits`` (M) of its first
   ``confirm_window`` (N) cycles, and is deleted as soon as it can no longer reach M within N, so clutter dies fast;
+  a tracker that knows where false detections are rare may confirm sooner, on ``confirm_hits_alone`` detections
+  that stood alone (the LiDAR tracker: nothing else tracked near them);
 * a confirmed track missed in a cycle is COASTING (it is still published: a boat hidden behind another for a
   second is still there); a hit makes it CONFIRMED again;
 * any track unseen for longer than its limit is DELETED; deleted tracks never come back. A confirmed track the
@@ -35,6 +37,9 @@ class TrackStatus(str, Enum):
 class LifecycleConfig:
     confirm_hits: int = 3  # M: hits needed ...
     confirm_window: int = 5  # N: ... within this many cycles from birth
+    # Hits within the window that confirm a track when each of them stood alone (the tracker says which: only the
+    # LiDAR tracker does, see its association.alone_m); 0: M of N alone decides. Ours, see tracker/lidar/config.py.
+    confirm_hits_alone: int = 0
     max_unseen_time: float = 3.0  # s a confirmed track coasts unseen before deletion
     max_unseen_time_tentative: float = 0.5  # s a tentative track survives unseen
     max_unseen_time_occluded: float = 0.0  # s a confirmed track coasts while occluded (below max_unseen_time: that)
@@ -54,6 +59,10 @@ class LifecycleConfig:
         if not 1 <= self.confirm_hits <= self.confirm_window:
             raise ValueError(
                 f"lifecycle: need 1 <= confirm_hits <= confirm_window, got {self.confirm_hits} of {self.confirm_window}"
+            )
+        if self.confirm_hits_alone and not 1 <= self.confirm_hits_alone <= self.confirm_hits:
+            raise ValueError(
+                f"lifecycle: need 0 (off) or 1 <= confirm_hits_alone <= confirm_hits, got {self.confirm_hits_alone}"
             )
         limits = (
             self.max_unseen_time,
@@ -78,7 +87,7 @@ class IdSource:
 class TrackLife:
     """The lifecycle state of one track. Call exactly one of :meth:`hit` / :meth:`miss` per cycle."""
 
-    def __init__(self, track_id: int, t: float, config: LifecycleConfig) -> None:
+    def __init__(self, track_id: int, t: float, config: LifecycleConfig, alone: bool = False) -> None:
         self.id = track_id
         self.config = config
         self.t_first = t
@@ -87,7 +96,10 @@ class TrackLife:
         self.hits = 1  # born from a detection
         self.cycles = 1
         self._window: deque[bool] = deque([True], maxlen=config.confirm_window)
-        self.status = TrackStatus.CONFIRMED if config.confirm_hits <= 1 else TrackStatus.TENTATIVE
+        self.hits_alone = int(alone)  # hits whose detection stood alone, birth included
+        self.status = (
+            TrackStatus.CONFIRMED if config.confirm_hits <= 1 or self._alone_enough() else TrackStatus.TENTATIVE
+        )
         self.ever_confirmed = self.status is TrackStatus.CONFIRMED
 
     @property
@@ -107,15 +119,21 @@ class TrackLife:
     def time_since_update(self) -> float:
         return self.t_now - self.t_last_hit
 
-    def hit(self, t: float, proven: bool = True) -> TrackStatus:
+    def _alone_enough(self) -> bool:
+        return 0 < self.config.confirm_hits_alone <= self.hits_alone
+
+    def hit(self, t: float, proven: bool = True, alone: bool = False) -> TrackStatus:
         """A cycle with a detection. ``proven`` False: the tracker does not yet believe the track is more than
-        clutter (tracker.existence), so a tentative track stays tentative however many hits it has."""
+        clutter (tracker.existence), so a tentative track stays tentative however many hits it has. ``alone``: the
+        detection stood where false detections are rare (``confirm_hits_alone``)."""
         if not self.alive:
             return self.status
         self._advance(t, True)
         self.t_last_hit = t
         self.hits += 1
-        reached_m = self.status is TrackStatus.TENTATIVE and sum(self._window) >= self.config.confirm_hits and proven
+        self.hits_alone += int(alone)
+        enough = sum(self._window) >= self.config.confirm_hits or self._alone_enough()
+        reached_m = self.status is TrackStatus.TENTATIVE and enough and proven
         if reached_m or self.status is TrackStatus.COASTING:
             self.status = TrackStatus.CONFIRMED
             self.ever_confirmed = True
@@ -163,5 +181,6 @@ class Lifecycle:
         self.config = config or LifecycleConfig()
         self.ids = ids or IdSource()
 
-    def start(self, t: float) -> TrackLife:
-        return TrackLife(self.ids.next(), t, self.config)
+    def start(self, t: float, alone: bool = False) -> TrackLife:
+        """A new track born at ``t``; ``alone``: its first detection stood alone (``confirm_hits_alone``)."""
+        return TrackLife(self.ids.next(), t, self.config, alone)

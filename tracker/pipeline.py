@@ -145,6 +145,11 @@ class PipelineSettings:
     # reach the obstacle array (tracker/lidar/hull_gate.py); negative turns it off. Held out (random:1001-1025, LiDAR
     # only), switching it off: false-clear bins 1,680 -> 2,004 a scene, false-obstacle bins 0.12 % -> 0.09 %.
     hull_margin_grow_m: float = 0.5
+    # ... of a track measured at least this many times: the box of a track confirmed on its second detection
+    # (tracker.lidar LidarLifecycleConfig.confirm_hits_alone) is still biased towards the sensor (a hull seen from
+    # one side), and grown by hull_margin_grow_m it took in crest returns 0.4 m in front of the hull
+    # (tests/test_sim_sea.py). The paper's 3, as in 3 of 5.
+    hull_gate_min_hits: int = 3
     # A bin that would go out "unknown" shows the nearest solid the sensors returned in it within this many seconds
     # (tracker/obstacle_memory.py): a low hull whose returns fall in and out of the sea margin from one sweep to the
     # next stays in ArduPilot's boundary. Never over a measured obstacle or a vouched "clear". 0 turns it off. Ours,
@@ -559,7 +564,8 @@ class PerceptionPipeline:
         tracking = self.lidar_tracker is not None and track_points is not None
         if tracking and self.settings.hull_margin_grow_m >= 0 and pre.within_margin_world.shape[0]:
             low = pre.within_margin_world[:, :2]
-            hull = low[on_tracked_hulls(low, self._lidar_tracks, self.settings.hull_margin_grow_m)]
+            settled = [tr for tr in self._lidar_tracks if tr.hits >= self.settings.hull_gate_min_hits]
+            hull = low[on_tracked_hulls(low, settled, self.settings.hull_margin_grow_m)]
             if hull.shape[0]:
                 solid = np.concatenate([solid, hull])
         # without the sweep's poses, preprocess placed the returns in the body frame (zero pose)

@@ -448,6 +448,7 @@ class LidarTracker:
                 shadowed = (bool(ends.low_end[j]), bool(ends.high_end[j]))
                 measurements[j] = dataclasses.replace(measurements[j], shadowed=shadowed)
         assignment = self._associate(measurements)
+        alone = self._alone(detections, assignment)
 
         self.bank.update_many(
             [
@@ -459,7 +460,7 @@ class LidarTracker:
         known = self._velocity_known(self.bank.covariances()) if self._lives else np.zeros(0, dtype=bool)
         self._note_seen(t, [int(ti) for ti, _ in assignment.matches], known)
         for ti, di in assignment.matches:
-            self._lives[ti].hit(t)
+            self._lives[ti].hit(t, alone=bool(alone[di]))
             self._kinds[ti] = measurements[di].kind
             for k in self._detection_clusters[di]:
                 self.last_cluster_track[k] = self._lives[ti].id
@@ -479,12 +480,29 @@ class LidarTracker:
             self._kinds = [k for i, k in enumerate(self._kinds) if i not in dead_set]
         for di in assignment.unmatched_cols:
             self.bank.add(measurements[di])
-            life = self._reacquired(t, measurements[di]) or self.lifecycle.start(t)
+            life = self._reacquired(t, measurements[di]) or self.lifecycle.start(t, alone=bool(alone[di]))
             self._lives.append(life)
             self._kinds.append(measurements[di].kind)
             for k in self._detection_clusters[di]:
                 self.last_cluster_track[k] = life.id
         return self.tracks()
+
+    def _alone(self, detections: list[LidarDetection], assignment: Assignment) -> np.ndarray:
+        """(D,) bool: no live track's predicted centre, other than the one the detection updates, lies within
+        ``association.alone_m`` of the detection's centre (LifecycleConfig.confirm_hits_alone)."""
+        radius = self.config.association.alone_m
+        out = np.zeros(len(detections), dtype=bool)
+        if radius <= 0 or not detections or self.config.lifecycle.confirm_hits_alone <= 0:
+            return out
+        if not self._lives:
+            out[:] = True
+            return out
+        centres = np.array([det.center for det in detections], dtype=float).reshape(-1, 2)
+        gap = centres[:, None, :] - self.bank.states()[None, :, [PN, PE]]  # (D, T, 2)
+        near = np.hypot(gap[..., 0], gap[..., 1]) <= radius
+        for ti, di in assignment.matches:  # a detection's own track is not another one near it
+            near[di, ti] = False
+        return ~near.any(axis=1)
 
     def _note_seen(self, t: float, matched: list[int], known: np.ndarray) -> None:
         """Where each track of ``matched`` was seen at ``t``, its velocity then if ``known`` (T,) says it is known
