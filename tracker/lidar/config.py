@@ -404,12 +404,12 @@ class AssociationConfig:
     # worst scene 0.776 -> 0.780, IDF1 0.919 -> 0.928, id switches 5.8 -> 4.9 a scene, false track-frames 3.8 %.
     reacquire_s: float = 6.0
     reacquire_margin_m: float = 2.0
-    # A detection stands alone when no other live track's predicted centre lies within this (m): a new track two of
-    # whose detections stood alone is confirmed on the second (LidarLifecycleConfig.confirm_hits_alone), not after
-    # 3 of 5. The false tracks that M of N keeps out of the feed on our scenes are second
-    # tracks born beside a hull (its bow, cabin or a piece cut off by a shadow) and pieces of a quay; a vessel
-    # coming into view, or out of the LiDAR's blind band, is born where nothing else is tracked. 0 turns it off.
-    # Ours; the figures are LidarLifecycleConfig's.
+    # A detection stands alone when no other live track's predicted centre and no remembered structure lie within
+    # this (m): a new track two of whose detections stood alone is confirmed on the second
+    # (LidarLifecycleConfig.confirm_hits_alone), not after 3 of 5. The false tracks that M of N keeps out of the
+    # feed on our scenes are second tracks born beside a hull (its bow, cabin or a piece cut off by a shadow) and
+    # pieces of a quay; a vessel coming into view, or out of the LiDAR's blind band, is born where nothing else is
+    # tracked. 0 turns it off. Ours; the figures are LidarLifecycleConfig's.
     alone_m: float = 10.0
 
     def __post_init__(self) -> None:
@@ -511,9 +511,10 @@ class LidarLifecycleConfig(LifecycleConfig):
     """The shared lifecycle (tracker.lifecycle), confirming on fewer hits where nothing else is tracked."""
 
     # 2 detections that stood alone (association.alone_m) confirm a track, 3 of 5 otherwise (the paper's count).
-    # Tuning seeds 1-32 (fused) against 3 of 5 for all: MOTA 0.9367 -> 0.9424 (29 seeds better, 1 worse), false
-    # positives 3,025 -> 3,069, IDF1 0.9447 -> 0.9475; 2 of 5 for all: MOTA 0.9395 but false positives 3,365
-    # (second tracks born on hulls).
+    # Tuning seeds 1-32 (fused) against 3 of 5 for all: MOTA 0.9367 -> 0.9427 (32 seeds better, none worse), false
+    # positives 3,025 -> 3,026, IDF1 0.9447 -> 0.9476; 2 of 5 for all: MOTA 0.9395 but false positives 3,365
+    # (second tracks born on hulls); alone of tracks but not of structure: 0.9424, false positives 3,069 (pieces of
+    # quays), held out MOTA 0.9252 -> 0.9264 but worst scene 0.780 -> 0.768, false track-frames 3.8 -> 4.2 %.
     confirm_hits_alone: int = 2
 
 

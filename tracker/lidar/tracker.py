@@ -448,7 +448,7 @@ class LidarTracker:
                 shadowed = (bool(ends.low_end[j]), bool(ends.high_end[j]))
                 measurements[j] = dataclasses.replace(measurements[j], shadowed=shadowed)
         assignment = self._associate(measurements)
-        alone = self._alone(detections, assignment)
+        alone = self._alone(t, detections, assignment)
 
         self.bank.update_many(
             [
@@ -487,22 +487,27 @@ class LidarTracker:
                 self.last_cluster_track[k] = life.id
         return self.tracks()
 
-    def _alone(self, detections: list[LidarDetection], assignment: Assignment) -> np.ndarray:
-        """(D,) bool: no live track's predicted centre, other than the one the detection updates, lies within
-        ``association.alone_m`` of the detection's centre (LifecycleConfig.confirm_hits_alone)."""
+    def _alone(self, t: float, detections: list[LidarDetection], assignment: Assignment) -> np.ndarray:
+        """(D,) bool: within ``association.alone_m`` of the detection's centre lies no live track's predicted centre
+        (other than the one the detection updates) and no structure remembered (tracker.lidar.structure): where
+        the false tracks are born, beside a hull and along a quay (LidarLifecycleConfig.confirm_hits_alone)."""
         radius = self.config.association.alone_m
         out = np.zeros(len(detections), dtype=bool)
         if radius <= 0 or not detections or self.config.lifecycle.confirm_hits_alone <= 0:
             return out
-        if not self._lives:
-            out[:] = True
-            return out
         centres = np.array([det.center for det in detections], dtype=float).reshape(-1, 2)
-        gap = centres[:, None, :] - self.bank.states()[None, :, [PN, PE]]  # (D, T, 2)
-        near = np.hypot(gap[..., 0], gap[..., 1]) <= radius
-        for ti, di in assignment.matches:  # a detection's own track is not another one near it
-            near[di, ti] = False
-        return ~near.any(axis=1)
+        if self._lives:
+            gap = centres[:, None, :] - self.bank.states()[None, :, [PN, PE]]  # (D, T, 2)
+            near = np.hypot(gap[..., 0], gap[..., 1]) <= radius
+            for ti, di in assignment.matches:  # a detection's own track is not another one near it
+                near[di, ti] = False
+            out = ~near.any(axis=1)
+        else:
+            out[:] = True
+        if out.any() and self.config.structure.memory_s > 0:
+            idx = np.flatnonzero(out)
+            out[idx] = ~self.structure.near(t, centres[idx], radius)
+        return out
 
     def _note_seen(self, t: float, matched: list[int], known: np.ndarray) -> None:
         """Where each track of ``matched`` was seen at ``t``, its velocity then if ``known`` (T,) says it is known
