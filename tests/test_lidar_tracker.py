@@ -232,6 +232,23 @@ def test_a_vessel_alone_is_confirmed_on_its_second_scan_one_beside_a_track_on_it
     assert len([tr for tr in tracks if tr.confirmed]) == 3
 
 
+def test_a_vessel_off_a_remembered_quay_is_confirmed_on_its_third_scan() -> None:
+    """A boat appearing 4 m off a quay face the tracker remembers as structure (where pieces of quays are born)
+    does not stand alone: 3 of 5 confirm it, not 2, while a boat appearing in open water is confirmed on its
+    second scan."""
+    wall = SyntheticObject((60.0, 0.0), math.pi / 2, 120.0, 2.0, 3.0, ShapeKind.BOX)  # face at 59 m north
+    by_quay = SyntheticObject((54.0, 15.0), math.pi / 2, 6.0, 2.5, 2.0)  # its side 3.75 m off the face
+    lone = SyntheticObject((-25.0, -30.0), 1.0, 6.0, 2.5, 2.0)
+    tracker = LidarTracker()
+    for k in range(5):
+        assert tracker.step(scan_objects([wall], ORIGIN), k * DT, ORIGIN, 0.0) == []  # structure, no track
+    confirmed = []
+    for k in range(5, 8):
+        tracks = tracker.step(scan_objects([wall, by_quay, lone], ORIGIN), k * DT, ORIGIN, 0.0)
+        confirmed.append((len(near(tracks, by_quay, 1.5)), len(near(tracks, lone, 1.5))))
+    assert confirmed == [(0, 0), (0, 1), (1, 1)]
+
+
 def test_clutter_never_confirms() -> None:
     rng = np.random.default_rng(9)
     tracker = LidarTracker()
