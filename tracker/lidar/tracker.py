@@ -45,7 +45,7 @@ from tracker.lidar.shape_fit import (
     prepare_all,
 )
 from tracker.lidar.structure import StructureMemory
-from tracker.lifecycle import IdSource, Lifecycle, TrackLife
+from tracker.lifecycle import IdSource, Lifecycle, TrackLife, TrackStatus
 from tracker.line_of_sight import in_shadow
 from tracker.types import Detection, ShapeKind, Track
 
@@ -490,23 +490,33 @@ class LidarTracker:
     def _alone(self, t: float, detections: list[LidarDetection], assignment: Assignment) -> np.ndarray:
         """(D,) bool: within ``association.alone_m`` of the detection's centre lies no live track's predicted centre
         (other than the one the detection updates) and no structure remembered (tracker.lidar.structure): where
-        the false tracks are born, beside a hull and along a quay (LidarLifecycleConfig.confirm_hits_alone)."""
+        the false tracks are born, beside a hull and along a quay (LidarLifecycleConfig.confirm_hits_alone).
+        Asked only for detections that start a track or hit a tentative one (False for the rest): a confirmed
+        track's lifecycle does not read it, and the structure lookup is a 10 m disc of cells per detection."""
         radius = self.config.association.alone_m
         out = np.zeros(len(detections), dtype=bool)
         if radius <= 0 or not detections or self.config.lifecycle.confirm_hits_alone <= 0:
             return out
-        centres = np.array([det.center for det in detections], dtype=float).reshape(-1, 2)
+        asked = np.zeros(len(detections), dtype=bool)
+        asked[list(assignment.unmatched_cols)] = True
+        for ti, di in assignment.matches:
+            asked[di] = self._lives[ti].status is TrackStatus.TENTATIVE
+        idx = np.flatnonzero(asked)
+        if not idx.size:
+            return out
+        centres = np.array([detections[i].center for i in idx], dtype=float).reshape(-1, 2)
+        alone = np.ones(idx.size, dtype=bool)
         if self._lives:
-            gap = centres[:, None, :] - self.bank.states()[None, :, [PN, PE]]  # (D, T, 2)
+            gap = centres[:, None, :] - self.bank.states()[None, :, [PN, PE]]  # (asked, T, 2)
             near = np.hypot(gap[..., 0], gap[..., 1]) <= radius
+            row = {int(di): k for k, di in enumerate(idx)}
             for ti, di in assignment.matches:  # a detection's own track is not another one near it
-                near[di, ti] = False
-            out = ~near.any(axis=1)
-        else:
-            out[:] = True
-        if out.any() and self.config.structure.memory_s > 0:
-            idx = np.flatnonzero(out)
-            out[idx] = ~self.structure.near(t, centres[idx], radius)
+                if int(di) in row:
+                    near[row[int(di)], ti] = False
+            alone = ~near.any(axis=1)
+        if alone.any() and self.config.structure.memory_s > 0:
+            alone[alone] = ~self.structure.near(t, centres[alone], radius)
+        out[idx] = alone
         return out
 
     def _note_seen(self, t: float, matched: list[int], known: np.ndarray) -> None:
