@@ -411,18 +411,6 @@ class AssociationConfig:
     # pieces of a quay; a vessel coming into view, or out of the LiDAR's blind band, is born where nothing else is
     # tracked. 0 turns it off. Ours; the figures are LidarLifecycleConfig's.
     alone_m: float = 10.0
-    # Nor does one where another piece of a long hull may lie, however far from its centre: in a live track's shadow
-    # as seen from the own boat (beyond its centre by at most its half-size plus alone_shadow_m, off the line of
-    # sight by at most its half-size plus duplicate_margin: the far end of a ship seen end-on), or in line with a
-    # track moving at duplicate_end_min_speed_mps or more (along its course within alone_in_line_m of its centre,
-    # across it within its half-beam plus alone_in_line_aside_m: a ship seen broadside whose middle the sensor
-    # missed). A 35-42 m ship 80-100 m off came back as two pieces 16-30 m apart, each "alone", each confirmed on
-    # its second scan. 0 turns either off. Ours; tuning seeds 33-48 (fused): MOTA 0.9407 -> 0.9422, false
-    # positives 1,962 -> 1,783 (shadow alone 0.9418 / 1,870, in line alone 0.9411 / 1,879, shadow 80 m 0.9416 /
-    # 1,838); seeds 1-32: see bench/heldout-history.md, stop 43.
-    alone_shadow_m: float = 40.0
-    alone_in_line_m: float = 40.0
-    alone_in_line_aside_m: float = 1.0
 
     def __post_init__(self) -> None:
         positive(self, "gate", "max_distance", "duplicate_max_speed_diff")
@@ -436,9 +424,6 @@ class AssociationConfig:
             "reacquire_s",
             "reacquire_margin_m",
             "alone_m",
-            "alone_shadow_m",
-            "alone_in_line_m",
-            "alone_in_line_aside_m",
             allow_zero=True,
         )
 

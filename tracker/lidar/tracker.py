@@ -448,7 +448,7 @@ class LidarTracker:
                 shadowed = (bool(ends.low_end[j]), bool(ends.high_end[j]))
                 measurements[j] = dataclasses.replace(measurements[j], shadowed=shadowed)
         assignment = self._associate(measurements)
-        alone = self._alone(t, own, detections, assignment)
+        alone = self._alone(t, detections, assignment)
 
         self.bank.update_many(
             [
@@ -487,18 +487,15 @@ class LidarTracker:
                 self.last_cluster_track[k] = life.id
         return self.tracks()
 
-    def _alone(self, t: float, own: np.ndarray, detections: list[LidarDetection], assignment: Assignment) -> np.ndarray:
-        """(D,) bool: the detection stands alone (LidarLifecycleConfig.confirm_hits_alone): within
-        ``association.alone_m`` of its centre lies no live track's predicted centre (other than the one the
-        detection updates) and no structure remembered (tracker.lidar.structure), and it lies neither in another
-        live track's shadow seen from ``own`` nor in line with another moving one (``alone_shadow_m``,
-        ``alone_in_line_m``): where the false tracks are born, beside a hull, beyond or along a long one, and along
-        a quay. Asked only for detections that start a track or hit a tentative one (False for the rest): a
-        confirmed track's lifecycle does not read it, and the structure lookup is a 10 m disc of cells per
-        detection."""
-        cfg = self.config.association
+    def _alone(self, t: float, detections: list[LidarDetection], assignment: Assignment) -> np.ndarray:
+        """(D,) bool: within ``association.alone_m`` of the detection's centre lies no live track's predicted centre
+        (other than the one the detection updates) and no structure remembered (tracker.lidar.structure): where
+        the false tracks are born, beside a hull and along a quay (LidarLifecycleConfig.confirm_hits_alone).
+        Asked only for detections that start a track or hit a tentative one (False for the rest): a confirmed
+        track's lifecycle does not read it, and the structure lookup is a 10 m disc of cells per detection."""
+        radius = self.config.association.alone_m
         out = np.zeros(len(detections), dtype=bool)
-        if cfg.alone_m <= 0 or not detections or self.config.lifecycle.confirm_hits_alone <= 0:
+        if radius <= 0 or not detections or self.config.lifecycle.confirm_hits_alone <= 0:
             return out
         asked = np.zeros(len(detections), dtype=bool)
         asked[list(assignment.unmatched_cols)] = True
@@ -510,39 +507,17 @@ class LidarTracker:
         centres = np.array([detections[i].center for i in idx], dtype=float).reshape(-1, 2)
         alone = np.ones(idx.size, dtype=bool)
         if self._lives:
-            x = self.bank.states()
-            gap = centres[:, None, :] - x[None, :, [PN, PE]]  # (asked, T, 2)
-            near = np.hypot(gap[..., 0], gap[..., 1]) <= cfg.alone_m
-            if cfg.alone_shadow_m > 0:
-                half = 0.5 * np.maximum(x[:, LEN], x[:, WID])
-                near |= in_shadow(x[:, [PN, PE]], half, centres, own, cfg.alone_shadow_m, cfg.duplicate_margin).T
-            if cfg.alone_in_line_m > 0:
-                near |= self._in_line(x, gap)
+            gap = centres[:, None, :] - self.bank.states()[None, :, [PN, PE]]  # (asked, T, 2)
+            near = np.hypot(gap[..., 0], gap[..., 1]) <= radius
             row = {int(di): k for k, di in enumerate(idx)}
             for ti, di in assignment.matches:  # a detection's own track is not another one near it
                 if int(di) in row:
                     near[row[int(di)], ti] = False
             alone = ~near.any(axis=1)
         if alone.any() and self.config.structure.memory_s > 0:
-            alone[alone] = ~self.structure.near(t, centres[alone], cfg.alone_m)
+            alone[alone] = ~self.structure.near(t, centres[alone], radius)
         out[idx] = alone
         return out
-
-    def _in_line(self, x: np.ndarray, gap: np.ndarray) -> np.ndarray:
-        """(D, T) bool for states ``x`` (T, DIM_X) and detection centres' offsets ``gap`` (D, T, 2) from them: the
-        track's velocity is known and at least ``duplicate_end_min_speed_mps``, and the centre lies along its course
-        within ``alone_in_line_m`` of its centre, across it within its half-beam plus ``alone_in_line_aside_m``."""
-        cfg = self.config.association
-        speed = np.hypot(x[:, VN], x[:, VE])
-        moving = self._velocity_known(self.bank.covariances()) & (speed >= cfg.duplicate_end_min_speed_mps)
-        if not moving.any():
-            return np.zeros(gap.shape[:2], dtype=bool)
-        course = x[:, [VN, VE]] / np.maximum(speed, 1e-9)[:, None]
-        along = np.abs(gap[..., 0] * course[:, 0] + gap[..., 1] * course[:, 1])
-        across = np.abs(gap[..., 1] * course[:, 0] - gap[..., 0] * course[:, 1])
-        return (
-            moving[None, :] & (along <= cfg.alone_in_line_m) & (across <= 0.5 * x[:, WID] + cfg.alone_in_line_aside_m)
-        )
 
     def _note_seen(self, t: float, matched: list[int], known: np.ndarray) -> None:
         """Where each track of ``matched`` was seen at ``t``, its velocity then if ``known`` (T,) says it is known
