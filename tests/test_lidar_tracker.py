@@ -446,8 +446,6 @@ def _bow_and_cabin_end_on(shadow_m: float) -> list[list[Track]]:
     it, its cabin standing above the bow (1.2-2.2 m up), beyond the clustering's reach of the bow's returns."""
     config = LidarTrackerConfig()
     config.association.duplicate_shadow_m = shadow_m
-    if shadow_m == 0:  # the far-superstructure test would pair them too
-        config.association.duplicate_shadow_above_m = 0.0
     tracker = LidarTracker(config)
     rng = np.random.default_rng(5)
     bow = SyntheticObject((35.0, 0.0), 0.0, 1.0, 3.0, 0.8, ShapeKind.BOX)
@@ -456,39 +454,6 @@ def _bow_and_cabin_end_on(shadow_m: float) -> list[list[Track]]:
         cabin = np.column_stack([rng.uniform(40.5, 42.5, 40), rng.uniform(-1.2, 1.2, 40), rng.uniform(-2.2, -1.2, 40)])
         history.append(tracker.step(np.concatenate([scan_objects([bow], ORIGIN), cabin]), k * DT, ORIGIN, 0.0))
     return history
-
-
-def _ship_end_on(above_m: float) -> list[list[Track]]:
-    """A ship lying end-on 80 m north of the sensor as a VLP-16 sees it there: its hull's near end (5 m wide, 2.7 m
-    of freeboard) and, 19-23 m further along, its superstructure 5-9 m up, which the next beam meets over the deck;
-    nothing returns between them."""
-    config = LidarTrackerConfig()
-    config.association.duplicate_shadow_above_m = above_m
-    tracker = LidarTracker(config)
-    rng = np.random.default_rng(6)
-    near_end = SyntheticObject((80.0, 0.0), 0.0, 1.0, 5.0, 2.7, ShapeKind.BOX)
-    history = []
-    for k in range(40):
-        superstructure = np.column_stack(
-            [rng.uniform(99.0, 103.0, 40), rng.uniform(-2.0, 2.0, 40), rng.uniform(-9.0, -5.0, 40)]
-        )
-        points = np.concatenate([scan_objects([near_end], ORIGIN), superstructure])
-        history.append(tracker.step(points, k * DT, ORIGIN, 0.0))
-    return history
-
-
-def test_a_far_ships_superstructure_behind_its_tracked_near_end_is_no_second_vessel() -> None:
-    """The superstructure lies 21 m beyond the near end's track (past duplicate_shadow_m's 10 m) on its line of
-    sight and stands 6 m higher: the same hull within duplicate_shadow_above_m (30 m). One confirmed track from the
-    first confirmation on; with duplicate_shadow_above_m 0, two confirmed "vessels"."""
-    cfg = LidarTrackerConfig().association
-    assert (cfg.duplicate_shadow_m, cfg.duplicate_shadow_above_m, cfg.duplicate_shadow_rise_m) == (10.0, 30.0, 1.0)
-    for k, tracks in enumerate(_ship_end_on(30.0)):
-        confirmed = [tr for tr in tracks if tr.confirmed]
-        if k >= 5:
-            assert len(confirmed) == 1, f"scan {k}"
-    confirmed = [tr for tr in _ship_end_on(0.0)[-1] if tr.confirmed]
-    assert sorted(round(float(tr.position[0]) / 10) * 10 for tr in confirmed) == [80, 100]
 
 
 def test_a_piece_of_a_hull_behind_a_tracked_piece_as_seen_from_the_boat_is_no_second_vessel() -> None:

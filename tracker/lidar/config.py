@@ -376,15 +376,6 @@ class AssociationConfig:
     # the fusion changes of the same stop: fused MOTA 0.880 -> 0.888, LiDAR only 0.882 -> 0.888, false track-frames
     # 6.5 -> 5.2 % of matches.
     duplicate_shadow_m: float = 10.0
-    # A track behind another by up to this much more (m, the same test) is on the same hull too when it stands more
-    # than duplicate_shadow_rise_m (m) higher: a ship seen end-on 60-100 m off returns its hull's near end to one
-    # beam, and the next beam up, 2 deg higher, passes over its deck to the superstructure 16-26 m further along
-    # (tuning seed 43: a 35 m ship as two confirmed tracks for 11 s). 0 turns it off. Ours; tuning seeds 33-48
-    # (fused) MOTA 0.9407 -> 0.9416, false positives 1,962 -> 1,810 (30 m without the height test: 0.9408, 1,824,
-    # quay stretches ended as duplicates before they were remembered as wall); seeds 1-32 and held out: see
-    # bench/heldout-history.md, stop 43.
-    duplicate_shadow_above_m: float = 30.0
-    duplicate_shadow_rise_m: float = 1.0
     # Two tracks both at least this old (s) whose footprints do not overlap are not taken for one hull by the
     # shadow test alone: a piece of a hull is caught within its first seconds, while two boats at anchor side by
     # side keep their places behind one another for minutes. A track whose centre lies inside an old track's
@@ -428,8 +419,6 @@ class AssociationConfig:
             "merge_margin",
             "duplicate_shadow_m",
             "duplicate_shadow_settled_s",
-            "duplicate_shadow_above_m",
-            "duplicate_shadow_rise_m",
             "duplicate_end_gap_m",
             "duplicate_end_min_speed_mps",
             "reacquire_s",

@@ -593,9 +593,7 @@ class LidarTracker:
         detections between them and both live on as two "vessels" in one place. Either can come first: a piece of
         a far hull (its end, its cabin) is often tracked before the whole hull comes back around it. A piece is
         caught within seconds of its birth, so two tracks both older than ``duplicate_shadow_settled_s`` are no
-        pair by the shadow alone (two boats at anchor that the own boat's motion brings into line). A guest standing
-        ``duplicate_shadow_rise_m`` higher than its host is taken up to ``duplicate_shadow_above_m`` behind it: a
-        far ship's superstructure, seen over its near end's deck."""
+        pair by the shadow alone (two boats at anchor that the own boat's motion brings into line)."""
         cfg = self.config.association
         n = len(self._lives)
         if cfg.duplicate_margin < 0 or n < 2:
@@ -619,10 +617,6 @@ class LidarTracker:
         if cfg.duplicate_shadow_m > 0:
             centres = x[:, [PN, PE]]
             shadow = in_shadow(centres, half, centres, own, cfg.duplicate_shadow_m, cfg.duplicate_margin)
-            if cfg.duplicate_shadow_above_m > 0:  # a far superstructure seen over the near end's deck
-                above = x[None, :, HGT] > x[:, None, HGT] + cfg.duplicate_shadow_rise_m  # (host, guest)
-                far = in_shadow(centres, half, centres, own, cfg.duplicate_shadow_above_m, cfg.duplicate_margin)
-                shadow |= far & above
             if cfg.duplicate_shadow_settled_s > 0:
                 old = np.array([life.age >= cfg.duplicate_shadow_settled_s for life in self._lives])
                 shadow &= ~(old[:, None] & old[None, :])
