@@ -497,11 +497,11 @@ class LidarTracker:
         out = np.zeros(len(detections), dtype=bool)
         if radius <= 0 or not detections or self.config.lifecycle.confirm_hits_alone <= 0:
             return out
-        asked = np.zeros(len(detections), dtype=bool)
-        asked[list(assignment.unmatched_cols)] = True
+        own_track = np.full(len(detections), -1)  # the track each detection updates, -1 for none
         for ti, di in assignment.matches:
-            asked[di] = self._lives[ti].status is TrackStatus.TENTATIVE
-        idx = np.flatnonzero(asked)
+            own_track[di] = ti
+        tentative = np.array([life.status is TrackStatus.TENTATIVE for life in self._lives] + [True])
+        idx = np.flatnonzero(tentative[own_track])  # index -1 (no track) reads the trailing True
         if not idx.size:
             return out
         centres = np.array([detections[i].center for i in idx], dtype=float).reshape(-1, 2)
@@ -509,10 +509,8 @@ class LidarTracker:
         if self._lives:
             gap = centres[:, None, :] - self.bank.states()[None, :, [PN, PE]]  # (asked, T, 2)
             near = np.hypot(gap[..., 0], gap[..., 1]) <= radius
-            row = {int(di): k for k, di in enumerate(idx)}
-            for ti, di in assignment.matches:  # a detection's own track is not another one near it
-                if int(di) in row:
-                    near[row[int(di)], ti] = False
+            mine = own_track[idx] >= 0  # a detection's own track is not another one near it
+            near[np.flatnonzero(mine), own_track[idx][mine]] = False
             alone = ~near.any(axis=1)
         if alone.any() and self.config.structure.memory_s > 0:
             alone[alone] = ~self.structure.near(t, centres[alone], radius)
