@@ -71,3 +71,27 @@ def test_memory_expires_and_follows_the_boat() -> None:
     assert mem.known_fraction(10.0, face) == 1.0
     mem.follow(np.array([400.0, 0.0]))  # far away: nothing of it is left
     assert mem.known_fraction(10.0, face) == 0.0
+
+
+def cabin_boat(north: float, east: float, length: float = 10.0) -> np.ndarray:
+    """A hull 1.4 m high with a cabin to 3.4 m over its middle 40 %, broadside to the sensor (world NED)."""
+    n = np.arange(north - length / 2, north + length / 2, 0.1)
+    cabin = n[np.abs(n - north) <= 0.2 * length]
+    hull = [np.column_stack([n, np.full(n.size, east), np.full(n.size, z)]) for z in (-0.4, -0.9, -1.4)]
+    top = [np.column_stack([cabin, np.full(cabin.size, east + 0.2), np.full(cabin.size, z)]) for z in (-2.2, -3.4)]
+    return np.concatenate(hull + top)
+
+
+@pytest.mark.parametrize("taller_margin_m, boat_is_vessel", [(0.3, True), (-1.0, False)])
+def test_a_boat_taller_than_its_quay_stays_a_vessel(taller_margin_m: float, boat_is_vessel: bool) -> None:
+    tracker = LidarTracker(LidarTrackerConfig(structure=StructureConfig(taller_margin_m=taller_margin_m)))
+    # Scan 1: the boat lies 0.5 m off an 80 m wall 1.8 m high (too close to be carved off it): one cluster, too big
+    # for a vessel, so structure, boat cells and all.
+    assert tracker.detect(np.concatenate([wall(-40.0, 40.0), cabin_boat(10.0, 15.5)]), 0.0, OWN) == []
+    # The wall's lid there: its top 1.8 m, raised to where the next beam up passed at ~16-30 m; not the cabin's.
+    lid = tracker.structure.lids_at(5.0, np.array([[10.0, 16.0]]))[0]
+    assert -3.0 < lid < -2.3
+    # Scan 2: the boat alone where the wall's cells are remembered. Its cabin stands 1 m above the lid.
+    assert detections_near(tracker, cabin_boat(10.0, 15.5), 5.0, 10.0, 15.5) == (1 if boat_is_vessel else 0)
+    # A piece of the same wall alone, no higher than the wall, stays structure either way.
+    assert detections_near(tracker, wall(-30.0, -12.0), 6.0, -21.0, 16.0) == 0

@@ -14,6 +14,11 @@ alone, or carved, then lay on "wall" and the boat went untracked for ``memory_s`
 moored boats were 29 % of the vessel-ticks missed). So the cells under a carved hull, and the cells next to them,
 are no structure for ``memory_s`` after the carving, whatever a merged scan remembers there.
 
+A scan can also merge a moored boat with its wall, or two boats moored end to end into one quay-sized "vessel"
+(tracker.LidarTracker._static_structure), and remember the boat as wall. A quay's top is level, and the memory
+keeps for each cell a lid: the wall's top, raised to where the VLP-16's next beam up passed over it. A cluster
+later found on remembered structure that stands clearly above the lid there (a cabin) is a vessel again.
+
 The cost of the rule: a vessel larger than ``max_extent`` that moves leaves structure behind it for ``memory_s``;
 a small boat following in its track within that time is not tracked (its returns remain obstacles).
 
@@ -22,12 +27,41 @@ Frames: world NED (north, east), metres; the grid follows the own boat.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from tracker.grid_shift import shift_in_place
 from tracker.lidar.config import StructureConfig
 
 _NEIGHBOURS = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=np.int64)
+# The VLP-16's beams are 2 deg apart: a solid whose top return came from one beam stands no higher than where the
+# next beam up passed at its range, or that beam would have returned too.
+_NEXT_BEAM_TAN = math.tan(math.radians(2.0))
+_BIN_KEY = 1 << 32  # cluster index * _BIN_KEY + bin index along it: one key per (cluster, bin)
+
+
+def structure_lids(clusters: list[np.ndarray], own_ne: np.ndarray, bin_m: float) -> np.ndarray:
+    """(k,) for each structure cluster ((n, 3) world NED points), the world down coordinate it does not rise above,
+    m: along its principal axis in bins of ``bin_m``, each bin's top return raised to where the next beam up passed
+    at its range, and the median over the bins. A quay's top is level along it and a boat merged with it is the
+    smaller part of its cluster, so the median is the wall's and not a cabin's. All clusters in one pass."""
+    n = np.array([len(c) for c in clusters])
+    pts = np.concatenate([np.asarray(c, dtype=float)[:, :3] for c in clusters])
+    mean, axis, lo, _hi, _spread = principal_extents([np.asarray(c, dtype=float)[:, :2] for c in clusters])
+    owner = np.repeat(np.arange(len(clusters)), n)
+    d = pts[:, :2] - mean[owner]
+    along = d[:, 0] * axis[owner, 0] + d[:, 1] * axis[owner, 1] - lo[owner]
+    rng = np.hypot(pts[:, 0] - own_ne[0], pts[:, 1] - own_ne[1])
+    bound = pts[:, 2] - rng * _NEXT_BEAM_TAN  # down: smaller is higher
+    key = owner * _BIN_KEY + np.floor(along / bin_m).astype(np.int64)
+    bins, inverse = np.unique(key, return_inverse=True)
+    top = np.full(bins.size, np.inf)
+    np.minimum.at(top, inverse, bound)
+    bin_owner = bins // _BIN_KEY
+    order = np.lexsort((top, bin_owner))
+    counts = np.bincount(bin_owner, minlength=len(clusters))
+    return top[order][np.cumsum(counts) - counts + counts // 2]
 
 
 def principal_extents(
@@ -64,6 +98,9 @@ class StructureMemory:
         # When each cell last lay under a hull carved off a wall (tracker.lidar.moored): within memory_s of that,
         # the cell is no structure whatever a scan whose hull and wall had merged left in last_seen.
         self.hull_seen = np.full((self.cells, self.cells), -np.inf)
+        # The highest (least down, world NED, m) lid of the structure stamped on each cell (structure_lids): a
+        # cluster standing above it by more than taller_margin_m is a boat against the wall, not the wall.
+        self.lid_down = np.full((self.cells, self.cells), np.inf)
         self.origin: np.ndarray | None = None  # world (north, east) of cell (0, 0)'s corner
         self.newest = -np.inf  # no cell was last seen later than this
         self.newest_hull = -np.inf  # nor under a carved hull
@@ -71,6 +108,7 @@ class StructureMemory:
     def reset(self) -> None:
         self.last_seen.fill(-np.inf)
         self.hull_seen.fill(-np.inf)
+        self.lid_down.fill(np.inf)
         self.origin = None
         self.newest = -np.inf
         self.newest_hull = -np.inf
@@ -94,6 +132,7 @@ class StructureMemory:
         shift = np.rint((new_origin - self.origin) / self.cfg.cell_m).astype(int)
         shift_in_place(self.last_seen, shift[0], shift[1], -np.inf)  # no new grid per move (tracker/grid_shift.py)
         shift_in_place(self.hull_seen, shift[0], shift[1], -np.inf)
+        shift_in_place(self.lid_down, shift[0], shift[1], np.inf)
         self.origin = new_origin
 
     def _index(self, points_ne: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -110,15 +149,33 @@ class StructureMemory:
         grid[i[inside], j[inside]] = t
         return True
 
-    def remember(self, t: float, points_ne: np.ndarray) -> None:
-        """Mark the cells under structure returns (or footprint cells) seen at time ``t``."""
+    def remember(self, t: float, points_ne: np.ndarray, lid_down: np.ndarray | None = None) -> None:
+        """Mark the cells under structure returns (or footprint cells) seen at time ``t``, each point with the lid
+        (world down, m) of the structure it belongs to (None: not known, nothing stands above it); a cell keeps
+        the highest lid stamped on it."""
         if self._stamp(self.last_seen, t, points_ne):
             self.newest = max(self.newest, t)
+            i, j, inside = self._index(points_ne)
+            lids = np.full(len(i), -np.inf) if lid_down is None else np.asarray(lid_down, dtype=float)
+            np.minimum.at(self.lid_down, (i[inside], j[inside]), lids[inside])
 
     def remember_hull(self, t: float, points_ne: np.ndarray) -> None:
         """Mark the cells under a hull carved off a wall at time ``t``: no structure while remembered."""
         if self._stamp(self.hull_seen, t, points_ne):
             self.newest_hull = max(self.newest_hull, t)
+
+    def lids_at(self, t: float, points_ne: np.ndarray) -> np.ndarray:
+        """(n,) for each point, the highest lid (least down, m) of the structure remembered on or next to its cell
+        within ``memory_s`` of ``t``; inf where none is."""
+        n = len(points_ne)
+        if self.origin is None or n == 0:
+            return np.full(n, np.inf)
+        i, j, _ = self._index(points_ne)
+        ni, nj = i[:, None] + _NEIGHBOURS[None, :, 0], j[:, None] + _NEIGHBOURS[None, :, 1]
+        on_grid = (ni >= 0) & (ni < self.cells) & (nj >= 0) & (nj < self.cells)
+        flat = np.clip(ni, 0, self.cells - 1) * self.cells + np.clip(nj, 0, self.cells - 1)
+        seen = (np.take(self.last_seen.ravel(), flat) >= t - self.cfg.memory_s) & on_grid
+        return np.where(seen, np.take(self.lid_down.ravel(), flat), np.inf).min(axis=1)
 
     def known(self, t: float, points_ne: np.ndarray) -> np.ndarray:
         """(n,) bool: the point lies on, or next to, a cell seen under structure within ``memory_s`` of ``t``."""
@@ -149,8 +206,9 @@ class StructureMemory:
         hull = np.any((np.take(self.hull_seen.ravel(), flat) >= since) & on_grid, axis=1)  # nothing is known
         return structure & ~hull
 
-    def continues(self, t: float, footprints: list[np.ndarray]) -> np.ndarray:
-        """(k,) bool: each footprint is a thin straight piece whose own line runs on into remembered structure.
+    def continues(self, t: float, footprints: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """(k,) bool: each footprint is a thin straight piece whose own line runs on into remembered structure; and
+        (k,) the highest lid of the structure its line met (inf for the others).
 
         A quay wall far off comes back as pieces: only the lowest beam reaches it, and boats moored along it cut it
         up with their shadows. A piece is as long as a boat, but it lies on the line of the wall already seen; a
@@ -159,18 +217,18 @@ class StructureMemory:
         at least ``line_min_share`` of one side's samples fall on remembered structure."""
         cfg = self.cfg
         k = len(footprints)
-        out = np.zeros(k, dtype=bool)
+        out, lids = np.zeros(k, dtype=bool), np.full(k, np.inf)
         if self.origin is None or k == 0 or cfg.line_reach_m <= 0 or not self._remembers_any(t):
-            return out
+            return out, lids
         sizes = np.array([len(f) for f in footprints])
         usable = sizes >= 3
         if not usable.any():
-            return out
+            return out, lids
         idx = np.flatnonzero(usable)
         mean, axis, lo, hi, minor_std = principal_extents([footprints[i] for i in idx])
         thin = (minor_std <= cfg.line_max_thickness_m) & (hi - lo >= cfg.line_min_length_m)
         if not thin.any():
-            return out
+            return out, lids
         # Only a thin piece can continue a wall: the others' lines need not be looked up.
         mean, axis, lo, hi = mean[thin], axis[thin], lo[thin], hi[thin]
         steps = np.arange(1, int(cfg.line_reach_m / cfg.cell_m) + 1) * cfg.cell_m + cfg.line_gap_m  # (S,)
@@ -182,7 +240,8 @@ class StructureMemory:
         known = self.known(t, samples).reshape(mean.shape[0], 2, s_count)
         share = known.mean(axis=2).max(axis=1)
         out[idx[thin]] = share >= cfg.line_min_share
-        return out
+        lids[idx[thin]] = self.lids_at(t, samples).reshape(mean.shape[0], -1).min(axis=1)
+        return out, lids
 
     def known_fraction(self, t: float, points_ne: np.ndarray) -> float:
         """Share of the points that are :meth:`known`."""

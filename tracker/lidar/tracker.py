@@ -44,7 +44,7 @@ from tracker.lidar.shape_fit import (
     guard_heading,
     prepare_all,
 )
-from tracker.lidar.structure import StructureMemory
+from tracker.lidar.structure import StructureMemory, structure_lids
 from tracker.lifecycle import IdSource, Lifecycle, TrackLife, TrackStatus
 from tracker.line_of_sight import in_shadow
 from tracker.types import Detection, ShapeKind, Track
@@ -198,7 +198,7 @@ class LidarTracker:
             return big
         self.structure.follow(own)
         if big.any():
-            self.structure.remember(t, np.concatenate([result.footprints[k] for k in np.flatnonzero(big)]))
+            self._remember_structure(t, result, np.flatnonzero(big), own)
         # A hull carved off a wall stands in front of its face: where the memory has wall there, it is from a scan
         # whose hull and wall had merged; and its side runs along the wall's line without being the wall.
         carved = result.carved if result.carved is not None else np.zeros(big.size, dtype=bool)
@@ -210,13 +210,49 @@ class LidarTracker:
             known = self.structure.known(t, np.concatenate([result.footprints[k] for k in small]))
             share = np.add.reduceat(known.astype(float), np.cumsum(sizes) - sizes) / np.maximum(sizes, 1)
             big[small] = (sizes > 0) & (share >= cfg.min_fraction)
+            on_structure = small[big[small]]
+            if on_structure.size and cfg.taller_margin_m >= 0:
+                big[on_structure] = ~self._taller_than_structure(t, result, on_structure)
         rest = np.flatnonzero(~big & ~carved)
         if rest.size:
-            walls = rest[self.structure.continues(t, [result.footprints[k] for k in rest])]
+            on_line, line_lids = self.structure.continues(t, [result.footprints[k] for k in rest])
+            if cfg.taller_margin_m >= 0:  # a boat's side along the wall's line standing above the wall is no wall
+                on_line &= ~self._above(result, rest, line_lids)
+            walls = rest[on_line]
             if walls.size:  # remembered in turn, so a wall seen piece by piece is followed along its length
                 big[walls] = True
-                self.structure.remember(t, np.concatenate([result.footprints[k] for k in walls]))
+                self._remember_structure(t, result, walls, own, line_lids[on_line])
         return big
+
+    def _remember_structure(
+        self, t: float, result: ClusterResult, ks: np.ndarray, own: np.ndarray, known_lids: np.ndarray | None = None
+    ) -> None:
+        """Remember clusters ``ks`` of ``result`` as structure seen at ``t``, each with its lid, but none higher
+        than ``known_lids`` (the structure it was found to belong to; inf: none known)."""
+        lids = structure_lids([result.clusters[k] for k in ks], own, self.config.structure.lid_bin_m)
+        if known_lids is not None:
+            lids = np.where(np.isfinite(known_lids), np.maximum(lids, known_lids), lids)
+        sizes = [len(result.footprints[k]) for k in ks]
+        self.structure.remember(t, np.concatenate([result.footprints[k] for k in ks]), np.repeat(lids, sizes))
+
+    def _lids_under(self, t: float, result: ClusterResult, ks: np.ndarray) -> np.ndarray:
+        """(len(ks),) the highest lid remembered on or next to each cluster's footprint (inf: none), one lookup."""
+        sizes = np.array([len(result.footprints[k]) for k in ks])
+        lids = self.structure.lids_at(t, np.concatenate([result.footprints[k] for k in ks]))
+        return np.minimum.reduceat(lids, np.cumsum(sizes) - sizes)
+
+    def _above(self, result: ClusterResult, ks: np.ndarray, lids: np.ndarray) -> np.ndarray:
+        """(len(ks),) bool: at least ``taller_min_share`` of cluster k's returns stand more than ``taller_margin_m``
+        above ``lids[k]`` (world down, m): a cabin, not a stray return or two above a quay's edge."""
+        cfg = self.config.structure
+        sizes = np.array([len(result.clusters[k]) for k in ks])
+        z = np.concatenate([result.clusters[k][:, 2] for k in ks])
+        above = (z < np.repeat(lids - cfg.taller_margin_m, sizes)).astype(float)
+        return np.add.reduceat(above, np.cumsum(sizes) - sizes) >= cfg.taller_min_share * sizes
+
+    def _taller_than_structure(self, t: float, result: ClusterResult, ks: np.ndarray) -> np.ndarray:
+        """(len(ks),) bool: cluster k stands above the lid of the structure remembered under it."""
+        return self._above(result, ks, self._lids_under(t, result, ks))
 
     @staticmethod
     def _sweep_times(result: ClusterResult, point_times: np.ndarray | None, t: float) -> np.ndarray:
@@ -468,7 +504,7 @@ class LidarTracker:
             self._lives[ti].miss(t)
         lapsed = [i for i, life in enumerate(self._lives) if not life.alive]
         self._remember_lost(t, lapsed)
-        dead = lapsed + self._static_structure(t)
+        dead = lapsed + self._static_structure(t, own)
         dead += self._duplicates(set(dead), own, known)
         dead = sorted(set(dead))
         if dead:
@@ -552,7 +588,7 @@ class LidarTracker:
         self.stats["reacquired"] += 1
         return life
 
-    def _static_structure(self, t: float) -> list[int]:
+    def _static_structure(self, t: float, own: np.ndarray) -> list[int]:
         """Tracks that are quay, not vessel: confirmed, at least ``static_min_length_m`` long and slower than
         ``static_max_speed_mps`` for ``static_min_age_s``. Their clusters are remembered as structure (so the next
         pieces of the same wall get no track either) and the tracks end. On the tuning scenes a 25-45 m stretch of
@@ -572,8 +608,11 @@ class LidarTracker:
             if life.confirmed and life.age >= cfg.static_min_age_s:
                 out.append(i)
                 mine = [k for k, tid in enumerate(self.last_cluster_track) if tid == life.id]
-                if mine:
-                    self.structure.remember(t, np.concatenate([self._cluster_result.footprints[k] for k in mine]))
+                if mine:  # the track may have taken a boat moored by the quay this scan: it lends no cabin to the quay
+                    ks = np.array(mine)
+                    self._remember_structure(
+                        t, self._cluster_result, ks, own, self._lids_under(t, self._cluster_result, ks)
+                    )
         return out
 
     def _structure_sized(self, x: np.ndarray) -> np.ndarray:
