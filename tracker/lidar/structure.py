@@ -38,7 +38,6 @@ _NEIGHBOURS = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=n
 # The VLP-16's beams are 2 deg apart: a solid whose top return came from one beam stands no higher than where the
 # next beam up passed at its range, or that beam would have returned too.
 _NEXT_BEAM_TAN = math.tan(math.radians(2.0))
-_BIN_KEY = 1 << 32  # cluster index * _BIN_KEY + bin index along it: one key per (cluster, bin)
 
 
 def structure_lids(clusters: list[np.ndarray], own_ne: np.ndarray, bin_m: float) -> np.ndarray:
@@ -48,17 +47,21 @@ def structure_lids(clusters: list[np.ndarray], own_ne: np.ndarray, bin_m: float)
     smaller part of its cluster, so the median is the wall's and not a cabin's. All clusters in one pass."""
     n = np.array([len(c) for c in clusters])
     pts = np.concatenate([np.asarray(c, dtype=float)[:, :3] for c in clusters])
-    mean, axis, lo, _hi, _spread = principal_extents([np.asarray(c, dtype=float)[:, :2] for c in clusters])
+    mean, axis, lo, hi, _spread = principal_extents([np.asarray(c, dtype=float)[:, :2] for c in clusters])
     owner = np.repeat(np.arange(len(clusters)), n)
     d = pts[:, :2] - mean[owner]
     along = d[:, 0] * axis[owner, 0] + d[:, 1] * axis[owner, 1] - lo[owner]
     rng = np.hypot(pts[:, 0] - own_ne[0], pts[:, 1] - own_ne[1])
     bound = pts[:, 2] - rng * _NEXT_BEAM_TAN  # down: smaller is higher
-    key = owner * _BIN_KEY + np.floor(along / bin_m).astype(np.int64)
-    bins, inverse = np.unique(key, return_inverse=True)
-    top = np.full(bins.size, np.inf)
-    np.minimum.at(top, inverse, bound)
-    bin_owner = bins // _BIN_KEY
+    # Each cluster's bins side by side in one array (a dense index: np.unique over the keys cost 40 times more).
+    n_bins = np.floor((hi - lo) / bin_m).astype(np.int64) + 1
+    first = np.cumsum(n_bins) - n_bins
+    index = first[owner] + np.clip(np.floor(along / bin_m).astype(np.int64), 0, n_bins[owner] - 1)
+    top = np.full(int(n_bins.sum()), np.inf)
+    np.minimum.at(top, index, bound)
+    bin_owner = np.repeat(np.arange(len(clusters)), n_bins)
+    seen = np.isfinite(top)
+    top, bin_owner = top[seen], bin_owner[seen]
     order = np.lexsort((top, bin_owner))
     counts = np.bincount(bin_owner, minlength=len(clusters))
     return top[order][np.cumsum(counts) - counts + counts // 2]
