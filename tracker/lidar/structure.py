@@ -229,9 +229,10 @@ class StructureMemory:
             return out, lids
         idx = np.flatnonzero(usable)
         mean, axis, lo, hi, minor_std = principal_extents([footprints[i] for i in idx])
-        thin = (minor_std <= cfg.line_max_thickness_m) & (hi - lo >= cfg.line_min_length_m)
+        thin = (minor_std <= cfg.line_max_thickness_m) & (hi - lo >= cfg.short_line_min_length_m)
         if not thin.any():
             return out, lids
+        length = (hi - lo)[thin]
         # Only a thin piece can continue a wall: the others' lines need not be looked up.
         mean, axis, lo, hi = mean[thin], axis[thin], lo[thin], hi[thin]
         steps = np.arange(1, int(cfg.line_reach_m / cfg.cell_m) + 1) * cfg.cell_m + cfg.line_gap_m  # (S,)
@@ -242,7 +243,8 @@ class StructureMemory:
         samples = np.stack([beyond_lo, beyond_hi], axis=1).reshape(-1, 2)
         known = self.known(t, samples).reshape(mean.shape[0], 2, s_count)
         share = known.mean(axis=2).max(axis=1)
-        out[idx[thin]] = share >= cfg.line_min_share
+        needed = np.where(length >= cfg.line_min_length_m, cfg.line_min_share, cfg.short_line_min_share)
+        out[idx[thin]] = share >= needed
         lids[idx[thin]] = self.lids_at(t, samples).reshape(mean.shape[0], -1).min(axis=1)
         return out, lids
 
