@@ -95,3 +95,32 @@ def test_a_boat_taller_than_its_quay_stays_a_vessel(taller_margin_m: float, boat
     assert detections_near(tracker, cabin_boat(10.0, 15.5), 5.0, 10.0, 15.5) == (1 if boat_is_vessel else 0)
     # A piece of the same wall alone, no higher than the wall, stays structure either way.
     assert detections_near(tracker, wall(-30.0, -12.0), 6.0, -21.0, 16.0) == 0
+
+
+def quay_top(north_from: float, north_to: float, east_from: float = 16.0, depth: float = 8.0) -> np.ndarray:
+    """The quay's top behind its face, 1.8 m up, a return every 0.5 m (world NED)."""
+    n, e = np.meshgrid(np.arange(north_from, north_to, 0.5), np.arange(east_from, east_from + depth, 0.5))
+    return np.column_stack([n.ravel(), e.ravel(), np.full(n.size, -1.8)])
+
+
+@pytest.mark.parametrize(
+    "short_length_m, short_share, piece_is_wall, face_is_wall",
+    [(1.5, 0.5, True, False), (4.0, 0.5, False, False), (1.5, 0.25, True, True)],
+)
+def test_a_short_piece_on_a_walls_line_is_wall_and_a_face_across_it_is_not(
+    short_length_m: float, short_share: float, piece_is_wall: bool, face_is_wall: bool
+) -> None:
+    cfg = StructureConfig(short_line_min_length_m=short_length_m, short_line_min_share=short_share)
+    tracker = LidarTracker(LidarTrackerConfig(structure=cfg))
+    assert tracker.detect(np.concatenate([wall(-40.0, 40.0), quay_top(-40.0, 40.0)]), 0.0, OWN) == []
+    # 5 s later: a 2 m piece of the same wall 5 m past the remembered end (a far quay seen by one beam), and a
+    # boat's 2 m end face 4 m off the wall, pointing at it: its line crosses the wall and the quay's top behind it
+    # (8 m of its 30 m reach) instead of running along them.
+    face = np.concatenate(
+        [np.column_stack([np.full(20, 30.0), np.arange(10.0, 12.0, 0.1), np.full(20, z)]) for z in (-0.4, -0.9)]
+    )
+    dets = tracker.detect(np.concatenate([wall(45.0, 47.0), face]), 5.0, OWN)
+    assert sum(1 for d in dets if abs(d.center[1] - 16.0) < 1.0) == (0 if piece_is_wall else 1)
+    assert sum(1 for d in dets if abs(d.center[0] - 30.0) < 1.0 and abs(d.center[1] - 11.0) < 1.5) == (
+        0 if face_is_wall else 1
+    )
