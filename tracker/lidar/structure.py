@@ -217,7 +217,8 @@ class StructureMemory:
         up with their shadows. A piece is as long as a boat, but it lies on the line of the wall already seen; a
         boat moored against the wall shows its near side, a beam's width off that line. Tested by sampling the
         piece's principal axis beyond both ends (``line_reach_m`` each way, one sample a cell) and asking whether
-        at least ``line_min_share`` of one side's samples fall on remembered structure."""
+        at least ``line_min_share`` of one side's samples fall on remembered structure; for a piece shorter than
+        ``line_min_length_m`` (down to ``short_line_min_length_m``), ``short_line_min_share``."""
         cfg = self.cfg
         k = len(footprints)
         out, lids = np.zeros(k, dtype=bool), np.full(k, np.inf)

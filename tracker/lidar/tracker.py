@@ -216,8 +216,9 @@ class LidarTracker:
         rest = np.flatnonzero(~big & ~carved)
         if rest.size:
             on_line, line_lids = self.structure.continues(t, [result.footprints[k] for k in rest])
-            if cfg.taller_margin_m >= 0:  # a boat's side along the wall's line standing above the wall is no wall
-                on_line &= ~self._above(result, rest, line_lids)
+            candidates = np.flatnonzero(on_line)
+            if candidates.size and cfg.taller_margin_m >= 0:  # a boat's side standing above the wall is no wall
+                on_line[candidates] = ~self._above(result, rest[candidates], line_lids[candidates])
             walls = rest[on_line]
             if walls.size:  # remembered in turn, so a wall seen piece by piece is followed along its length
                 big[walls] = True
