@@ -144,27 +144,29 @@ class StructureMemory:
         i, j = ij[:, 0], ij[:, 1]
         return i, j, (i >= 0) & (i < self.cells) & (j >= 0) & (j < self.cells)
 
-    def _stamp(self, grid: np.ndarray, t: float, points_ne: np.ndarray) -> bool:
-        """Set ``grid``'s cells under the points to ``t``; False when there was nothing to stamp."""
+    def _stamp(self, grid: np.ndarray, t: float, points_ne: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """Set ``grid``'s cells under the points to ``t``; the (i, j) of the points on the grid and a mask of them,
+        None when there was nothing to stamp."""
         if self.origin is None or len(points_ne) == 0:
-            return False
+            return None
         i, j, inside = self._index(points_ne)
         grid[i[inside], j[inside]] = t
-        return True
+        return (i[inside], j[inside]), inside
 
     def remember(self, t: float, points_ne: np.ndarray, lid_down: np.ndarray | None = None) -> None:
         """Mark the cells under structure returns (or footprint cells) seen at time ``t``, each point with the lid
         (world down, m) of the structure it belongs to (None: not known, nothing stands above it); a cell keeps
         the highest lid stamped on it."""
-        if self._stamp(self.last_seen, t, points_ne):
+        stamped = self._stamp(self.last_seen, t, points_ne)
+        if stamped is not None:
             self.newest = max(self.newest, t)
-            i, j, inside = self._index(points_ne)
-            lids = np.full(len(i), -np.inf) if lid_down is None else np.asarray(lid_down, dtype=float)
-            np.minimum.at(self.lid_down, (i[inside], j[inside]), lids[inside])
+            cells, inside = stamped
+            lids = np.full(len(inside), -np.inf) if lid_down is None else np.asarray(lid_down, dtype=float)
+            np.minimum.at(self.lid_down, cells, lids[inside])
 
     def remember_hull(self, t: float, points_ne: np.ndarray) -> None:
         """Mark the cells under a hull carved off a wall at time ``t``: no structure while remembered."""
-        if self._stamp(self.hull_seen, t, points_ne):
+        if self._stamp(self.hull_seen, t, points_ne) is not None:
             self.newest_hull = max(self.newest_hull, t)
 
     def lids_at(self, t: float, points_ne: np.ndarray) -> np.ndarray:
@@ -173,10 +175,7 @@ class StructureMemory:
         n = len(points_ne)
         if self.origin is None or n == 0:
             return np.full(n, np.inf)
-        i, j, _ = self._index(points_ne)
-        ni, nj = i[:, None] + _NEIGHBOURS[None, :, 0], j[:, None] + _NEIGHBOURS[None, :, 1]
-        on_grid = (ni >= 0) & (ni < self.cells) & (nj >= 0) & (nj < self.cells)
-        flat = np.clip(ni, 0, self.cells - 1) * self.cells + np.clip(nj, 0, self.cells - 1)
+        flat, on_grid = self._neighbour_cells(points_ne, _NEIGHBOURS)
         seen = (np.take(self.last_seen.ravel(), flat) >= t - self.cfg.memory_s) & on_grid
         return np.where(seen, np.take(self.lid_down.ravel(), flat), np.inf).min(axis=1)
 
@@ -193,15 +192,21 @@ class StructureMemory:
         disc = np.hypot(di, dj) * self.cfg.cell_m <= radius_m + 0.5 * self.cfg.cell_m
         return self._seen_within(t, points_ne, np.column_stack([di[disc], dj[disc]]))
 
+    def _neighbour_cells(self, points_ne: np.ndarray, offsets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(n, k) flat index of the cell at each of the (k, 2) cell ``offsets`` from each point's cell (clipped to
+        the grid), and whether that cell lies on the grid."""
+        i, j, _ = self._index(points_ne)
+        ni, nj = i[:, None] + offsets[None, :, 0], j[:, None] + offsets[None, :, 1]
+        on_grid = (ni >= 0) & (ni < self.cells) & (nj >= 0) & (nj < self.cells)
+        flat = np.clip(ni, 0, self.cells - 1) * self.cells + np.clip(nj, 0, self.cells - 1)  # a 2-D gather costs 3x
+        return flat, on_grid
+
     def _seen_within(self, t: float, points_ne: np.ndarray, offsets: np.ndarray) -> np.ndarray:
         """(n,) bool: a cell at one of the (k, 2) cell ``offsets`` from the point's cell was seen under structure
         within ``memory_s`` of ``t``."""
         if self.origin is None or len(points_ne) == 0 or not self._remembers_any(t):
             return np.zeros(len(points_ne), dtype=bool)
-        i, j, _ = self._index(points_ne)
-        ni, nj = i[:, None] + offsets[None, :, 0], j[:, None] + offsets[None, :, 1]
-        on_grid = (ni >= 0) & (ni < self.cells) & (nj >= 0) & (nj < self.cells)
-        flat = np.clip(ni, 0, self.cells - 1) * self.cells + np.clip(nj, 0, self.cells - 1)  # a 2-D gather costs 3x
+        flat, on_grid = self._neighbour_cells(points_ne, offsets)
         since = t - self.cfg.memory_s
         structure = np.any((np.take(self.last_seen.ravel(), flat) >= since) & on_grid, axis=1)  # off the grid
         if self.newest_hull < since:  # no hull carved within memory_s (most scans): the second gather is not needed

@@ -212,7 +212,7 @@ class LidarTracker:
             big[small] = (sizes > 0) & (share >= cfg.min_fraction)
             on_structure = small[big[small]]
             if on_structure.size and cfg.taller_margin_m >= 0:
-                big[on_structure] = ~self._taller_than_structure(t, result, on_structure)
+                big[on_structure] = ~self._above(result, on_structure, self._lids_under(t, result, on_structure))
         rest = np.flatnonzero(~big & ~carved)
         if rest.size:
             on_line, line_lids = self.structure.continues(t, [result.footprints[k] for k in rest])
@@ -250,10 +250,6 @@ class LidarTracker:
         z = np.concatenate([result.clusters[k][:, 2] for k in ks])
         above = (z < np.repeat(lids - cfg.taller_margin_m, sizes)).astype(float)
         return np.add.reduceat(above, np.cumsum(sizes) - sizes) >= cfg.taller_min_share * sizes
-
-    def _taller_than_structure(self, t: float, result: ClusterResult, ks: np.ndarray) -> np.ndarray:
-        """(len(ks),) bool: cluster k stands above the lid of the structure remembered under it."""
-        return self._above(result, ks, self._lids_under(t, result, ks))
 
     @staticmethod
     def _sweep_times(result: ClusterResult, point_times: np.ndarray | None, t: float) -> np.ndarray:
