@@ -124,3 +124,34 @@ def test_a_short_piece_on_a_walls_line_is_wall_and_a_face_across_it_is_not(
     assert sum(1 for d in dets if abs(d.center[0] - 30.0) < 1.0 and abs(d.center[1] - 11.0) < 1.5) == (
         0 if face_is_wall else 1
     )
+
+
+def line_of_returns(start: np.ndarray, direction: np.ndarray, length: float) -> np.ndarray:
+    """One laser's returns every 0.1 m along a straight line 0.5 m above the water (world NED): a quay's face met
+    by one beam, or a hull's side seen so."""
+    s = np.arange(0.0, length, 0.1)
+    xy = start[None, :] + s[:, None] * direction[None, :]
+    return np.column_stack([xy, np.full(s.size, -0.5)])
+
+
+@pytest.mark.parametrize(
+    "speed_mps, thin_max_width_m, reported",
+    [(0.0, 0.3, False), (0.0, 0.0, True), (2.0, 0.3, True)],
+)
+def test_a_line_with_its_ends_in_view_is_no_vessel_until_it_moves(
+    speed_mps: float, thin_max_width_m: float, reported: bool
+) -> None:
+    """A 6 m line of returns seen obliquely from 25 m (its near end in view, so a hull of any beam would have shown
+    an end face) keeps a track a few centimetres wide: a piece of quay, reported tentative; the rule off, or the
+    line moving at 2 m/s (a hull's side), it is a vessel."""
+    tracker = LidarTracker(LidarTrackerConfig(structure=StructureConfig(thin_max_width_m=thin_max_width_m)))
+    direction = np.array([6.0, 2.0]) / np.hypot(6.0, 2.0)
+    start = np.array([20.0, 10.0])
+    for k in range(40):  # 4 s at 10 Hz
+        t = 0.1 * k
+        tracks = tracker.step(line_of_returns(start + speed_mps * t * direction, direction, 6.0), t, OWN)
+    assert len(tracks) == 1
+    track = tracks[0]
+    assert track.width < 0.05  # no beam prior: the near end was in view
+    assert abs(track.length - 6.0) < 0.3
+    assert track.confirmed == reported

@@ -671,15 +671,18 @@ class LidarTracker:
         return out
 
     def _unproven_structure(self, x: np.ndarray, velocities: np.ndarray) -> np.ndarray:
-        """(T,) bool: tracks of structure size (``static_min_length_m``) that have not shown a speed above
-        ``static_max_speed_mps`` (``velocities`` NaN where unknown). Such a track is a quay stretch until it moves
-        (``_static_structure`` ends it at ``static_min_age_s``), so it is reported tentative until then."""
+        """(T,) bool: tracks shaped like structure that have not shown a speed above ``static_max_speed_mps``
+        (``velocities`` NaN where unknown), reported tentative until they move. Structure-sized ones
+        (``static_min_length_m``) are a quay stretch, which ``_static_structure`` ends at ``static_min_age_s``; ones
+        thinner than any hull (``thin_max_width_m``, at least ``thin_min_length_m`` long) are a line of returns with
+        its ends in view. One that moves is a hull seen side-on."""
         cfg = self.config.structure
-        if cfg.static_min_length_m <= 0:
-            return np.zeros(len(x), dtype=bool)
+        shaped = (x[:, WID] < cfg.thin_max_width_m) & (x[:, LEN] >= cfg.thin_min_length_m)
+        if cfg.static_min_length_m > 0:
+            shaped |= self._structure_sized(x)
         with np.errstate(invalid="ignore"):
             moving = np.hypot(velocities[:, 0], velocities[:, 1]) > cfg.static_max_speed_mps
-        return self._structure_sized(x) & ~moving
+        return shaped & ~moving
 
     def _unseen_guess(self, velocity_known: np.ndarray) -> np.ndarray:
         """(T,) bool: tracks whose velocity is not known yet (``velocity_known`` False), unseen for longer than
