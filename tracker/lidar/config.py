@@ -495,16 +495,16 @@ class StructureConfig:
     # 49-64 and 81-100 (fused MOTA 0.9167 and 0.9387, against 0.9160 / 0.9378 and 0.9169 / 0.9384).
     taller_min_share: float = 0.015
     lid_bin_m: float = 1.0
-    # A track thinner than thin_max_width_m and at least thin_min_length_m long is reported tentative, not as a
-    # vessel, until it shows a speed above static_max_speed_mps: no hull is that thin, and the beam prior for a side
-    # seen alone (EkfConfig.beam_ratio) is not applied where a hull of that beam would have shown an end face, so a
-    # track stays this thin only on a line of returns whose ends were in view: a wall, a pontoon's edge or a boom,
-    # most often a stretch of quay between two moored boats met by one beam before any of that quay is remembered
-    # (a third of the false track-frames on tuning seeds 81-100 came in the first 10 s of 60). A hull's side seen so
-    # moves, or is a vessel at rest lost to the feed (tuning seed 93: a 14.5 m boat drifting at 0.5 m/s, 70 m off,
-    # met by one beam). Its returns stay in the obstacle array. 0 turns it off. Ours, chosen on tuning seeds 81-100
-    # (fused MOTA 0.9417 -> 0.9443, false positives -13 %; 0.15 m 0.9430; 0.5 m 0.9445 but 11 scenes worse; lines
-    # from 1.5 m 0.9441, from 3 m 0.9440), checked on 65-80 (0.9307 -> 0.9335). Held out (random:1001-1050, fused)
+    # A track thinner than thin_max_width_m and at least thin_min_length_m long is reported tentative, not as a vessel,
+    # until it shows a speed above static_max_speed_mps: no hull is that thin, and the beam prior for a side seen alone
+    # (EkfConfig.beam_ratio) is not applied where a hull of that beam would have shown an end face, so a track stays
+    # this thin only on a line of returns whose ends were in view: a wall, a pontoon's edge or a boom, often a stretch
+    # of quay between two moored boats met by one beam before any of that quay is remembered (a third of the false
+    # track-frames on tuning seeds 81-100 came in the first 10 s of 60, a third of those on tracks under 0.3 m wide). A
+    # hull's side seen so moves, or is a vessel at rest lost to the feed (tuning seed 93: a 14.5 m boat drifting at 0.5
+    # m/s, 70 m off, met by one beam). Its returns stay in the obstacle array. 0 turns it off. Ours, chosen on tuning
+    # seeds 81-100 (fused MOTA 0.9417 -> 0.9443, false positives -13 %; 0.15 m 0.9430; 0.5 m 0.9445 but 11 scenes worse;
+    # lines from 1.5 m 0.9441, from 3 m 0.9440), checked on 65-80 (0.9307 -> 0.9335). Held out (random:1001-1050, fused)
     # against none: MOTA 0.9307 -> 0.9324, worst scene 0.784 -> 0.793, false track-frames 3.9 -> 3.7 % of matches.
     thin_max_width_m: float = 0.3
     thin_min_length_m: float = 2.0
