@@ -286,6 +286,46 @@ def test_low_hulls_filling_most_of_a_grazing_beams_margin_returns_are_obstacles_
         assert np.count_nonzero(d <= 10000) == 2 * offsets.size  # and no crest anywhere else
 
 
+@pytest.mark.parametrize(
+    ("east_end", "far_share", "firings", "expected_cm"),
+    [(0.9, 0.001, 4, 7700), (0.65, 0.001, 3, None), (0.9, 0.06, 4, None)],
+    ids=["four-in-a-sparse-sea", "three-in-a-sparse-sea", "four-in-a-sea-returning-6-percent"],
+)
+def test_a_short_run_of_the_minus_1_deg_laser_far_out_is_an_obstacle_where_its_sea_is_sparse(
+    east_end: float, far_share: float, firings: int, expected_cm: int | None
+) -> None:
+    """A quay corner 77 m dead ahead, 0.5 m high, in the chop above: only the -1 deg laser meets it, 0.26 m above
+    the mean water (inside the sea margin), at one range, in four firings when it reaches 0.9 m to starboard of
+    the bow line (azimuths 0-0.6 deg; the next, 0.8 deg, passes 1.08 m off) and three when it reaches 0.65 m. A
+    line the tracker takes needs five (grazing_line_min_run, on a laser whose far sea returns at most 10 % of its
+    firings); where it returns at most 3 % (grazing_line_array_max_sporadic) four are a face for the obstacle
+    array (grazing_line_array_run), and bin 0 carries it. Three stay water, and so do four where the far sea
+    returns 6 % (a rough sea's crests draw runs of four there): the bin is unknown."""
+
+    def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(np.shape(t)), np.zeros(np.shape(t))
+
+    pipeline = lidar_pipeline(MOUNT)
+    ego = SteadyEgo(level, 0.0)
+    corner = (((77.0, -0.1), (77.0, east_end), 0.5),)
+    for k in range(3):
+        ret = revolution_over_water(
+            MOUNT, level, yaw=0.0, elevation=chop, t0=0.1 * k, walls=corner, water_share=(0.8, 30 + k, 20.0, far_share)
+        )
+        assert np.count_nonzero(ret.wall == 0) == firings  # all of the -1 deg laser, nothing else
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+        pre = pipeline.last_preprocess
+        assert pre.water.measured and pre.water.margin > 0.26  # the corner's returns lie inside the sea margin
+        obstacles = np.flatnonzero(out.distances_cm <= 10000).tolist()
+        if expected_cm is None:
+            assert out.distances_cm[0] == UNKNOWN and obstacles == []
+        else:
+            assert obstacles == [0] and abs(int(out.distances_cm[0]) - expected_cm) <= 5
+            assert len(pre.feet_world) == firings  # the obstacle array's
+            assert not np.any(np.hypot(*pre.points_world[:, :2].T) > 70.0)  # not the tracker's
+        assert out.tracks == []
+
+
 def test_a_low_pontoon_met_by_one_beam_stays_out_of_the_water_fit_and_is_an_obstacle() -> None:
     """A pontoon 0.45 m high and 60 m long lies 24 m off to starboard in the chop above; the sea returns 10 % of
     the firings meeting it. Only the -3 deg beam meets the pontoon, 0.34 m above the mean water abeam: a line of

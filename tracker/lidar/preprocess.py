@@ -250,7 +250,7 @@ def preprocess(
         n_water -= n_grazing
         solid |= foot
     # Rain and spray: alone in the range image (no firing beside it returned at its range).
-    isolated = grazing_face = None
+    isolated = grazing_face = short_lines = None
     if image is not None and cfg.continuity_min_neighbours > 0:
         need = cfg.continuity_min_neighbours + (r2_kept < cfg.continuity_near_range**2)
         alone = solid & (neighbours < need)
@@ -281,12 +281,11 @@ def preprocess(
             solid |= rescued
         elif cfg.grazing_line_min_run > 0 and estimate.measured:  # an unmeasured sea: its lines are not judged
             bins_kept = kept(bins) if bins is not None else bearing_bins(np.column_stack([bx, by]))
-            line = (
-                _grazing_lines(
-                    image, idx, horizontal, height, in_band, (estimate, beams), r2_kept, bins_kept, rings, cfg
-                )
-                & ~solid
-            )  # a foot on a face is solid already
+            line, short_lines = _grazing_lines(
+                image, idx, horizontal, height, in_band, (estimate, beams), r2_kept, bins_kept, rings, cfg
+            )
+            line &= ~solid  # a foot on a face is solid already
+            short_lines &= ~solid
             n_line = int(np.count_nonzero(line))
             n_grazing += n_line
             n_water -= n_line
@@ -335,6 +334,8 @@ def preprocess(
     )
     if grazing_face is not None:
         feet |= grazing_face
+    if short_lines is not None:
+        feet |= short_lines
     if everything:
         keep = good.copy()
     else:
@@ -380,8 +381,10 @@ def _grazing_lines(
     bins: np.ndarray,
     rings: np.ndarray,
     cfg: PreprocessConfig,
-) -> np.ndarray:
-    """(K,) over the kept returns: those within the sea margin that are a solid's face met at grazing incidence.
+) -> tuple[np.ndarray, np.ndarray]:
+    """(K,) each over the kept returns: those within the sea margin that are a solid's face met at grazing
+    incidence, and those in runs of grazing_line_array_run firings or more, short of grazing_line_min_run, on
+    lasers whose sea is sparser still (grazing_line_array_max_sporadic), for the obstacle array only.
 
     A returning sea still draws no lines far out: beyond grazing_line_min_range its returns come a firing or two at
     a time along a ring, while the strakes of a low hull at 20-60 m under the crests' margin, met by one beam,
@@ -413,7 +416,7 @@ def _grazing_lines(
     far = wet & (r2_kept >= cfg.grazing_line_min_range**2)
     far_idx = np.flatnonzero(far)
     if far_idx.size == 0:
-        return far
+        return far, far.copy()
     firings_per_bin = image.n_sequences / N_BINS
     reach = float(np.sqrt(r2_kept.max()))
     far_rings = rings[far_idx].astype(np.int64)
@@ -436,7 +439,11 @@ def _grazing_lines(
     sporadic_sea = (sporadic <= cfg.grazing_line_max_sporadic) & (fill <= cfg.grazing_line_max_fill)
     line = far.copy()
     line[far_idx[alone | ~sporadic_sea[far_rings]]] = False
-    return line
+    short = np.zeros_like(far)
+    if 0 < cfg.grazing_line_array_run < cfg.grazing_line_min_run:
+        sparser = sporadic_sea & (sporadic <= cfg.grazing_line_array_max_sporadic)
+        short[far_idx[alone & (runs >= cfg.grazing_line_array_run) & sparser[far_rings]]] = True
+    return line, short
 
 
 def _fill_below(fill: np.ndarray, wet_bins: np.ndarray) -> np.ndarray:
