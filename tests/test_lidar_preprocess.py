@@ -163,3 +163,27 @@ def test_ring_runs_count_consecutive_firings_at_one_range() -> None:
     # only the members count: without firing 2 the first run splits in two
     some = np.array([0, 1, 3, 4])
     assert image.ring_runs(some, r[some], 0.1, 0.02).tolist() == [2, 2, 2, 2]
+
+
+def test_returns_under_the_band_do_not_break_a_solid_lines_run_of_feet() -> None:
+    """One laser (ring 7) along a hull 40 m ahead: six firings on its side 0.6 m up (solid), then five along its
+    waterline in the troughs, 0.05 m under the surface (within the band and the sea margin) and, where the fitted surface stands above the
+    trough, 0.4 m under it (below min_height). The margin's returns are the hull's feet only in a run holding its
+    solid ones; the two under the band broke that run after the sixth firing, and the waterline went unknown. They
+    count in the run now, and all five are feet (obstacle array only, not the tracker's points). (Just under the
+    surface, not above it, so that the calm-water rule, which keeps a line's returns above the surface, does not
+    take them first.)"""
+    from tracker.lidar.range_image import FIRING_S, LASER_OF_RING, SEQUENCE_S
+
+    cfg = PreprocessConfig(origin_height_above_water=0.5)
+    seq = np.arange(11)
+    height = np.array([0.6] * 6 + [-0.4, -0.05, -0.4, -0.05, -0.05])
+    bearing = np.radians(0.2) * seq  # one firing every 0.2 deg
+    body = np.column_stack([40.0 * np.cos(bearing), 40.0 * np.sin(bearing), 0.5 - height])  # FRD: z down
+    ring = np.full(seq.size, 7)
+    point_t = seq * SEQUENCE_S + LASER_OF_RING[ring] * FIRING_S
+    res = preprocess(body, POS, 0.0, 0.0, 0.0, cfg, ring=ring, point_t=point_t)
+    assert res.points_world.shape[0] == 6  # the side: the tracker's
+    feet_north_east = res.feet_world[:, :2] - POS[:2]
+    expected = (body[6:, :2])[np.argsort(body[6:, 1])]
+    np.testing.assert_allclose(feet_north_east[np.argsort(feet_north_east[:, 1])], expected, atol=1e-9)
