@@ -328,7 +328,8 @@ def preprocess(
     # Feet of solid lines reach the obstacle array only. Given to the tracker as well they drew quays' clusters out
     # along their feet: held out, fused MOTA 0.798 -> 0.796 (worst scene 0.329 -> 0.226). Returns under the band
     # count as the margin's do: one beam along a hull's waterline 50 m off meets it in the troughs, under a surface
-    # the crests' returns lifted, and those firings broke the run that held the hull's solid returns.
+    # the crests' returns lifted, and those firings broke the run that held the hull's solid returns. Held out
+    # (random:1001-1050, fused): false-clear bins 853 -> 845, false-obstacle bins 3,801 -> 3,800, tracking unchanged.
     feet = (
         _feet_of_solid_lines(image, idx, horizontal, ~solid & (height <= cfg.max_height), good, r2_kept, cfg)
         if image is not None and cfg.solid_line_min_run > 0
