@@ -167,12 +167,12 @@ def test_ring_runs_count_consecutive_firings_at_one_range() -> None:
 
 def test_returns_under_the_band_do_not_break_a_solid_lines_run_of_feet() -> None:
     """One laser (ring 7) along a hull 40 m ahead: six firings on its side 0.6 m up (solid), then five along its
-    waterline in the troughs, 0.05 m under the surface (within the band and the sea margin) and, where the fitted surface stands above the
-    trough, 0.4 m under it (below min_height). The margin's returns are the hull's feet only in a run holding its
-    solid ones; the two under the band broke that run after the sixth firing, and the waterline went unknown. They
-    count in the run now, and all five are feet (obstacle array only, not the tracker's points). (Just under the
-    surface, not above it, so that the calm-water rule, which keeps a line's returns above the surface, does not
-    take them first.)"""
+    waterline in the troughs, 0.05 m under the surface (within the band and the sea margin) and, where the fitted
+    surface stands above the trough, 0.4 m under it (below min_height). The margin's returns are the hull's feet
+    only in a run holding its solid ones; the two under the band broke that run after the sixth firing, and the
+    waterline went unknown. They count in the run now, and all five are feet (obstacle array only, not the tracker's
+    points). (Just under the surface, not above it, so that the calm-water rule, which keeps a line's returns above
+    the surface, does not take them first.)"""
     from tracker.lidar.range_image import FIRING_S, LASER_OF_RING, SEQUENCE_S
 
     cfg = PreprocessConfig(origin_height_above_water=0.5)
