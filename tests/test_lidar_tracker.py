@@ -644,3 +644,36 @@ def test_a_long_hull_cut_by_a_passing_boats_shadow_keeps_its_length_place_and_tr
     assert second_tracks == 0
     assert worst_along < 0.5  # m
     assert shortest > 43.0  # m, of 45
+
+
+def _anchored_boat_and_its_bow_piece(piece_max_half_m: float) -> list[Track]:
+    """A 10 x 3 m boat at anchor broadside 12 m north, centred on east 0, whose forward 3 m return nothing (a dark
+    hull, a bow in spray) but, from 1 s, a 2 m-wide face at its bow (east 3.0-3.4): 1 m beyond the lit hull, past the
+    clustering's reach there (0.92 m at 12 m), so a cluster of its own, centred 4.7 m from the 7 m track's centre
+    (beyond its footprint and the merge gate), its own footprint touching the track's."""
+    config = LidarTrackerConfig()
+    config.association.duplicate_piece_max_half_m = piece_max_half_m
+    tracker = LidarTracker(config)
+    rng = np.random.default_rng(5)
+    lit = SyntheticObject((12.0, -1.5), math.pi / 2, 7.0, 3.0, 1.0, ShapeKind.BOX)
+    tracks: list[Track] = []
+    for k in range(40):
+        t = k * DT
+        pts = scan_objects([lit], ORIGIN, range_noise=0.02, rng=rng)
+        if t >= 1.0:
+            face = np.column_stack(
+                [rng.uniform(10.6, 12.6, 40), rng.uniform(3.0, 3.4, 40), rng.uniform(-1.5, -0.5, 40)]
+            )
+            pts = np.concatenate([pts, face])
+        tracks = tracker.step(pts, t, ORIGIN, 0.0)
+    return [tr for tr in tracks if tr.confirmed]
+
+
+def test_a_small_piece_whose_footprint_touches_a_hulls_track_is_no_second_vessel() -> None:
+    """The bow piece is the same hull (duplicate_piece_max_half_m): the boat's one confirmed track at the end; with
+    the rule off the piece is a second confirmed "vessel" 4.7 m from the first."""
+    confirmed = _anchored_boat_and_its_bow_piece(1.5)
+    assert len(confirmed) == 1
+    assert confirmed[0].position == pytest.approx([12.0, -1.5], abs=1.0)
+    off = _anchored_boat_and_its_bow_piece(0.0)
+    assert sorted(round(float(tr.position[1]), 1) for tr in off) == pytest.approx([-1.5, 3.2], abs=0.6)

@@ -618,16 +618,17 @@ class LidarTracker:
 
     def _duplicates(self, dying: set[int], own: np.ndarray, known: np.ndarray) -> list[int]:
         """Tracks that share a hull with a confirmed track: of each pair where either centre lies in the other's
-        footprint or in its shadow seen from ``own`` (``duplicate_shadow_m``), or where one whose velocity is not
-        ``known`` lies off the other's bow or stern while that one moves (``duplicate_end_gap_m``), the one with
-        fewer hits.
+        footprint or in its shadow seen from ``own`` (``duplicate_shadow_m``), where one whose velocity is not
+        ``known`` lies off the other's bow or stern while that one moves (``duplicate_end_gap_m``), or where one
+        no bigger than a piece (``duplicate_piece_max_half_m``) touches the other's footprint, the one with fewer
+        hits.
 
         A hull seen end-on shows a short face, and its far end or superstructure can come back as a second cluster
         beyond it that no merge gate reaches; that cluster starts a track, and the two then share the hull's
         detections between them and both live on as two "vessels" in one place. Either can come first: a piece of
         a far hull (its end, its cabin) is often tracked before the whole hull comes back around it. A piece is
         caught within seconds of its birth, so two tracks both older than ``duplicate_shadow_settled_s`` are no
-        pair by the shadow alone (two boats at anchor that the own boat's motion brings into line)."""
+        pair by the shadow or the touch alone (two boats at anchor that the own boat's motion brings into line)."""
         cfg = self.config.association
         n = len(self._lives)
         if cfg.duplicate_margin < 0 or n < 2:
@@ -644,6 +645,13 @@ class LidarTracker:
         overlap = inside | inside.T
         velocity = x[:, [VN, VE]]
         half = 0.5 * np.maximum(x[:, LEN], x[:, WID])
+        old = np.array([life.age >= cfg.duplicate_shadow_settled_s for life in self._lives])
+        settled = old[:, None] & old[None, :] if cfg.duplicate_shadow_settled_s > 0 else np.zeros((n, n), dtype=bool)
+        if cfg.duplicate_piece_max_half_m > 0:  # a piece whose footprint touches the host's, its centre outside
+            touch = (along <= 0.5 * x[:, [LEN]] + half[None, :] + cfg.duplicate_margin) & (
+                across <= 0.5 * x[:, [WID]] + half[None, :] + cfg.duplicate_margin
+            )
+            overlap |= touch & (half[None, :] <= cfg.duplicate_piece_max_half_m) & ~settled
         if cfg.duplicate_end_gap_m > 0:
             moving = known & (np.hypot(velocity[:, 0], velocity[:, 1]) >= cfg.duplicate_end_min_speed_mps)
             off_end = (along <= 0.5 * x[:, [LEN]] + half[None, :] + cfg.duplicate_end_gap_m) & beside
@@ -651,9 +659,7 @@ class LidarTracker:
         if cfg.duplicate_shadow_m > 0:
             centres = x[:, [PN, PE]]
             shadow = in_shadow(centres, half, centres, own, cfg.duplicate_shadow_m, cfg.duplicate_margin)
-            if cfg.duplicate_shadow_settled_s > 0:
-                old = np.array([life.age >= cfg.duplicate_shadow_settled_s for life in self._lives])
-                shadow &= ~(old[:, None] & old[None, :])
+            shadow &= ~settled
             overlap |= shadow | shadow.T
         dv = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
         same_motion = (dv <= cfg.duplicate_max_speed_diff) | ~(known[:, None] & known[None, :])
