@@ -677,3 +677,35 @@ def test_a_small_piece_whose_footprint_touches_a_hulls_track_is_no_second_vessel
     assert confirmed[0].position == pytest.approx([12.0, -1.5], abs=1.0)
     off = _anchored_boat_and_its_bow_piece(0.0)
     assert sorted(round(float(tr.position[1]), 1) for tr in off) == pytest.approx([-1.5, 3.2], abs=0.6)
+
+
+def _flat_line_and_a_ship(config: LidarTrackerConfig) -> list[list[Track]]:
+    """A 25 m line of returns all 0.5 m above the water, 50 m north, sliding east at 2 m/s (one beam along a quay's
+    face as the view changes), and a 25 m ship 6 m high, 60 m south, under way east at 2 m/s; 4 s, scan by scan."""
+    tracker = LidarTracker(config)
+    out = []
+    for k in range(40):
+        t = k * DT
+        east = np.arange(-10.0, 15.0, 0.1) + 2.0 * t
+        line = np.column_stack([np.full(east.size, 50.0), east, np.full(east.size, -0.5)])
+        ship = SyntheticObject((-60.0, -40.0 + 2.0 * t), math.pi / 2, 25.0, 5.0, 6.0, ShapeKind.BOX)
+        out.append(tracker.step(np.concatenate([line, scan_objects([ship], ORIGIN)]), t, ORIGIN, 0.0))
+    return out
+
+
+def test_a_structure_sized_line_of_one_beam_is_no_vessel_even_while_it_seems_to_move() -> None:
+    """The line's track "moves" at 2 m/s but spans no height (flat_max_height_m): never reported, while the ship
+    (its returns 2.9 m apart in height) is reported from 1.0 s, once its velocity is known, at 2.0 +- 0.1 m/s.
+    Without the rule the line is reported a vessel from 0.8 s on."""
+    scans = _flat_line_and_a_ship(LidarTrackerConfig())
+    reported = [[tr for tr in tracks if tr.confirmed] for tracks in scans]
+    assert [len(r) for r in reported] == [0] * 10 + [1] * 30
+    ship = reported[-1][0]
+    assert ship.position == pytest.approx([-60.0, -32.2], abs=1.0)
+    assert float(np.hypot(*ship.velocity)) == pytest.approx(2.0, abs=0.1)
+    assert ship.height == pytest.approx(2.9, abs=0.2)
+    config = LidarTrackerConfig()
+    config.structure.flat_max_height_m = 0.0
+    without = [[tr for tr in tracks if tr.confirmed] for tracks in _flat_line_and_a_ship(config)]
+    assert [len(r) for r in without] == [0] * 8 + [1] * 2 + [2] * 30
+    assert min(abs(float(tr.position[0]) - 50.0) for tr in without[-1]) < 5.0

@@ -684,11 +684,14 @@ class LidarTracker:
         its ends in view. One that moves is a hull seen side-on."""
         cfg = self.config.structure
         shaped = (x[:, WID] < cfg.thin_max_width_m) & (x[:, LEN] >= cfg.thin_min_length_m)
+        flat = np.zeros(len(x), dtype=bool)
         if cfg.static_min_length_m > 0:
-            shaped |= self._structure_sized(x)
+            sized = self._structure_sized(x)
+            shaped |= sized
+            flat = sized & (x[:, HGT] < cfg.flat_max_height_m)
         with np.errstate(invalid="ignore"):
             moving = np.hypot(velocities[:, 0], velocities[:, 1]) > cfg.static_max_speed_mps
-        return shaped & ~moving
+        return (shaped & ~moving) | flat
 
     def _unseen_guess(self, velocity_known: np.ndarray) -> np.ndarray:
         """(T,) bool: tracks whose velocity is not known yet (``velocity_known`` False), unseen for longer than
