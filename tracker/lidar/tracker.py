@@ -681,7 +681,8 @@ class LidarTracker:
         (``velocities`` NaN where unknown), reported tentative until they move. Structure-sized ones
         (``static_min_length_m``) are a quay stretch, which ``_static_structure`` ends at ``static_min_age_s``; ones
         thinner than any hull (``thin_max_width_m``, at least ``thin_min_length_m`` long) are a line of returns with
-        its ends in view. One that moves is a hull seen side-on."""
+        its ends in view. One that moves is a hull seen side-on. A structure-sized one spanning less than
+        ``flat_max_height_m`` of height is one beam along a quay, tentative however it seems to move."""
         cfg = self.config.structure
         shaped = (x[:, WID] < cfg.thin_max_width_m) & (x[:, LEN] >= cfg.thin_min_length_m)
         flat = np.zeros(len(x), dtype=bool)
