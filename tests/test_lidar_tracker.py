@@ -694,9 +694,9 @@ def _flat_line_and_a_ship(config: LidarTrackerConfig) -> list[list[Track]]:
 
 
 def test_a_structure_sized_line_of_one_beam_is_no_vessel_even_while_it_seems_to_move() -> None:
-    """The line's track "moves" at 2 m/s but spans no height (under flat_max_height_m, 1 m): never reported, while the ship
-    (its returns 2.9 m apart in height) is reported from 1.0 s, once its velocity is known, at 2.0 +- 0.1 m/s.
-    Without the rule the line is reported a vessel from 0.8 s on."""
+    """The line's track "moves" at 2 m/s but spans no height (under flat_max_height_m, 1 m): never reported, while
+    the ship (its returns 2.9 m apart in height) is reported from 1.0 s, once its velocity is known, at 2.0 +- 0.1
+    m/s. Without the rule the line is reported a vessel from 0.8 s on."""
     scans = _flat_line_and_a_ship(LidarTrackerConfig())
     reported = [[tr for tr in tracks if tr.confirmed] for tracks in scans]
     assert [len(r) for r in reported] == [0] * 10 + [1] * 30
