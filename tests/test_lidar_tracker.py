@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -679,26 +680,40 @@ def test_a_small_piece_whose_footprint_touches_a_hulls_track_is_no_second_vessel
     assert sorted(round(float(tr.position[1]), 1) for tr in off) == pytest.approx([-1.5, 3.2], abs=0.6)
 
 
-def _flat_line_and_a_ship(config: LidarTrackerConfig) -> list[list[Track]]:
-    """A 25 m line of returns all 0.5 m above the water, 50 m north, sliding east at 2 m/s (one beam along a quay's
-    face as the view changes), and a 25 m ship 6 m high, 60 m south, under way east at 2 m/s; 4 s, scan by scan."""
+def _long_line_sliding_east(t: float) -> np.ndarray:
+    """A 25 m line of returns all 0.5 m above the water, 50 m north, sliding east at 2 m/s: one beam along a quay's
+    face as the view changes."""
+    east = np.arange(-10.0, 15.0, 0.1) + 2.0 * t
+    return np.column_stack([np.full(east.size, 50.0), east, np.full(east.size, -0.5)])
+
+
+def _short_line_sliding_north(t: float) -> np.ndarray:
+    """An 8 m line of returns all 0.5 m above the water, 20 m east, from 40 m north, sliding north at 2 m/s: seen
+    obliquely, so its ends are in view and its track stays thin."""
+    north = np.arange(40.0, 48.0, 0.1) + 2.0 * t
+    return np.column_stack([north, np.full(north.size, 20.0), np.full(north.size, -0.5)])
+
+
+def _flat_line_and_a_ship(config: LidarTrackerConfig, line_at: Callable[[float], np.ndarray]) -> list[list[Track]]:
+    """The line ``line_at(t)`` and a 25 m ship 6 m high, 60 m south, under way east at 2 m/s; 4 s, scan by scan."""
     tracker = LidarTracker(config)
     out = []
     for k in range(40):
         t = k * DT
-        east = np.arange(-10.0, 15.0, 0.1) + 2.0 * t
-        line = np.column_stack([np.full(east.size, 50.0), east, np.full(east.size, -0.5)])
         ship = SyntheticObject((-60.0, -40.0 + 2.0 * t), math.pi / 2, 25.0, 5.0, 6.0, ShapeKind.BOX)
-        out.append(tracker.step(np.concatenate([line, scan_objects([ship], ORIGIN)]), t, ORIGIN, 0.0))
+        out.append(tracker.step(np.concatenate([line_at(t), scan_objects([ship], ORIGIN)]), t, ORIGIN, 0.0))
     return out
+
+
+def _confirmed(scans: list[list[Track]]) -> list[list[Track]]:
+    return [[tr for tr in tracks if tr.confirmed] for tracks in scans]
 
 
 def test_a_structure_sized_line_of_one_beam_is_no_vessel_even_while_it_seems_to_move() -> None:
     """The line's track "moves" at 2 m/s but spans no height (under flat_max_height_m, 1 m): never reported, while
     the ship (its returns 2.9 m apart in height) is reported from 1.0 s, once its velocity is known, at 2.0 +- 0.1
     m/s. Without the rule the line is reported a vessel from 0.8 s on."""
-    scans = _flat_line_and_a_ship(LidarTrackerConfig())
-    reported = [[tr for tr in tracks if tr.confirmed] for tracks in scans]
+    reported = _confirmed(_flat_line_and_a_ship(LidarTrackerConfig(), _long_line_sliding_east))
     assert [len(r) for r in reported] == [0] * 10 + [1] * 30
     ship = reported[-1][0]
     assert ship.position == pytest.approx([-60.0, -32.2], abs=1.0)
@@ -706,6 +721,23 @@ def test_a_structure_sized_line_of_one_beam_is_no_vessel_even_while_it_seems_to_
     assert ship.height == pytest.approx(2.9, abs=0.2)
     config = LidarTrackerConfig()
     config.structure.flat_max_height_m = 0.0
-    without = [[tr for tr in tracks if tr.confirmed] for tracks in _flat_line_and_a_ship(config)]
+    without = _confirmed(_flat_line_and_a_ship(config, _long_line_sliding_east))
     assert [len(r) for r in without] == [0] * 8 + [1] * 2 + [2] * 30
     assert min(abs(float(tr.position[0]) - 50.0) for tr in without[-1]) < 5.0
+
+
+def test_a_thin_line_of_one_beam_shorter_than_structure_is_no_vessel_even_while_it_seems_to_move() -> None:
+    """An 8 m line (thin, shorter than static_min_length_m) "moving" at 2 m/s with no height is held to the same
+    rule (flat_thin_min_length_m, 5 m): only the ship is ever reported. Without it the line is a vessel from 0.8 s
+    on."""
+    scans = _flat_line_and_a_ship(LidarTrackerConfig(), _short_line_sliding_north)
+    reported = _confirmed(scans)
+    assert [len(r) for r in reported] == [0] * 10 + [1] * 30
+    assert reported[-1][0].position == pytest.approx([-60.0, -32.2], abs=1.0)
+    line = [tr for tr in scans[-1] if abs(float(tr.position[1]) - 20.0) < 1.0]
+    assert len(line) == 1 and line[0].width < 0.3 and line[0].length == pytest.approx(7.9, abs=0.2)
+    config = LidarTrackerConfig()
+    config.structure.flat_thin_min_length_m = 0.0
+    without = _confirmed(_flat_line_and_a_ship(config, _short_line_sliding_north))
+    assert [len(r) for r in without] == [0] * 8 + [1] * 2 + [2] * 30
+    assert min(abs(float(tr.position[1]) - 20.0) for tr in without[-1]) < 1.0

@@ -681,15 +681,21 @@ class LidarTracker:
         (``velocities`` NaN where unknown), reported tentative until they move. Structure-sized ones
         (``static_min_length_m``) are a quay stretch, which ``_static_structure`` ends at ``static_min_age_s``; ones
         thinner than any hull (``thin_max_width_m``, at least ``thin_min_length_m`` long) are a line of returns with
-        its ends in view. One that moves is a hull seen side-on. A structure-sized one spanning less than
-        ``flat_max_height_m`` of height is one beam along a quay, tentative however it seems to move."""
+        its ends in view. One that moves is a hull seen side-on. A structure-sized one, or a thin one at least
+        ``flat_thin_min_length_m`` long, spanning less than ``flat_max_height_m`` of height is one beam along a quay,
+        tentative however it seems to move."""
         cfg = self.config.structure
         shaped = (x[:, WID] < cfg.thin_max_width_m) & (x[:, LEN] >= cfg.thin_min_length_m)
-        flat = np.zeros(len(x), dtype=bool)
+        long_line = (np.minimum(x[:, LEN], x[:, WID]) < cfg.thin_max_width_m) & (
+            np.maximum(x[:, LEN], x[:, WID]) >= cfg.flat_thin_min_length_m
+        )
+        if cfg.flat_thin_min_length_m <= 0:
+            long_line[:] = False
         if cfg.static_min_length_m > 0:
             sized = self._structure_sized(x)
             shaped |= sized
-            flat = sized & (x[:, HGT] < cfg.flat_max_height_m)
+            long_line |= sized
+        flat = long_line & (x[:, HGT] < cfg.flat_max_height_m)
         with np.errstate(invalid="ignore"):
             moving = np.hypot(velocities[:, 0], velocities[:, 1]) > cfg.static_max_speed_mps
         return (shaped & ~moving) | flat
