@@ -135,21 +135,24 @@ def line_of_returns(start: np.ndarray, direction: np.ndarray, length: float) -> 
 
 
 @pytest.mark.parametrize(
-    "speed_mps, thin_max_width_m, reported",
-    [(0.0, 0.3, False), (0.0, 0.0, True), (2.0, 0.3, True)],
+    "speed_mps, beams, thin_max_width_m, reported",
+    [(0.0, 1, 0.3, False), (0.0, 1, 0.0, True), (2.0, 2, 0.3, True), (2.0, 1, 0.3, False)],
 )
 def test_a_line_with_its_ends_in_view_is_no_vessel_until_it_moves(
-    speed_mps: float, thin_max_width_m: float, reported: bool
+    speed_mps: float, beams: int, thin_max_width_m: float, reported: bool
 ) -> None:
     """A 6 m line of returns seen obliquely from 25 m (its near end in view, so a hull of any beam would have shown
     an end face) keeps a track a few centimetres wide: a piece of quay, reported tentative; the rule off, or the
-    line moving at 2 m/s (a hull's side), it is a vessel."""
+    line moving at 2 m/s (a hull's side) met by two beams 1.2 m apart in height, it is a vessel. Met by one beam
+    (under flat_max_height_m), a moving line 5 m or longer stays tentative (flat_thin_min_length_m)."""
     tracker = LidarTracker(LidarTrackerConfig(structure=StructureConfig(thin_max_width_m=thin_max_width_m)))
     direction = np.array([6.0, 2.0]) / np.hypot(6.0, 2.0)
     start = np.array([20.0, 10.0])
     for k in range(40):  # 4 s at 10 Hz
         t = 0.1 * k
-        tracks = tracker.step(line_of_returns(start + speed_mps * t * direction, direction, 6.0), t, OWN)
+        line = line_of_returns(start + speed_mps * t * direction, direction, 6.0)
+        lines = [line + np.array([0.0, 0.0, -1.2 * b]) for b in range(beams)]
+        tracks = tracker.step(np.concatenate(lines), t, OWN)
     assert len(tracks) == 1
     track = tracks[0]
     assert track.width < 0.05  # no beam prior: the near end was in view
