@@ -686,11 +686,11 @@ class LidarTracker:
         tentative however it seems to move."""
         cfg = self.config.structure
         shaped = (x[:, WID] < cfg.thin_max_width_m) & (x[:, LEN] >= cfg.thin_min_length_m)
-        long_line = (np.minimum(x[:, LEN], x[:, WID]) < cfg.thin_max_width_m) & (
-            np.maximum(x[:, LEN], x[:, WID]) >= cfg.flat_thin_min_length_m
+        long_line = (
+            (cfg.flat_thin_min_length_m > 0)
+            & (np.minimum(x[:, LEN], x[:, WID]) < cfg.thin_max_width_m)
+            & (np.maximum(x[:, LEN], x[:, WID]) >= cfg.flat_thin_min_length_m)
         )
-        if cfg.flat_thin_min_length_m <= 0:
-            long_line[:] = False
         if cfg.static_min_length_m > 0:
             sized = self._structure_sized(x)
             shaped |= sized
