@@ -158,3 +158,30 @@ def test_a_line_with_its_ends_in_view_is_no_vessel_until_it_moves(
     assert track.width < 0.05  # no beam prior: the near end was in view
     assert abs(track.length - 6.0) < 0.3
     assert track.confirmed == reported
+
+
+@pytest.mark.parametrize(
+    "easts, run_min_pieces, vessels",
+    [
+        ((16.0, 16.0, 16.0), 3, 0),  # one wall in three pieces, 67 m end to end
+        ((16.0, 16.0, 16.0), 0, 3),  # the rule off
+        ((12.0, 13.5, 10.8), 3, 3),  # boats' sides along a wall, offset by their beams: no line
+    ],
+)
+def test_pieces_on_one_line_longer_than_a_vessel_are_a_wall_before_any_is_remembered(
+    easts: tuple[float, float, float], run_min_pieces: int, vessels: int
+) -> None:
+    """The first scan of a scene: a quay's face comes back in three pieces of 12-15 m (each vessel-sized) between
+    the shadows of what lies in front of it, nothing remembered yet. On one line and 67 m end to end together, longer
+    than any vessel, they are a wall; three faces at different offsets are not."""
+    tracker = LidarTracker(LidarTrackerConfig(structure=StructureConfig(run_min_pieces=run_min_pieces)))
+    spans = ((-35.0, -20.0), (-5.0, 10.0), (20.0, 32.0))
+    pieces = np.concatenate([wall(a, b, east) for (a, b), east in zip(spans, easts, strict=True)])
+    assert len(tracker.detect(pieces, 0.0, OWN)) == vessels
+    assert int(tracker.last_structure.sum()) == 3 - vessels
+
+
+def test_two_pieces_on_one_line_are_no_wall_yet() -> None:
+    """Two pieces always lie on one line: they say nothing of a wall (run_min_pieces 3)."""
+    tracker = LidarTracker(LidarTrackerConfig())
+    assert len(tracker.detect(np.concatenate([wall(-35.0, -20.0), wall(20.0, 32.0)]), 0.0, OWN)) == 2

@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.sparse.csgraph import connected_components
 
 from tracker.grid_shift import shift_in_place
 from tracker.lidar.config import StructureConfig
@@ -38,6 +39,11 @@ _NEIGHBOURS = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=n
 # The VLP-16's beams are 2 deg apart: a solid whose top return came from one beam stands no higher than where the
 # next beam up passed at its range, or that beam would have returned too.
 _NEXT_BEAM_TAN = math.tan(math.radians(2.0))
+# Pieces of one straight wall: their axes within this of each other and each one's centre this close to the
+# other's line (a thin piece's axis is good to a degree or two over 1.5 m or more; boats moored along a wall show
+# sides offset from it and from each other by their differing beams).
+_RUN_MAX_ANGLE_RAD = math.radians(5.0)
+_RUN_MAX_OFFSET_M = 1.0
 
 
 def structure_lids(clusters: list[np.ndarray], own_ne: np.ndarray, bin_m: float) -> np.ndarray:
@@ -257,3 +263,42 @@ class StructureMemory:
     def known_fraction(self, t: float, points_ne: np.ndarray) -> float:
         """Share of the points that are :meth:`known`."""
         return float(np.mean(self.known(t, points_ne))) if len(points_ne) else 0.0
+
+
+def collinear_runs(
+    footprints: list[np.ndarray], min_span_m: float, max_thickness_m: float, min_length_m: float, min_pieces: int
+) -> np.ndarray:
+    """(k,) bool: the thin straight pieces (minor spread <= ``max_thickness_m``, at least ``min_length_m`` long)
+    that lie on one line with other such pieces (axes within _RUN_MAX_ANGLE_RAD, each one's mean within
+    _RUN_MAX_OFFSET_M of the other's line), ``min_pieces`` or more spanning ``min_span_m`` or more together: a wall
+    longer than any vessel seen in pieces, by one beam or between the shadows of what lies in front of it. All
+    pieces of one scan at once. World NED (north, east), m."""
+    k = len(footprints)
+    out = np.zeros(k, dtype=bool)
+    sizes = np.array([len(f) for f in footprints])
+    idx = np.flatnonzero(sizes >= 3)
+    if min_pieces <= 0 or idx.size < min_pieces:
+        return out
+    mean, axis, lo, hi, minor = principal_extents([footprints[i] for i in idx])
+    thin = (minor <= max_thickness_m) & (hi - lo >= min_length_m)
+    if thin.sum() < min_pieces:
+        return out
+    idx, mean, axis, lo, hi = idx[thin], mean[thin], axis[thin], lo[thin], hi[thin]
+    normal = np.column_stack([-axis[:, 1], axis[:, 0]])
+    d = mean[None, :, :] - mean[:, None, :]  # (P, P, 2): j's mean from i's
+    off = np.abs((d * normal[:, None, :]).sum(axis=2))  # j's mean off i's line
+    parallel = np.abs(axis @ axis.T) >= math.cos(_RUN_MAX_ANGLE_RAD)
+    n_runs, run = connected_components(
+        parallel & (off <= _RUN_MAX_OFFSET_M) & (off.T <= _RUN_MAX_OFFSET_M), directed=False
+    )
+    for r in range(n_runs):  # runs are few: one per wall in view
+        members = np.flatnonzero(run == r)
+        if members.size < min_pieces:
+            continue
+        ref = axis[members[0]]
+        ends = (mean[members] @ ref)[:, None] + np.column_stack([lo[members], hi[members]]) * (axis[members] @ ref)[
+            :, None
+        ]
+        if ends.max() - ends.min() >= min_span_m:
+            out[idx[members]] = True
+    return out

@@ -44,7 +44,7 @@ from tracker.lidar.shape_fit import (
     guard_heading,
     prepare_all,
 )
-from tracker.lidar.structure import StructureMemory, structure_lids
+from tracker.lidar.structure import StructureMemory, collinear_runs, structure_lids
 from tracker.lifecycle import IdSource, Lifecycle, TrackLife, TrackStatus
 from tracker.line_of_sight import in_shadow
 from tracker.types import Detection, ShapeKind, Track
@@ -223,6 +223,19 @@ class LidarTracker:
             if walls.size:  # remembered in turn, so a wall seen piece by piece is followed along its length
                 big[walls] = True
                 self._remember_structure(t, result, walls, own, line_lids[on_line])
+        rest = np.flatnonzero(~big & ~carved)
+        if cfg.run_min_pieces > 0 and rest.size >= cfg.run_min_pieces:  # a wall in pieces, none of it remembered
+            runs = collinear_runs(
+                [result.footprints[k] for k in rest],
+                self.config.cluster.max_extent,
+                cfg.line_max_thickness_m,
+                cfg.short_line_min_length_m,
+                cfg.run_min_pieces,
+            )
+            walls = rest[runs]
+            if walls.size:  # remembered, so the wall-line rule follows the wall from here
+                big[walls] = True
+                self._remember_structure(t, result, walls, own)
         return big
 
     def _remember_structure(
