@@ -291,10 +291,8 @@ def collinear_runs(
     n_runs, run = connected_components(
         parallel & (off <= _RUN_MAX_OFFSET_M) & (off.T <= _RUN_MAX_OFFSET_M), directed=False
     )
-    for r in range(n_runs):  # runs are few: one per wall in view
+    for r in np.flatnonzero(np.bincount(run, minlength=n_runs) >= min_pieces):  # few: one per wall in view
         members = np.flatnonzero(run == r)
-        if members.size < min_pieces:
-            continue
         ref = axis[members[0]]
         ends = (mean[members] @ ref)[:, None] + np.column_stack([lo[members], hi[members]]) * (axis[members] @ ref)[
             :, None
