@@ -224,7 +224,7 @@ class LidarTracker:
                 big[walls] = True
                 self._remember_structure(t, result, walls, own, line_lids[on_line])
         rest = np.flatnonzero(~big & ~carved)
-        if cfg.run_min_pieces > 0 and rest.size >= cfg.run_min_pieces:  # a wall in pieces, none of it remembered
+        if cfg.run_min_pieces > 0 and rest.size >= cfg.run_min_pieces:  # a wall in pieces the memory did not place
             runs = collinear_runs(
                 [result.footprints[k] for k in rest],
                 self.config.cluster.max_extent,
