@@ -235,18 +235,11 @@ class StructureMemory:
         out, lids = np.zeros(k, dtype=bool), np.full(k, np.inf)
         if self.origin is None or k == 0 or cfg.line_reach_m <= 0 or not self._remembers_any(t):
             return out, lids
-        sizes = np.array([len(f) for f in footprints])
-        usable = sizes >= 3
-        if not usable.any():
-            return out, lids
-        idx = np.flatnonzero(usable)
-        mean, axis, lo, hi, minor_std = principal_extents([footprints[i] for i in idx])
-        thin = (minor_std <= cfg.line_max_thickness_m) & (hi - lo >= cfg.short_line_min_length_m)
-        if not thin.any():
-            return out, lids
-        length = (hi - lo)[thin]
         # Only a thin piece can continue a wall: the others' lines need not be looked up.
-        mean, axis, lo, hi = mean[thin], axis[thin], lo[thin], hi[thin]
+        idx, mean, axis, lo, hi = thin_pieces(footprints, cfg.line_max_thickness_m, cfg.short_line_min_length_m)
+        if idx.size == 0:
+            return out, lids
+        length = hi - lo
         steps = np.arange(1, int(cfg.line_reach_m / cfg.cell_m) + 1) * cfg.cell_m + cfg.line_gap_m  # (S,)
         s_count = steps.size
         # (P, 2 sides, S, 2): samples beyond the low end and beyond the high end
@@ -256,13 +249,28 @@ class StructureMemory:
         known = self.known(t, samples).reshape(mean.shape[0], 2, s_count)
         share = known.mean(axis=2).max(axis=1)
         needed = np.where(length >= cfg.line_min_length_m, cfg.line_min_share, cfg.short_line_min_share)
-        out[idx[thin]] = share >= needed
-        lids[idx[thin]] = self.lids_at(t, samples).reshape(mean.shape[0], -1).min(axis=1)
+        out[idx] = share >= needed
+        lids[idx] = self.lids_at(t, samples).reshape(mean.shape[0], -1).min(axis=1)
         return out, lids
 
     def known_fraction(self, t: float, points_ne: np.ndarray) -> float:
         """Share of the points that are :meth:`known`."""
         return float(np.mean(self.known(t, points_ne))) if len(points_ne) else 0.0
+
+
+def thin_pieces(
+    footprints: list[np.ndarray], max_thickness_m: float, min_length_m: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The footprints of at least three points that are thin straight pieces (spread across their principal axis
+    at most ``max_thickness_m``, at least ``min_length_m`` along it): their indices into ``footprints`` and, as
+    :func:`principal_extents` gives them, each one's mean, unit axis and lowest and highest coordinate along it."""
+    sizes = np.array([len(f) for f in footprints])
+    idx = np.flatnonzero(sizes >= 3)
+    if idx.size == 0:
+        return idx, np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0)
+    mean, axis, lo, hi, minor_std = principal_extents([footprints[i] for i in idx])
+    thin = (minor_std <= max_thickness_m) & (hi - lo >= min_length_m)
+    return idx[thin], mean[thin], axis[thin], lo[thin], hi[thin]
 
 
 def collinear_runs(
@@ -273,17 +281,12 @@ def collinear_runs(
     _RUN_MAX_OFFSET_M of the other's line), ``min_pieces`` or more spanning ``min_span_m`` or more together: a wall
     longer than any vessel seen in pieces, by one beam or between the shadows of what lies in front of it. All
     pieces of one scan at once. World NED (north, east), m."""
-    k = len(footprints)
-    out = np.zeros(k, dtype=bool)
-    sizes = np.array([len(f) for f in footprints])
-    idx = np.flatnonzero(sizes >= 3)
-    if min_pieces <= 0 or idx.size < min_pieces:
+    out = np.zeros(len(footprints), dtype=bool)
+    if min_pieces <= 0:
         return out
-    mean, axis, lo, hi, minor = principal_extents([footprints[i] for i in idx])
-    thin = (minor <= max_thickness_m) & (hi - lo >= min_length_m)
-    if thin.sum() < min_pieces:
+    idx, mean, axis, lo, hi = thin_pieces(footprints, max_thickness_m, min_length_m)
+    if idx.size < min_pieces:
         return out
-    idx, mean, axis, lo, hi = idx[thin], mean[thin], axis[thin], lo[thin], hi[thin]
     normal = np.column_stack([-axis[:, 1], axis[:, 0]])
     d = mean[None, :, :] - mean[:, None, :]  # (P, P, 2): j's mean from i's
     off = np.abs((d * normal[:, None, :]).sum(axis=2))  # j's mean off i's line
