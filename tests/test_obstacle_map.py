@@ -5,10 +5,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from tracker.obstacle_map import (
     UNKNOWN,
     build_obstacle_distances,
+    nearest_and_beside_per_bin,
     nearest_per_bin,
     outline_points,
 )
@@ -71,3 +73,38 @@ def test_hull_outline_marks_every_bin_it_spans() -> None:
         assert d[j] < 2100, j
     assert d[0] == 2000
     assert d[4] == 10001 and d[68] == 10001
+
+
+def nearest_beside_edges(points: np.ndarray, edge_m: float) -> np.ndarray:
+    return nearest_and_beside_per_bin(points, edge_m)[1]
+
+
+def test_a_return_beside_a_bins_edge_counts_in_the_neighbour_too() -> None:
+    # Bin 1 spans 2.5-7.5 deg. At 20 m, 7.0 deg is 0.17 m (20 sin 0.5 deg) across the line of sight from its upper
+    # edge, 3.5 deg is 0.35 m from its lower edge, 5.0 deg 0.87 m from both.
+    near = nearest_beside_edges(np.vstack([polar(7.0, 20.0), polar(3.5, 21.0), polar(5.0, 19.0)]), edge_m=0.25)
+    assert near[2] == pytest.approx(20.0, abs=1e-9)  # 0.17 m < 0.25 m
+    assert np.isinf(near[0])  # 0.35 m > 0.25 m
+    assert np.count_nonzero(np.isfinite(near)) == 1
+    # nearer in, the same angle is nearer across: 3.5 deg at 10 m is 0.17 m from the edge
+    assert nearest_beside_edges(polar(3.5, 10.0), edge_m=0.25)[0] == pytest.approx(10.0, abs=1e-9)
+    # either side of the bow and of astern: -2.8 deg (bin 71) is 0.16 m from bin 0, 177.2 deg (bin 35) from bin 36
+    assert nearest_beside_edges(polar(-2.8, 30.0), edge_m=0.25)[0] == pytest.approx(30.0, abs=1e-9)
+    assert nearest_beside_edges(polar(177.2, 30.0), edge_m=0.25)[36] == pytest.approx(30.0, abs=1e-9)
+
+
+def test_an_edge_return_fills_only_a_neighbour_that_would_go_out_unknown() -> None:
+    pts = np.vstack([polar(7.0, 20.0), polar(-7.0, 25.0)])  # bin 1 near bin 2's edge, bin 71 near bin 70's
+    clear_to = np.full(72, 100.0)
+    clear_to[2] = 40.0  # bin 2 vouched only to 40 m: unknown without the return beside it
+    d = build_obstacle_distances([pts], clear_to, 0.5, 100.0, edge_m=0.5)
+    assert d[1] == 2000 and d[71] == 2500
+    assert d[2] == 2000  # an obstacle where it would have been unknown
+    assert d[70] == 10001  # vouched clear all the way: the beams saw the bin and nothing in it
+    d = build_obstacle_distances([pts], clear_to, 0.5, 100.0)  # edge_m 0: off
+    assert d[2] == UNKNOWN
+    # a bin with an obstacle of its own keeps its range, however near the one beside its edge
+    clear_to[9:11] = 40.0
+    pts = np.vstack([polar(50.0, 60.0), polar(47.2, 20.0)])  # bin 10 at 60 m; bin 9, 0.1 m from bin 10's edge
+    d = build_obstacle_distances([pts], clear_to, 0.5, 100.0, edge_m=0.5)
+    assert d[10] == 6000 and d[9] == 2000 and d[8] == 10001

@@ -432,10 +432,13 @@ def test_a_faces_foot_within_the_sea_margin_is_solid_and_the_crests_are_not() ->
         pre.reason[foot] == REASON_NAMES.index("kept")
     )  # kept: the -1 deg ring returned at the same range above it
     assert pre.n_grazing >= np.count_nonzero(foot)
-    # the crests, returning every firing out to 30 m, stay water: no obstacle off the face's bins, none nearer
+    # the crests, returning every firing out to 30 m, stay water: no obstacle off the face's bins, none nearer. The
+    # face spans +-6.8 deg (bins 71, 0, 1); its ends lie 0.3 m across the line of sight from bins 70 and 2, which
+    # show its range too (PipelineSettings.bin_edge_m)
     obstacle = np.flatnonzero(d <= 10000)
-    assert set(obstacle.tolist()) <= {71, 0, 1}
+    assert set(obstacle.tolist()) == {70, 71, 0, 1, 2}
     assert np.all(d[obstacle] >= 2450)
+    assert np.all(d[[70, 2]] <= 2540)
     # with the rule off (beyond the LiDAR's range) the foot is water
     _, plain, _ = _wall_in_chop(1000.0)
     assert np.all(plain.reason[foot] == REASON_NAMES.index("water"))

@@ -39,49 +39,76 @@ class SensorCoverage:
         return np.abs(off) <= self.width / 2 + 1e-9
 
 
-def _bins(fwd: np.ndarray, stbd: np.ndarray) -> np.ndarray:
-    """Bin of each bearing atan2(starboard, forward), clockwise from the bow, as int16 (0..71)."""
-    b = np.rint(np.arctan2(stbd, fwd) / BIN_WIDTH_RAD).astype(np.int16)
-    return np.where(b < 0, b + np.int16(N_BINS), b)  # a masked in-place add cost twice as much
-
-
 def bearing_bins(points_fwd_stbd: np.ndarray) -> np.ndarray:
     """Bin index of each (forward, starboard) point: bearing = atan2(starboard, forward), clockwise from the bow."""
-    return _bins(points_fwd_stbd[:, 0], points_fwd_stbd[:, 1]).astype(np.int64)
+    return _bins_of(np.arctan2(points_fwd_stbd[:, 1], points_fwd_stbd[:, 0])).astype(np.int64)
 
 
 def nearest_per_bin(points_fwd_stbd: np.ndarray) -> np.ndarray:
     """(72,) nearest horizontal range in metres per bin (inf where no point)."""
-    out = np.full(N_BINS, np.inf)
-    bins, _index, r2 = _nearest_in_each_bin(points_fwd_stbd, with_index=False)
-    out[bins] = np.sqrt(r2)
-    return out
+    return nearest_and_beside_per_bin(points_fwd_stbd, 0.0)[0]
+
+
+def nearest_and_beside_per_bin(points_fwd_stbd: np.ndarray, edge_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(72,) nearest horizontal range in metres per bin, and (72,) per bin the nearest range of the points in its two
+    neighbours that lie within ``edge_m`` of its edge across the line of sight (all inf for ``edge_m`` <= 0); inf
+    where none."""
+    nearest, beside = np.full(N_BINS, np.inf), np.full(N_BINS, np.inf)
+    fwd, stbd, r2, _index = _finite(points_fwd_stbd, with_index=False)
+    if r2.size == 0:
+        return nearest, beside
+    angle = np.arctan2(stbd, fwd)
+    b = _bins_of(angle)
+    bins, _first, least = _least_per_bin(b, r2, with_index=False)
+    nearest[bins] = np.sqrt(least)
+    if edge_m > 0.0:
+        # r * (angle to the edge) is the distance across the line of sight to within 0.03 % (sin x ~ x up to 2.5 deg)
+        off = angle - np.rint(angle / BIN_WIDTH_RAD) * BIN_WIDTH_RAD  # from the bin's centre, +-half a bin
+        r = np.sqrt(r2)
+        up = r * (BIN_WIDTH_RAD / 2 - off) < edge_m
+        down = r * (BIN_WIDTH_RAD / 2 + off) < edge_m
+        if up.any() or down.any():
+            neighbour = np.concatenate([(b[up] + 1) % N_BINS, (b[down] + N_BINS - 1) % N_BINS]).astype(np.int16)
+            bins, _first, least = _least_per_bin(neighbour, np.concatenate([r2[up], r2[down]]), with_index=False)
+            beside[bins] = np.sqrt(least)
+    return nearest, beside
 
 
 def nearest_point_per_bin(points_fwd_stbd: np.ndarray) -> np.ndarray:
     """(72, 2) the nearest (forward, starboard) point in each bin, NaN where the bin has none."""
     out = np.full((N_BINS, 2), np.nan)
     p = np.asarray(points_fwd_stbd, dtype=float).reshape(-1, 2)
-    bins, index, _r2 = _nearest_in_each_bin(p, with_index=True)
-    out[bins] = p[index]
+    fwd, stbd, r2, index = _finite(p, with_index=True)
+    if r2.size:
+        bins, first, _least = _least_per_bin(_bins_of(np.arctan2(stbd, fwd)), r2, with_index=True)
+        out[bins] = p[index[first]]
     return out
 
 
-def _nearest_in_each_bin(points_fwd_stbd: np.ndarray, with_index: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The bins holding a finite point, the index of each one's nearest point (empty unless ``with_index``: finding
-    it costs half again) and its squared horizontal range."""
+def _finite(points_fwd_stbd: np.ndarray, with_index: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The forward, starboard and squared horizontal range of the points with a finite position, and (with
+    ``with_index``) their indices among all."""
     p = np.asarray(points_fwd_stbd, dtype=float).reshape(-1, 2)
     fwd, stbd = p[:, 0], p[:, 1]
     r2 = fwd * fwd + stbd * stbd
     ok = np.isfinite(r2)
-    index = np.arange(r2.size) if ok.all() else np.flatnonzero(ok)
-    if index.size < r2.size:
-        fwd, stbd, r2 = fwd[index], stbd[index], r2[index]
-    if r2.size == 0:
-        return np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0)
+    if ok.all():
+        return fwd, stbd, r2, np.arange(r2.size) if with_index else np.empty(0, np.int64)
+    index = np.flatnonzero(ok)
+    return fwd[index], stbd[index], r2[index], index
+
+
+def _bins_of(angle: np.ndarray) -> np.ndarray:
+    """Bin (0..71, int16) of each bearing (rad, clockwise from the bow, -pi..pi)."""
+    b = np.rint(angle / BIN_WIDTH_RAD).astype(np.int16)
+    return np.where(b < 0, b + np.int16(N_BINS), b)  # a masked in-place add cost twice as much
+
+
+def _least_per_bin(b: np.ndarray, r2: np.ndarray, with_index: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The bins holding a point, the index of each one's nearest point (empty unless ``with_index``: finding it
+    costs half again) and its squared horizontal range."""
     # Minimum per bin by a stable sort of 16-bit bin numbers (a radix sort) and reduceat: 4x faster than
     # np.minimum.at on a revolution's 29k returns.
-    b = _bins(fwd, stbd)
     order = np.argsort(b, kind="stable")
     sorted_bins = b[order]
     starts = np.flatnonzero(np.r_[True, sorted_bins[1:] != sorted_bins[:-1]])
@@ -94,7 +121,7 @@ def _nearest_in_each_bin(points_fwd_stbd: np.ndarray, with_index: bool) -> tuple
     counts = np.diff(np.r_[starts, sorted_r2.size])
     at_least = np.flatnonzero(sorted_r2 == np.repeat(least, counts))
     first = at_least[np.r_[True, sorted_bins[at_least[1:]] != sorted_bins[at_least[:-1]]]]
-    return bins, index[order[first]], least
+    return bins, order[first], least
 
 
 def outline_points(corners_fwd_stbd: np.ndarray, spacing: float = 0.25) -> np.ndarray:
@@ -127,6 +154,7 @@ def build_obstacle_distances(
     clear_to_m: np.ndarray,
     min_distance_m: float,
     max_distance_m: float,
+    edge_m: float = 0.0,
 ) -> np.ndarray:
     """Fuse every source of solid returns (LiDAR points, radar points, track hull outlines, shore) into one array.
 
@@ -136,9 +164,12 @@ def build_obstacle_distances(
     separate partial arrays per sensor would overwrite each other.
     """
     nearest = np.full(N_BINS, np.inf)
+    beside = np.full(N_BINS, np.inf)
     for pts in solid_points_fwd_stbd:
         if pts is not None and len(pts):
-            nearest = np.minimum(nearest, nearest_per_bin(np.asarray(pts, float)[:, :2]))
+            near, by_edge = nearest_and_beside_per_bin(np.asarray(pts, float)[:, :2], edge_m)
+            nearest, beside = np.minimum(nearest, near), np.minimum(beside, by_edge)
     # A returned solid is an obstacle wherever it is, whatever the coverage model says the sensor should see.
     vouched = np.asarray(clear_to_m, float) >= max_distance_m - 1e-6
+    nearest = np.where(vouched | np.isfinite(nearest), nearest, beside)
     return to_distances_cm(nearest, vouched, min_distance_m, max_distance_m)
