@@ -7,7 +7,9 @@ Values follow the message's semantics, which the autopilots act on differently (
   * an obstacle: its range in cm, clamped to [max(min_distance, 1), max_distance];
   * a bearing where the live sensors vouch that any solid out to max_distance would have been returned, and none
     was: max_distance + 1 ("looked, clear"; tracker/lidar/coverage.py says how far each bearing is vouched for);
-  * every other bearing: 65535 ("unknown") — never "clear" where a solid could have gone unseen.
+  * every other bearing: 65535 ("unknown") — never "clear" where a solid could have gone unseen; but a bin that
+    would be unknown beside a solid lying within ``edge_m`` of their shared edge takes that solid's range (its
+    bearing at the tick is that uncertain, and ArduPilot reads unknown as nothing there).
 """
 
 from __future__ import annotations
