@@ -10,7 +10,7 @@ import pytest
 from tracker.obstacle_map import (
     UNKNOWN,
     build_obstacle_distances,
-    nearest_and_beside_per_bin,
+    nearest_beside_edges,
     nearest_per_bin,
     outline_points,
 )
@@ -73,10 +73,6 @@ def test_hull_outline_marks_every_bin_it_spans() -> None:
         assert d[j] < 2100, j
     assert d[0] == 2000
     assert d[4] == 10001 and d[68] == 10001
-
-
-def nearest_beside_edges(points: np.ndarray, edge_m: float) -> np.ndarray:
-    return nearest_and_beside_per_bin(points, edge_m)[1]
 
 
 def test_a_return_beside_a_bins_edge_counts_in_the_neighbour_too() -> None:
