@@ -77,10 +77,12 @@ class _BinnedPoints:
         """(72,) for the ``wanted`` bins, the nearest range of the points in their neighbours lying within ``edge_m``
         of the shared edge, across the line of sight; inf elsewhere. Only points beside a wanted bin are tested."""
         out = np.full(N_BINS, np.inf)
+        if edge_m <= 0.0:
+            return out
         b = self.bin.astype(np.intp)
         above, below = wanted[(b + 1) % N_BINS], wanted[(b - 1) % N_BINS]
         test = np.flatnonzero(above | below)
-        if edge_m <= 0.0 or test.size == 0:
+        if test.size == 0:
             return out
         angle, r = self.angle[test], np.sqrt(self.r2[test])
         # r * (angle to the edge) is the distance across the line of sight to within 0.03 % (sin x ~ x up to 2.5 deg)
@@ -194,7 +196,7 @@ def build_obstacle_distances(
     # A returned solid is an obstacle wherever it is, whatever the coverage model says the sensor should see.
     vouched = np.asarray(clear_to_m, float) >= max_distance_m - 1e-6
     fill = ~vouched & ~np.isfinite(nearest)  # the bins that would go out unknown
-    if edge_m > 0.0 and fill.any():
-        for source in sources:
-            nearest = np.where(fill, np.minimum(nearest, source.beside(edge_m, fill)), nearest)
+    if edge_m > 0.0 and sources and fill.any():  # a bin to fill holds no solid of its own: the nearest beside it
+        beside = np.min([source.beside(edge_m, fill) for source in sources], axis=0)
+        nearest = np.where(fill, beside, nearest)
     return to_distances_cm(nearest, vouched, min_distance_m, max_distance_m)
