@@ -172,7 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="run the daemon (sensors -> tracks -> MAVLink)")
     run.add_argument("--config", type=Path, help=f"TOML file (default {DEFAULT_CONFIG_PATH} if it exists)")
-    run.add_argument("--lidar", help="LiDAR source: udp://HOST:PORT, pcap://FILE or sim://SCENARIO")
+    run.add_argument("--lidar", help="LiDAR source: udp://HOST:PORT or pcap://FILE")
     run.add_argument("--radar-cli", help="radar CLI port: serial:///dev/ttyACM0?baud=115200 ('' for none)")
     run.add_argument("--radar-data", help="radar data: serial:///dev/ttyACM1?baud=921600 or file://DUMP.dat")
     run.add_argument("--radar-profile", help="TI chirp .cfg sent through the CLI port")

@@ -84,7 +84,7 @@ class LidarConfig:
         out = []
         if self.enabled:
             try:
-                parse_source_url(self.source, {"udp", "pcap", "sim"})
+                parse_source_url(self.source, {"udp", "pcap"})
             except SourceUrlError as exc:
                 out.append(f"source: {exc}")
         if self.model not in ("auto", "VLP16"):
@@ -112,7 +112,7 @@ class LidarConfig:
         from drivers.vlp16.pcap import NotAPcapError, capture_format
 
         try:
-            url = parse_source_url(self.source, {"udp", "pcap", "sim"})
+            url = parse_source_url(self.source, {"udp", "pcap"})
         except SourceUrlError:
             return []  # already named by validate()
         if url.scheme != "pcap":
@@ -151,7 +151,7 @@ class RadarConfig:
                 if key == "cli" and not value:
                     continue  # no CLI port: replay, or a radar configured by someone else
                 try:
-                    parse_source_url(value, {"serial", "file", "sim"})
+                    parse_source_url(value, {"serial", "file"})
                 except SourceUrlError as exc:
                     out.append(f"{key}: {exc}")
         try:
@@ -175,7 +175,7 @@ class RadarConfig:
 
         out = []
         try:
-            data = parse_source_url(self.data, {"serial", "file", "sim"})
+            data = parse_source_url(self.data, {"serial", "file"})
         except SourceUrlError:
             data = None  # already named by validate()
         if self.profile:
@@ -322,7 +322,8 @@ class OutputConfig:
             out.append(f"min_height_above_water_m: {self.min_height_above_water_m} must be > 0")
         if not (math.isfinite(self.min_obstacle_height_m) and self.min_obstacle_height_m > 0):
             out.append(f"min_obstacle_height_m: {self.min_obstacle_height_m} must be > 0")
-        if not (math.isfinite(self.clear_inner_m) and 0 <= self.clear_inner_m < self.max_distance_m):
+        distances_ok = 0 < self.min_distance_m < self.max_distance_m
+        if distances_ok and not (math.isfinite(self.clear_inner_m) and 0 <= self.clear_inner_m < self.max_distance_m):
             out.append(f"clear_inner_m: {self.clear_inner_m} must be within [0, max_distance_m) (0 = min_distance_m)")
         if not (math.isfinite(self.ais_interval_s) and self.ais_interval_s >= 0):
             out.append(f"ais_interval_s: {self.ais_interval_s} must be >= 0 (0 = no AIS_VESSEL)")

@@ -55,6 +55,7 @@ def _coerce(value: Any, tp: Any, key: str, problems: list[str]) -> Any:
     if tp is bool:
         if not isinstance(value, bool):
             problems.append(f"{key}: expected true or false, got {value!r}")
+            return None  # the default stands in, so the section's other values are still checked
         return value
     if origin is dict:
         if not isinstance(value, dict):
@@ -64,7 +65,7 @@ def _coerce(value: Any, tp: Any, key: str, problems: list[str]) -> Any:
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             problems.append(f"{key}: expected a number, got {value!r}")
-            return value
+            return None
         try:
             number = float(value)
         except OverflowError:  # a TOML integer of hundreds of digits
@@ -72,14 +73,17 @@ def _coerce(value: Any, tp: Any, key: str, problems: list[str]) -> Any:
             return None
         if not math.isfinite(number):
             problems.append(f"{key}: must be a finite number, got {value!r}")
+            return None
         return number
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
             problems.append(f"{key}: expected an integer, got {value!r}")
+            return None
         return value
     if tp is str:
         if not isinstance(value, str):
             problems.append(f"{key}: expected a string, got {value!r}")
+            return None
         return value
     return value
 
@@ -102,8 +106,14 @@ def _build(cls: type[T], table: dict[str, Any], prefix: str, problems: list[str]
     for key, value in table.items():
         full = f"{prefix}.{key}" if prefix else key
         if key not in fields:
-            close = difflib.get_close_matches(key, _candidates(fields, hints), n=1)
-            hint = f" (did you mean '{close[0]}'?)" if close else f" (known keys: {', '.join(sorted(fields))})"
+            candidates = _candidates(fields, hints)
+            # A bare name that several groups hold (min_points: clustering's and ego's) is pointed to all of them.
+            same = sorted(c for c in candidates if c.rpartition(".")[2] == key)
+            close = same or difflib.get_close_matches(key, candidates, n=1)
+            if len(close) > 1:
+                hint = f" (did you mean one of {', '.join(repr(c) for c in close)}?)"
+            else:
+                hint = f" (did you mean '{close[0]}'?)" if close else f" (known keys: {', '.join(sorted(fields))})"
             problems.append(f"{full}: unknown key{hint}")
             continue
         kwargs[key] = _coerce(value, hints[key], full, problems)

@@ -2,7 +2,9 @@
 
 udp://0.0.0.0:2368            VLP-16 live          pcap://run.pcap          VLP-16 replay
 serial:///dev/ttyACM1?baud=921600   radar port     file://run.dat           radar data-port dump replay
-sim://harbour                 the built-in simulator plays the sensor
+
+The simulator is not a source: `usv-tracker demo` (or `simulate --write DIR`, then `replay DIR`) runs the daemon
+against it.
 """
 
 from __future__ import annotations
@@ -10,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from urllib.parse import parse_qsl, urlsplit
 
-SCHEMES = {"udp", "pcap", "serial", "file", "sim"}
+SCHEMES = {"udp", "pcap", "serial", "file"}
 
 
 class SourceUrlError(ValueError):
@@ -41,6 +43,11 @@ def parse_source_url(text: str, allowed: set[str] | None = None) -> SourceUrl:
     except ValueError as exc:  # an unclosed '[' of an IPv6 address, for one
         raise SourceUrlError(f"'{text}': not a valid URL ({exc})") from None
     scheme = parts.scheme.lower()
+    if scheme == "sim":
+        raise SourceUrlError(
+            f"'{text}': the simulator is not a sensor source; `usv-tracker demo --scene NAME` runs the daemon against"
+            " it (or `usv-tracker simulate --scene NAME --write DIR`, then `usv-tracker replay DIR`)"
+        )
     if scheme not in allowed:
         raise SourceUrlError(f"'{text}': scheme '{scheme}://' is not usable here (expected one of {expected})")
     params = dict(parse_qsl(parts.query))
@@ -52,9 +59,6 @@ def parse_source_url(text: str, allowed: set[str] | None = None) -> SourceUrl:
         if port is None:
             raise SourceUrlError(f"'{text}': a UDP source needs a port, e.g. udp://0.0.0.0:2368")
         return SourceUrl(scheme, parts.hostname or "0.0.0.0", port, "", params, text)
-    if scheme == "sim":
-        name = (parts.netloc + parts.path).strip("/") or "harbour"
-        return SourceUrl(scheme, "", None, name, params, text)
     # pcap://, file://, serial://: everything after the scheme is a path (relative or absolute)
     path = parts.netloc + parts.path
     if not path:

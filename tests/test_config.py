@@ -197,6 +197,42 @@ def test_values_that_load_but_cannot_work_are_named(tmp_path: Path) -> None:
     ]
 
 
+def test_a_wrong_type_does_not_hide_the_sections_other_problems(tmp_path: Path) -> None:
+    """A value of the wrong type is named and its default stands in, so the rest of its section is still checked;
+    a bad distance is named once, not again through the settings measured against it."""
+    path = tmp_path / "c.toml"
+    path.write_text('[output]\nrate_hz = "ten"\nmax_distance_m = -5\n')
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.problems == [
+        "output.rate_hz: expected a number, got 'ten'",
+        "output.min_distance_m/max_distance_m: need 0 < min < max",
+    ]
+
+
+def test_the_simulator_is_pointed_to_the_demo_not_accepted_as_a_source(tmp_path: Path) -> None:
+    """`run` reads sensors and captures; a config that names the simulator must fail check-config, not the start."""
+    path = tmp_path / "c.toml"
+    path.write_text('[lidar]\nsource = "sim://harbour"\n[radar]\ndata = "sim://harbour"\n')
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert len(err.value.problems) == 2
+    for problem, key in zip(err.value.problems, ("lidar.source", "radar.data"), strict=True):
+        assert problem.startswith(f"{key}: 'sim://harbour': the simulator is not a sensor source")
+        assert "usv-tracker demo --scene NAME" in problem
+
+
+def test_a_bare_key_that_several_groups_hold_is_pointed_to_each(tmp_path: Path) -> None:
+    path = tmp_path / "c.toml"
+    path.write_text("[tracker.radar]\nmin_points = 3\n")
+    out = check_config(path)
+    assert out.returncode == 2, out.stdout + out.stderr
+    assert (
+        "tracker.radar.min_points: unknown key (did you mean one of 'clustering.min_points', 'ego.min_points', "
+        "'velocity.min_points'?)"
+    ) in out.stderr
+
+
 def test_check_config_opens_the_files_the_config_names(tmp_path: Path) -> None:
     path = tmp_path / "c.toml"
     absent_pcap, absent_cfg = tmp_path / "absent.pcap", tmp_path / "absent.cfg"
