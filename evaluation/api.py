@@ -224,6 +224,11 @@ def _resolve(truth: Path, returns: str | Path | None) -> tuple[Path, Path | None
         return truth_csv, Path(returns) if returns is not None else (beside if beside.is_file() else None)
     if not truth.is_file():
         raise EvaluationError(f"{truth}: no such file or directory")
+    if returns is None and truth.name == "truth.csv":
+        # the simulator's truth.csv named as a file: the returns it wrote beside it are the same run's, as with the
+        # directory (a GNSS reference CSV has no such companion)
+        beside = truth.with_name("returns.csv")
+        return truth, beside if beside.is_file() else None
     return truth, Path(returns) if returns is not None else None
 
 

@@ -59,6 +59,16 @@ def test_bin_counts_exact(tmp_path: Path) -> None:
     assert b.within_tolerance_share == pytest.approx(0.25)
 
 
+def test_truth_csv_named_as_a_file_takes_the_returns_beside_it(tmp_path: Path) -> None:
+    """`--truth DIR/truth.csv` is the same run as `--truth DIR`: the bins are scored from the returns.csv beside it."""
+    record(tmp_path)
+    path = write_ticks(tmp_path / "tracks.jsonl", [tick(0.15 + 0.1 * k, track_a_b(), sent_bins()) for k in range(9)])
+    by_dir, by_file = evaluate_run(tmp_path, path).bins, evaluate_run(tmp_path / "truth.csv", path).bins
+    assert by_dir is not None and by_file is not None
+    assert (by_file.bins_scored, by_file.false_clear, by_file.false_obstacle) == (8 * 72, 24, 16)
+    assert by_file == by_dir
+
+
 def track_a_b() -> list[dict[str, object]]:
     return [track(1, 10.0, 0.0), track(2, 0.0, 20.0)]
 
