@@ -106,7 +106,11 @@ def radar_frames(config: Config, start_time: float | None, prefetch: bool = Fals
         return _ahead("radar", gen(), RADAR_AHEAD, prefetch)
     from drivers.awr1843.sources import FileRadarSource
 
-    log.info("%s has no .times sidecar: frames paced by the frame period from t = %s", url.path, start_time)
+    log.info(
+        "%s has no .times sidecar: frames paced by the frame period from %s",
+        url.path,
+        "the LiDAR's first revolution" if start_time is not None else "t = 0 s",
+    )
     frames = FileRadarSource(
         url.path, profile, mount, expected=expected, speed=None, start_time=start_time or 0.0
     ).frames(_NeverStop())

@@ -127,8 +127,7 @@ def test_a_live_stream_switching_configuration_loses_exactly_the_foreign_frames(
     warnings = [r.getMessage() for r in caplog.records if "of another configuration rejected" in r.getMessage()]
     assert warnings == [
         "AWR1843 data: 1 frame(s) of another configuration rejected (frame 105: platform xWR68xx, configured "
-        "xWR18xx); the radar is not running the cfg this daemon sent: another program reconfigured it, or it is "
-        "another board"
+        'xWR18xx); another board sends them: if it is meant to, set [radar] platform = "xWR68xx" (or "any")'
     ]
 
 

@@ -372,13 +372,17 @@ class RadarFrameParser:
             # The same radar's numbering (reconfigured behind our back): not a loss when our frames resume.
             self._last_frame_number = hdr.frame_number
         if host_time - self._rejection_logged_at >= REJECTION_LOG_INTERVAL_S:
+            board = why.startswith("platform")
             log.warning(
-                "AWR1843 data: %d frame(s) of another configuration rejected%s (frame %d: %s); the radar is not running "
-                "the cfg this daemon sent: another program reconfigured it, or it is another board",
+                "AWR1843 data: %d frame(s) of another configuration rejected%s (frame %d: %s); %s",
                 self._rejected_since_log,
                 "" if self._rejection_logged_at == -math.inf else f" in {host_time - self._rejection_logged_at:.0f} s",
                 hdr.frame_number,
                 why,
+                f'another board sends them: if it is meant to, set [radar] platform = "{describe_platform(hdr.platform)}"'
+                ' (or "any")'
+                if board
+                else "the radar is not running the cfg this daemon sent: another program reconfigured it",
             )
             self._rejection_logged_at = host_time
             self._rejected_since_log = 0
