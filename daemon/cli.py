@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -112,17 +113,28 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return run(args)
 
 
-def _describe_drawn_scene(name: str, seconds: float) -> bool:
-    """Print what a ``random:SEED`` scene holds (it is known by its seed alone); False for a name that is no scene."""
-    if name.partition(":")[0] != "random":
-        return True
+def _scene_ready(name: str, seconds: float, out_dir: str | None) -> bool:
+    """Check what a simulation needs before any port or file is opened: a scene of that name, a positive duration
+    and a directory that can be written. Prints what a ``random:SEED`` scene holds (it is known by its seed alone).
+    False, with the problem logged, when one of them is not so."""
     from simulator.scenarios import get_scenario
 
+    if not (math.isfinite(seconds) and seconds > 0):
+        log.error("--seconds %s: must be a positive number of seconds", seconds)
+        return False
     try:
         scene = get_scenario(name)
     except ValueError as exc:
         log.error("%s", exc)
         return False
+    if out_dir is not None:
+        try:
+            Path(out_dir).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            log.error("cannot write to %s: %s", out_dir, exc.strerror or exc)
+            return False
+    if name.partition(":")[0] != "random":
+        return True
     print(scene.description, flush=True)
     if seconds > scene.duration:
         log.warning(
@@ -137,7 +149,7 @@ def _describe_drawn_scene(name: str, seconds: float) -> bool:
 def cmd_demo(args: argparse.Namespace) -> int:
     from daemon.demo import run_demo
 
-    if not _describe_drawn_scene(args.scenario, args.seconds):
+    if not _scene_ready(args.scenario, args.seconds, args.out):
         return 2
     view, failed = _open_view(args)
     if failed is not None:
@@ -154,7 +166,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 def cmd_simulate(args: argparse.Namespace) -> int:
     from simulator.run import run_simulator_cli
 
-    if not _describe_drawn_scene(args.scenario, args.seconds):
+    if not _scene_ready(args.scenario, args.seconds, args.write):
         return 2
     return run_simulator_cli(args)
 
