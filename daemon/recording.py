@@ -69,6 +69,11 @@ def find_recording(paths: Sequence[str | Path]) -> Recording:
     rec = Recording(**found)
     if rec.radar is not None and rec.profile is None and (rec.radar.parent / "radar.cfg").is_file():
         rec.profile = rec.radar.parent / "radar.cfg"  # recorded beside it
+    folders = {p.resolve().parent for p in items}
+    if rec.config is None and len(folders) == 1 and (items[0].parent / "usv-tracker.toml").is_file():
+        # the captures of one recording named one by one are that recording: its config (the simulator's sensor
+        # mounts) replays them as the directory would; default mounts put every LiDAR return at the wrong height
+        rec.config = items[0].parent / "usv-tracker.toml"
     return _checked(rec)
 
 

@@ -48,6 +48,17 @@ def test_files_by_suffix_with_the_profile_found_beside_the_radar_dump(tmp_path: 
         find_recording([tmp_path / "a", tmp_path / "b" / "y.PCAP"])
 
 
+def test_captures_named_one_by_one_take_their_recordings_config(tmp_path: Path) -> None:
+    """The simulator's usv-tracker.toml (the sensor mounts) beside captures named one by one is theirs, as it is
+    when the directory is named; captures from two places have no one recording's config."""
+    d = tmp_path / "run"
+    touch(*(d / n for n in ("lidar.pcap", "radar.dat", "autopilot.tlog", "usv-tracker.toml")))
+    assert find_recording([d / "radar.dat", d / "lidar.pcap"]).config == d / "usv-tracker.toml"
+    assert find_recording([d / "lidar.pcap"]).config == d / "usv-tracker.toml"
+    touch(tmp_path / "elsewhere" / "a.tlog")
+    assert find_recording([d / "lidar.pcap", tmp_path / "elsewhere" / "a.tlog"]).config is None
+
+
 def test_the_config_replays_the_captures_and_writes_nothing_but_the_tracks(tmp_path: Path) -> None:
     toml = tmp_path / "boat.toml"
     toml.write_text(

@@ -98,11 +98,9 @@ def test_the_readme_run_command_and_the_replay_command_write_the_same(
 def test_files_in_any_order_and_no_radar(recording: Path, deterministic: dict[str, bytes], tmp_path: Path) -> None:
     d = recording
     out = tmp_path / "files.jsonl"
-    files = [d / "autopilot.tlog", d / "radar.dat", d / "lidar.pcap"]  # radar.cfg found beside radar.dat
-    assert (
-        main(["replay", *map(str, files), "--config", str(d / "usv-tracker.toml"), "--fast", "--tracks-out", str(out)])
-        == 0
-    )
+    # radar.cfg found beside radar.dat, and the recording's usv-tracker.toml (its mounts) beside the captures
+    files = [d / "autopilot.tlog", d / "radar.dat", d / "lidar.pcap"]
+    assert main(["replay", *map(str, files), "--fast", "--tracks-out", str(out)]) == 0
     assert out.read_bytes() == deterministic["fused"]
     lidar_only = tmp_path / "lidar.jsonl"
     assert main(["replay", str(d), "--no-radar", "--fast", "--tracks-out", str(lidar_only)]) == 0
