@@ -312,6 +312,11 @@ def run_daemon(config: Config, fast: bool = False, duration_s: float | None = No
     from daemon.replay import is_replay, run_replay
 
     if fast or is_replay(config):
+        if config.output.record_dir:
+            log.warning(
+                "not recording to %s: a replay's captures are already its recording (--record is for live sensors)",
+                config.output.record_dir,
+            )
         try:
             return run_replay(config, duration_s, fast=fast, view=view)
         except (OSError, ValueError) as exc:

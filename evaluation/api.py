@@ -249,9 +249,15 @@ def _span(reference: SimulatorTruth | GnssTruth, table: ReturnsTable | None) -> 
 def _align(
     times: np.ndarray, reference: SimulatorTruth | GnssTruth, table: ReturnsTable | None, given: float | None
 ) -> tuple[float, str]:
-    if given is not None:
-        return float(given), "given"
     lo, hi = _span(reference, table)
+    if given is not None:
+        off = float(given)
+        if math.isfinite(lo) and not np.any((times + off >= lo - 1e-6) & (times + off <= hi + 1e-6)):
+            raise EvaluationError(
+                f"no tick (t = {times[0]:.3f} .. {times[-1]:.3f}) falls in the truth's span {lo:.3f} .. {hi:.3f} s "
+                f"with the given offset {off:+.3f} s (truth time - tick t): nothing to score"
+            )
+        return off, "given"
     if not math.isfinite(lo):
         raise EvaluationError(f"{reference.path}: the truth holds no samples to align the ticks with")
     candidates = {0.0: "same clock"}

@@ -119,9 +119,13 @@ def test_a_replay_with_a_sensor_switched_off_never_reports_it_silent(tmp_path: P
         "--radar-profile", str(d / "radar.cfg"),
         "--mavlink", str(d / "autopilot.tlog"),
         f"--no-{off}",
+        "--record", str(tmp_path / "rec"),
     ]  # fmt: skip
     res = subprocess.run(args, capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
+    # a replay records nothing, and says so rather than ignoring --record
+    assert f"not recording to {tmp_path / 'rec'}: a replay's captures are already its recording" in res.stderr
+    assert not (tmp_path / "rec").exists()
     name = NAMES[off]
     assert res.stderr.count(f"{name} off by configuration: not expected, not reported silent") == 1
     assert f"{name} silent" not in res.stderr

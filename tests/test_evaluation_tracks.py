@@ -85,6 +85,9 @@ def test_unalignable_clock_is_an_error(tmp_path: Path) -> None:
     truth, tracks = mot_run(tmp_path, t_shift=5000.0)
     with pytest.raises(EvaluationError, match="falls in the truth's span"):
         evaluate_run(truth, tracks)
+    # a given offset that leaves no tick inside the truth scores nothing: an error too, not "MOTA n/a" and exit 0
+    with pytest.raises(EvaluationError, match=r"with the given offset \+5\.000 s .*: nothing to score"):
+        evaluate_run(truth, tracks, time_offset_s=5.0)
 
 
 def test_warmup_and_frames_without_pose(tmp_path: Path) -> None:
