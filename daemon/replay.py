@@ -181,7 +181,8 @@ def _replay(config: Config, options: ReplayOptions, streams: list[Any], wall_sta
         streams.append(msgs)
         pose_msgs = Peekable(msgs)
     else:
-        log.info("replay without a .tlog: no ego pose, the boat frame at the start is the world frame")
+        # said once, here, for `replay` and `run --fast` alike
+        log.warning("replay without a .tlog: no own pose, the boat's frame at the start is the world frame")
 
     starts = [p.peek().stamp for p in (lidar, radar) if p is not None and p.peek() is not None]  # type: ignore[union-attr]
     if not starts:

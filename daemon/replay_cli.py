@@ -93,8 +93,6 @@ def run(args: argparse.Namespace) -> int:
         log.error("nothing to replay: the recording's only sensor is switched off")
         return 2
     live = args.pose == "live"
-    if rec.tlog is None and not live:
-        log.warning("no .tlog in the recording: no own pose, the boat's frame at the start is the world")
     try:
         view = open_view(args)
     except ViewError as exc:
