@@ -131,7 +131,7 @@ class PcapSummary:
         ):
             hint = (
                 "product byte 0x21 (HDL-32E) but a 1327 us packet cadence (VLP-16): early VLP-16 firmware; "
-                "decode with model VLP16 for the right geometry"
+                'decode with --model VLP16 (or set [lidar] model = "VLP16") for the right geometry'
             )
         self.totals = {
             "file": self.path,
@@ -185,7 +185,9 @@ class PcapSummary:
         if self.stats.malformed:
             parts.append(f"{self.stats.malformed} 1206-byte payloads that are not VLP-16 packets")
         if self.assembler.stats.wrong_product:
-            parts.append(f"{self.assembler.stats.wrong_product} packets with an unknown product byte (try model VLP16)")
+            parts.append(
+                f"{self.assembler.stats.wrong_product} packets with an unknown product byte (try --model VLP16)"
+            )
         if other_ports:
             ports = ", ".join(f"{p} ({n})" for p, n in other_ports.most_common(5))
             parts.append(f"UDP to other ports: {ports}")
