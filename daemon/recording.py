@@ -116,6 +116,9 @@ def replay_config(
     if base is None and DEFAULT_CONFIG_PATH.exists():
         base = DEFAULT_CONFIG_PATH
     log.info("replay config: %s", base if base is not None else "defaults")
+    for name, capture in (("LiDAR", rec.lidar), ("radar", rec.radar)):
+        if capture is None:
+            log.info("the recording holds no %s capture: %s off for this replay", name, name)
     overrides: dict[str, object] = {
         "lidar.enabled": lidar and rec.lidar is not None,
         "radar.enabled": radar and rec.radar is not None,
