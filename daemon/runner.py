@@ -334,7 +334,13 @@ def run_daemon(config: Config, fast: bool = False, duration_s: float | None = No
         log.info("%s received: stopping", signal.Signals(signum).name)
         stop.set()
 
+    def on_hangup(signum: int, _frame: object) -> None:
+        # A terminal closing (ssh or tmux dropped on the quay) must not take the obstacle feed with it; nothing is
+        # reloaded either: a new config takes a restart, after check-config.
+        log.warning("SIGHUP received: ignored, still running (a changed config needs a restart)")
+
     previous = {s: signal.signal(s, on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
+    previous[signal.SIGHUP] = signal.signal(signal.SIGHUP, on_hangup)
     sensors = ", ".join(
         n for n, s in (("LiDAR", daemon.sources.lidar), ("radar", daemon.sources.radar)) if s is not None
     )

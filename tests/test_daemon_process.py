@@ -51,6 +51,11 @@ def test_run_process_notifies_systemd_and_stops_on_sigterm(tmp_path: Path) -> No
             assert wait_for(lambda: len(ap.obstacle_distances()) >= 5, timeout=10.0)
             if GLIBC:  # its reader threads share one malloc arena beside the main heap (daemon.heap)
                 assert thread_arenas(proc.pid) <= 1
+            # a hang-up (the terminal it was started from closed) leaves the feed running
+            proc.send_signal(signal.SIGHUP)
+            sent = len(ap.obstacle_distances())
+            assert wait_for(lambda: len(ap.obstacle_distances()) >= sent + 5, timeout=10.0)
+            assert proc.poll() is None
             t_term = time.monotonic()
             proc.send_signal(signal.SIGTERM)
             rc = proc.wait(timeout=10.0)
@@ -66,6 +71,7 @@ def test_run_process_notifies_systemd_and_stops_on_sigterm(tmp_path: Path) -> No
     # loops on the 2 cores, the same stop took 1.2 s, and a wall-clock 1 s bound failed one run in three.
     assert took < 3.0, f"stopping took {took:.2f} s"
     assert "SIGTERM received: stopping" in err and "stopped" in err
+    assert "SIGHUP received: ignored, still running" in err
 
 
 NAMES = {"lidar": "LiDAR", "radar": "radar"}
