@@ -97,7 +97,7 @@ def expected_radar_stream(config: Config, profile: Any) -> Any:
     return ExpectedStream.for_config(profile, platform_code(config.radar.platform))
 
 
-def build_radar_source(config: Config, fast: bool) -> tuple[Any, SourceUrl]:
+def build_radar_source(config: Config, fast: bool, connect: bool = True) -> tuple[Any, SourceUrl]:
     from drivers.awr1843.profile import load_profile
 
     c = config.radar
@@ -122,7 +122,8 @@ def build_radar_source(config: Config, fast: bool) -> tuple[Any, SourceUrl]:
         expected=expected,
         silence_timeout_s=c.silence_timeout_s,
     )
-    src.connect()  # the chirp cfg is sent now: an Error answer stops start-up with the cfg line named
+    if connect:
+        src.connect()  # the chirp cfg is sent now: an Error answer stops start-up with the cfg line named
     return src, data
 
 
@@ -149,13 +150,31 @@ def open_sources(config: Config, fast: bool) -> Sources:
         except Exception as exc:
             if config.radar.required:
                 raise StartupError(f"radar: {exc}") from exc
-            note = f"radar failed to start, running LiDAR-only (radar.required = false): {exc}"
+            if _radar_may_come(exc):
+                # Its ports are not there yet or it does not answer (a USB radar enumerating after the daemon at
+                # boot, a board still powering up): its reader keeps trying, and the loop reports it silent.
+                note = f"radar not ready at start, running without it and retrying (radar.required = false): {exc}"
+                out.radar, out.radar_url = build_radar_source(config, fast, connect=False)
+            else:
+                note = f"radar failed to start, running LiDAR-only (radar.required = false): {exc}"
+                out.radar = None
             log.error(note)
             out.notes.append(note)
-            out.radar = None
     if out.lidar is None and out.radar is None:
         raise StartupError("no sensor could be started (both disabled or failed)")
     return out
+
+
+def _radar_may_come(exc: BaseException) -> bool:
+    """A radar start-up failure that can mend itself: a missing or busy port, or a device that did not answer (not a
+    cfg line it refused, not a config or file problem)."""
+    import serial
+
+    from drivers.awr1843.errors import RadarConfigError, RadarPortError
+
+    if isinstance(exc, RadarConfigError):
+        return "prompt" in str(exc).split(";")[0]  # no prompt: silence, not a refused line
+    return isinstance(exc, (RadarPortError, serial.SerialException))
 
 
 def pipeline_for(config: Config) -> PerceptionPipeline:

@@ -172,6 +172,53 @@ def test_sensor_stopped_behind_our_back_names_both_ports(
     assert f"(CLI {cli_path}, data {data_path})" in errors[0]
 
 
+def test_a_radar_that_stops_with_its_ports_there_gets_its_cfg_again(
+    fast_profile: RadarProfile, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A brown-out resets the board (or another program stops it) while USB stays up: no port is lost, so only the
+    silence says so. The source sends its cfg again once the silence has lasted the first interval."""
+    caplog.set_level(logging.INFO, logger="drivers.awr1843.sources")
+    with Awr1843Emulator() as emu:
+        ports = f"CLI {emu.cli_path}, data {emu.data_path}"
+        source = SerialRadarSource(
+            emu.cli_path,
+            emu.data_path,
+            fast_profile,
+            silence_timeout_s=0.3,
+            resend_cfg_after_s=(0.6, 1.0),
+            reconnect_backoff_s=(0.05,),
+        )
+        reader = Reader(source)
+        try:
+            reader.wait_for(lambda: len(reader.frames) >= 2)
+            emu._reset_device_state()  # the board rebooted: not streaming, its cfg gone, its ports still there
+            reader.wait_for(lambda: source.silent)
+            reader.wait_for(lambda: source.stats.configured == 2)
+            before = len(reader.frames)
+            reader.wait_for(lambda: len(reader.frames) >= before + 3 and not source.silent)
+        finally:
+            reader.close()
+    assert (source.stats.silences, source.stats.disconnects) == (1, 0)
+    resent = [r.getMessage() for r in caplog.records if "sending the cfg again" in r.getMessage()]
+    assert len(resent) == 1 and resent[0].startswith("AWR1843: no frame for ")
+    assert f"s with its ports there ({ports}): sending the cfg again (1)" in resent[0]
+
+
+def test_a_radar_someone_else_configures_is_never_sent_a_cfg(fast_profile: RadarProfile) -> None:
+    with Awr1843Emulator() as emu:
+        source = SerialRadarSource(
+            "", emu.data_path, "", configure=False, silence_timeout_s=0.1, resend_cfg_after_s=(0.2,)
+        )
+        reader = Reader(source)
+        try:
+            reader.wait_for(lambda: source.silent)
+            time.sleep(0.5)
+            assert reader.thread.is_alive() and reader.frames == []
+        finally:
+            reader.close()
+    assert source.stats.configured == 0
+
+
 def test_unplugged_cable_is_survived(fast_profile: RadarProfile, tmp_path: Path) -> None:
     by_id = tmp_path / "by-id"
     with Awr1843Emulator(link_dir=by_id, first_frame_number=1) as emu:

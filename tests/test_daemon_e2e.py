@@ -419,6 +419,40 @@ def test_radar_cli_error_runs_lidar_only_when_not_required() -> None:
             assert abs(int(d[6]) - NEAR_FACE_M * 100) <= NEAR_TOL_CM
 
 
+def test_a_radar_not_there_at_start_is_retried_when_not_required(tmp_path: Path) -> None:
+    """At boot the AWR1843's USB ports may enumerate after the daemon starts: with radar.required = false the radar
+    is kept and retried in the background (not left off for good), and streams once its ports appear."""
+    from daemon.runner import open_sources
+    from simulator.awr1843_device import Awr1843Emulator
+
+    by_id = tmp_path / "by-id"
+    config = Config()
+    config.lidar.enabled = False
+    config.radar.required = False
+    config.radar.cli = f"serial://{by_id / 'awr1843-cli'}?baud=115200"
+    config.radar.data = f"serial://{by_id / 'awr1843-data'}?baud=921600"
+    config.radar.profile = str(Path(__file__).resolve().parent.parent / "daemon" / "profiles" / "awr1843_50m.cfg")
+    sources = open_sources(config, fast=False)
+    assert sources.radar is not None
+    assert any(note.startswith("radar not ready at start, running without it and retrying") for note in sources.notes)
+    stop = threading.Event()
+    frames: list[object] = []
+    reader = threading.Thread(target=lambda: frames.extend(f for f in sources.radar.frames(stop) if not stop.is_set()))
+    reader.start()
+    try:
+        time.sleep(0.3)  # the ports do not exist yet: retried, no exception
+        assert reader.is_alive()
+        with Awr1843Emulator(link_dir=by_id):
+            assert wait_for(lambda: len(frames) >= 2, timeout=15.0)
+            stop.set()
+            reader.join(timeout=10.0)
+    finally:
+        stop.set()
+        reader.join(timeout=10.0)
+    assert not reader.is_alive()
+    assert sources.radar.stats.configured == 1
+
+
 def test_a_rolling_boat_in_a_rough_sea_reports_only_the_box() -> None:
     """The issue's waves, live: the boat rolls 5 deg and pitches 3 deg (ATTITUDE at 50 Hz carries it), heaves
     0.2 m (which the autopilot's position does not help with), crests stand 0.3 m and the tilted beams' water

@@ -94,6 +94,7 @@ class SerialRadarSource:
         expected: ExpectedStream | None = None,
         stop_sensor_on_exit: bool = True,
         silence_timeout_s: float = 2.0,
+        resend_cfg_after_s: tuple[float, ...] = (5.0, 15.0, 45.0, 60.0),
         read_timeout_s: float = QUIET_READ_S,
         reconnect_backoff_s: tuple[float, ...] = (0.2, 0.5, 1.0, 2.0, 5.0),
         cli_command_timeout_s: float = 1.0,
@@ -112,6 +113,9 @@ class SerialRadarSource:
         self.configure = configure
         self.stop_sensor_on_exit = stop_sensor_on_exit
         self.silence_timeout_s = silence_timeout_s
+        # Silent this long with its ports still there (a brown-out reset the board, another program stopped it), a
+        # radar this source configures gets its cfg again; then again after each next interval, the last repeating.
+        self.resend_cfg_after_s = resend_cfg_after_s
         self.read_timeout_s = read_timeout_s
         self.reconnect_backoff_s = reconnect_backoff_s
         self.cli_command_timeout_s = cli_command_timeout_s
@@ -209,6 +213,7 @@ class SerialRadarSource:
 
     def _stream(self, stop: threading.Event) -> Iterator[RadarFrame]:
         last_frame = self.clock()
+        resends = 0  # cfg re-sent since the last frame
         while not stop.is_set():
             assert self._data is not None
             try:
@@ -235,6 +240,20 @@ class SerialRadarSource:
                 yield frame
             if frames:
                 last_frame = now
+                resends = 0
+            elif self._resend_due(now - last_frame, resends):
+                resends += 1
+                log.warning(
+                    "AWR1843: no frame for %.0f s with its ports there (%s): sending the cfg again (%d)",
+                    now - last_frame,
+                    self._ports_text(),
+                    resends,
+                )
+                self._close_data()
+                self.parser.reset_stream()
+                if not self._reconnect(stop):
+                    return
+                # last_frame stays: the silence (and its next re-send) runs on until a frame comes
             elif not self.stats.silent and now - last_frame > self.silence_timeout_s:
                 self.stats.silent = True
                 self.stats.silences += 1
@@ -245,6 +264,15 @@ class SerialRadarSource:
                     self._ports_text(),
                     self.stats.parser.bytes_skipped,
                 )
+
+    def _resend_due(self, silent_for_s: float, resends: int) -> bool:
+        """A silent radar this source configures is due its cfg again: after the first interval of silence, then
+        each next one (cumulative), the last repeating."""
+        if not (self.configure and self.stats.silent and self.resend_cfg_after_s):
+            return False
+        steps = self.resend_cfg_after_s
+        due = sum(steps[: min(resends + 1, len(steps))]) + steps[-1] * max(resends + 1 - len(steps), 0)
+        return silent_for_s >= due
 
     def _reconnect(self, stop: threading.Event) -> bool:
         """Retry with backoff until the ports are back and the radar accepts its cfg; False if stopped."""
