@@ -20,6 +20,7 @@ import numpy as np
 
 from daemon.ais import MMSI_BASE, ais_vessel
 from daemon.buffers import BoundedQueue, LatestSlot
+from daemon.change_notices import ChangeNotices
 from daemon.health import CycleStats, RateCounter
 from daemon.heap import release_free_memory
 from daemon.sdnotify import SystemdNotifier
@@ -36,6 +37,10 @@ PHASE_GAIN = 0.2  # share of the LiDAR phase error corrected per tick (run_live)
 PHASE_MAX_STEP_S = 0.005  # s, the most one tick moves the next
 MAX_FAILED_TICKS = 20  # cycles failing in a row (2 s) before the loop gives up and lets systemd restart it
 STARTUP_GRACE_S = 3.0  # a sensor not heard from yet is only reported silent after this
+# Up/down notices of one sensor (or of the feed): two within this many seconds, then the changes are counted and
+# said when the next one may go (daemon.change_notices). A flapping link said each of its 14 changes in 10 s.
+STATE_NOTICE_QUIET_S = 10.0
+_DATA = "sensor data"
 MAV_SEVERITY_WARNING = 4
 MAV_SEVERITY_INFO = 6
 
@@ -111,6 +116,7 @@ class DaemonLoop:
         self._publishing: bool | None = None
         self._waiting_for_first_data = False  # no data since start-up, within STARTUP_GRACE_S so far
         self._sensor_state: dict[str, bool] = {}
+        self._notices = ChangeNotices(STATE_NOTICE_QUIET_S)
         self._status: int | None = None
         self._first_tick: float | None = None
         self._last_health = -math.inf
@@ -166,7 +172,9 @@ class DaemonLoop:
             self._on_data_state_change(has_data)
         elif not has_data and self._waiting_for_first_data and not self._in_grace(out.t):
             self._waiting_for_first_data = False
+            self._notices.start(_DATA, False)
             self._report_no_data(f"since start-up ({STARTUP_GRACE_S:.0f} s)")
+        self._say_data_state(has_data, out.t)
         if has_data:
             if self.publisher is not None:
                 self.publisher.send_obstacle_distance(
@@ -242,19 +250,24 @@ class DaemonLoop:
                 continue
             if was is None and ok:
                 self._sensor_state[name] = True
+                self._notices.start(name, True)
                 continue
-            if was != ok:
-                self._sensor_state[name] = ok
-                if ok:
-                    log.info("%s delivering again", name)
-                    self._statustext(MAV_SEVERITY_INFO, f"usv-tracker: {name} back")
-                else:
-                    log.error(
-                        "%s silent for more than %.1f s: its bearings are reported unknown",
-                        name,
-                        self.s.no_data_timeout_s,
-                    )
-                    self._statustext(MAV_SEVERITY_WARNING, f"usv-tracker: {name} silent")
+            self._sensor_state[name] = ok
+            unsaid = self._notices.note(name, ok, out.t)
+            if unsaid is None:
+                continue
+            unsteady = _unsteady(unsaid, self._notices.quiet_s)
+            if ok:
+                log.info("%s delivering again%s", name, unsteady)
+                self._statustext(MAV_SEVERITY_INFO, f"usv-tracker: {name} back" + (", unsteady" if unsaid else ""))
+            else:
+                log.error(
+                    "%s silent for more than %.1f s: its bearings are reported unknown%s",
+                    name,
+                    self.s.no_data_timeout_s,
+                    unsteady,
+                )
+                self._statustext(MAV_SEVERITY_WARNING, f"usv-tracker: {name} silent" + (", unsteady" if unsaid else ""))
         up = sum(1 for ok in fresh.values() if ok)
         status = MAV_STATE_ACTIVE if up == len(fresh) else MAV_STATE_CRITICAL if up else MAV_STATE_EMERGENCY
         if status != self._status:
@@ -272,20 +285,34 @@ class DaemonLoop:
         if has_data:
             if self._waiting_for_first_data:
                 self._waiting_for_first_data = False
+                self._notices.start(_DATA, True)
                 log.info("first sensor data: sending OBSTACLE_DISTANCE")
-            elif not first:
-                log.info("sensor data is back: sending OBSTACLE_DISTANCE again")
-                self._statustext(MAV_SEVERITY_INFO, "usv-tracker: sensor data back")
         elif first:
             # Sensors take a moment after start-up (a radar a second or two after its cfg); not an error yet.
             self._waiting_for_first_data = True
             log.info("waiting for sensor data: OBSTACLE_DISTANCE starts with it")
-        else:
-            self._report_no_data(f"for {self.s.no_data_timeout_s:.1f} s")
 
-    def _report_no_data(self, how_long: str) -> None:
-        log.error("no sensor has delivered %s: OBSTACLE_DISTANCE withheld so the autopilot reports No Data", how_long)
-        self._statustext(MAV_SEVERITY_WARNING, "usv-tracker: no sensor data, obstacle output stopped")
+    def _say_data_state(self, has_data: bool, t: float) -> None:
+        """The feed's stops and restarts, said when they happen but at most once per quiet time (ChangeNotices)."""
+        if self._waiting_for_first_data or not self._notices.known(_DATA):
+            return
+        unsaid = self._notices.note(_DATA, has_data, t)
+        if unsaid is None:
+            return
+        unsteady = _unsteady(unsaid, self._notices.quiet_s)
+        if has_data:
+            log.info("sensor data is back: sending OBSTACLE_DISTANCE again%s", unsteady)
+            self._statustext(MAV_SEVERITY_INFO, "usv-tracker: sensor data back" + (", unsteady" if unsaid else ""))
+        else:
+            self._report_no_data(f"for {self.s.no_data_timeout_s:.1f} s", unsteady)
+
+    def _report_no_data(self, how_long: str, unsteady: str = "") -> None:
+        log.error(
+            "no sensor has delivered %s: OBSTACLE_DISTANCE withheld so the autopilot reports No Data%s",
+            how_long,
+            unsteady,
+        )
+        self._statustext(MAV_SEVERITY_WARNING, "usv-tracker: no sensor data, obstacles withheld")
 
     def _statustext(self, severity: int, text: str) -> None:
         if self.publisher is not None:
@@ -481,3 +508,10 @@ def tick_record(
         if world_origin is None
         else [round(world_origin[0], 8), round(world_origin[1], 8)],
     }
+
+
+def _unsteady(unsaid: int, quiet_s: float) -> str:
+    """What a notice adds about the changes it follows that were not said (ChangeNotices)."""
+    if unsaid <= 0:
+        return ""
+    return f" (unsteady: {unsaid} more change(s) since the last notice, not said to keep within 2 per {quiet_s:.0f} s)"

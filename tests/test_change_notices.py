@@ -1,0 +1,76 @@
+"""Up/down notices: a plain outage said at its start and end, a flapping one counted instead of said each time."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+
+from daemon.autopilot import AutopilotLink
+from daemon.change_notices import ChangeNotices
+from daemon.loop import DaemonLoop, LoopSettings, SensorInputs
+from simulator.autopilot import SimAutopilot, wait_until
+from tests.test_autopilot_link import circle, free_udp_port
+from tracker.pipeline import PerceptionOutput, PerceptionPipeline
+
+
+def test_a_plain_outage_is_said_when_it_starts_and_when_it_ends() -> None:
+    n = ChangeNotices(quiet_s=10.0, burst=2)
+    n.start("LiDAR", True)
+    assert n.note("LiDAR", True, 0.0) is None
+    assert n.note("LiDAR", False, 1.0) == 0
+    assert n.note("LiDAR", False, 1.1) is None
+    assert n.note("LiDAR", True, 3.0) == 0  # said at once: the second notice in 10 s
+
+
+def test_flapping_is_counted_and_said_when_the_quiet_time_allows() -> None:
+    n = ChangeNotices(quiet_s=10.0, burst=2)
+    n.start("LiDAR", True)
+    said = {}
+    for k in range(1, 15):  # 14 changes, one every 0.7 s
+        t, state = 0.7 * k, k % 2 == 0
+        out = n.note("LiDAR", state, t)
+        if out is not None:
+            said[round(t, 1)] = (state, out)
+    assert said == {0.7: (False, 0), 1.4: (True, 0)}  # two said, twelve counted
+    # 10 s after the first notice: up, as last said, but after 12 changes nobody heard of: said again with them
+    assert n.note("LiDAR", True, 10.5) is None  # two notices in the last 10 s (0.7, 1.4)
+    assert n.note("LiDAR", True, 10.8) == 12
+    assert n.note("LiDAR", True, 10.9) is None  # nothing new
+    assert n.note("LiDAR", False, 11.0) is None  # two notices within 10 s (1.4, 10.8): counted
+    assert n.note("LiDAR", False, 11.5) == 0  # 10 s after 1.4: said, the change itself
+
+
+@pytest.fixture
+def link() -> Iterator[tuple[AutopilotLink, SimAutopilot]]:
+    port = free_udp_port()
+    sim = SimAutopilot(f"udpin:127.0.0.1:{port}", circle, heartbeat_hz=5.0)
+    ap_link = AutopilotLink(f"udpout:127.0.0.1:{port}", heartbeat_timeout=0.6)
+    sim.start()
+    ap_link.start()
+    try:
+        yield ap_link, sim
+    finally:
+        ap_link.stop()
+        sim.stop()
+
+
+def test_a_sensor_flapping_at_its_timeout_does_not_flood_the_telemetry_link(
+    link: tuple[AutopilotLink, SimAutopilot],
+) -> None:
+    """The LiDAR of a LiDAR + radar boat comes and goes every 0.3 s for 10 s (a sender hovering at the 0.5 s
+    timeout): the feed follows it tick by tick, the autopilot hears of it twice, then once more when it settles."""
+    ap_link, sim = link
+    assert wait_until(lambda: ap_link.connected, 5.0)
+    loop = DaemonLoop(PerceptionPipeline(), SensorInputs(), ap_link, None, LoopSettings(radar_expected=True))
+    bins = np.full(72, 65535, dtype=np.uint16)
+    for k in range(150):
+        t = 5.0 + 0.1 * k  # after the start-up grace
+        lidar = k >= 100 or (k // 3) % 2 == 0  # flapping for 10 s, then steady
+        loop._publish(PerceptionOutput(t, [], bins, lidar_fresh=lidar, radar_fresh=True))
+    assert wait_until(lambda: len(sim.statustexts()) >= 3, 5.0)
+    texts = [s.text for s in sim.statustexts()]
+    assert texts[:2] == ["usv-tracker: LiDAR silent", "usv-tracker: LiDAR back"]
+    assert texts[2:] == ["usv-tracker: LiDAR back, unsteady"]
+    assert loop.sent == 150  # the radar kept the feed going throughout
