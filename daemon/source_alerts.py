@@ -3,7 +3,8 @@ over to another sender, radar frames of another configuration than the one sent.
 
 The drivers count in their reader threads; the loop polls the counters once a tick, in its own thread, which is the
 one that talks to the autopilot. At most one message per kind a minute: a noisy network must not flood a telemetry
-radio (the journal and the health line carry the details).
+radio (the journal and the health line carry the details). News within the minute is held, not dropped, and sent
+when the minute is over, as it stands then: a second takeover of the LiDAR soon after a first one is still heard.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ class SourceAlerts:
         self._parser_stats = getattr(getattr(radar, "stats", None), "parser", None)
         self._seen: dict[str, int] = {}
         self._sent: dict[str, float] = {}
+        self._held: set[str] = set()  # kinds with news not sent yet (within ALERT_INTERVAL_S of the last)
 
     def poll(self, t: float) -> list[tuple[int, str]]:
         out: list[tuple[int, str]] = []
@@ -38,10 +40,12 @@ class SourceAlerts:
         return out
 
     def _news(self, kind: str, count: int, t: float) -> bool:
-        """The counter rose since the last poll and this kind was not sent within ALERT_INTERVAL_S."""
-        rose = count > self._seen.get(kind, 0)
+        """The counter rose since this kind was last sent, and it was not sent within ALERT_INTERVAL_S."""
+        if count > self._seen.get(kind, 0):
+            self._held.add(kind)
         self._seen[kind] = count
-        if not rose or t - self._sent.get(kind, -math.inf) < ALERT_INTERVAL_S:
+        if kind not in self._held or t - self._sent.get(kind, -math.inf) < ALERT_INTERVAL_S:
             return False
+        self._held.discard(kind)
         self._sent[kind] = t
         return True
