@@ -318,6 +318,11 @@ class OutputConfig:
             out.append("max_distance_m: must be below 655 m (OBSTACLE_DISTANCE carries uint16 centimetres)")
         if self.no_data_timeout_s <= 0:
             out.append("no_data_timeout_s: must be > 0")
+        elif 1 <= self.rate_hz <= 50 and self.no_data_timeout_s < 2.0 / self.rate_hz:
+            out.append(
+                f"no_data_timeout_s: {self.no_data_timeout_s} is under two ticks ({2.0 / self.rate_hz:.2f} s at"
+                f" {self.rate_hz:g} Hz): a sensor delivering once a tick would be reported silent between deliveries"
+            )
         if not (math.isfinite(self.min_height_above_water_m) and self.min_height_above_water_m > 0):
             out.append(f"min_height_above_water_m: {self.min_height_above_water_m} must be > 0")
         if not (math.isfinite(self.min_obstacle_height_m) and self.min_obstacle_height_m > 0):

@@ -208,6 +208,13 @@ def test_a_wrong_type_does_not_hide_the_sections_other_problems(tmp_path: Path) 
         "output.rate_hz: expected a number, got 'ten'",
         "output.min_distance_m/max_distance_m: need 0 < min < max",
     ]
+    path.write_text("[output]\nno_data_timeout_s = 0.05\n")
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert err.value.problems == [
+        "output.no_data_timeout_s: 0.05 is under two ticks (0.20 s at 10 Hz): a sensor delivering once a tick would"
+        " be reported silent between deliveries"
+    ]
 
 
 def test_the_simulator_is_pointed_to_the_demo_not_accepted_as_a_source(tmp_path: Path) -> None:

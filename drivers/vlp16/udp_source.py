@@ -34,6 +34,7 @@ log = logging.getLogger(__name__)
 RCVBUF_BYTES = 4 * 1024 * 1024  # ~2 s of dual-return data; a reader stall must not drop packets
 _RECV_BUFFER = 65536  # a merged or jumbo datagram is read whole so its real size is counted
 _DRAIN_MAX = 512  # datagrams per socket per wake-up, so a flood cannot starve the stop check
+SILENCE_REPEAT_S = 30.0  # a lasting outage is logged again this often (the health line shows it every 5 s)
 
 
 class LidarPortError(OSError):
@@ -309,7 +310,9 @@ class VelodyneUdpSource:
         if quiet < self.silence_timeout_s:
             return
         self.stats.silent = True
-        if self._last_silence_log is not None and now - self._last_silence_log < self.silence_timeout_s:
+        # Said when it starts, then every SILENCE_REPEAT_S while it lasts: an outage of an hour is not 1,700 lines.
+        repeat = max(self.silence_timeout_s, SILENCE_REPEAT_S)
+        if self._last_silence_log is not None and now - self._last_silence_log < repeat:
             return
         self._last_silence_log = now
         sender = self.lock.describe()
