@@ -21,6 +21,7 @@ import logging
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import Any, ClassVar
 
@@ -42,6 +43,9 @@ STATUSTEXT_CHUNK = 50
 STATUSTEXT_MAX_CHUNKS = 6  # a runaway message must not flood a telemetry radio
 SANE_UNIX_TIME_S = 1577836800.0  # 2020-01-01: a host clock before this was never set (no RTC, no NTP yet)
 MAV_STATE_MAX = 8  # MAV_STATE_FLIGHT_TERMINATION
+# This many autopilot clock resets within the window are two clocks on the link, not reboots (_clock_conflict).
+CLOCK_CONFLICT_RESETS = 3  # an autopilot's reboot takes longer than the window, and is one reset
+CLOCK_CONFLICT_WINDOW_S = 10.0
 
 DEFAULT_RATES_HZ: dict[int, float] = {
     mavlink.MAVLINK_MSG_ID_ATTITUDE: 50.0,
@@ -124,6 +128,9 @@ class AutopilotLink:
         self._next_timesync = 0.0
         self._unix_anchor: tuple[int, float] | None = None  # (autopilot unix us, host monotonic s)
         self._timesync_resets_seen = self.timesync.resets
+        self._clock_resets: deque[float] = deque(maxlen=CLOCK_CONFLICT_RESETS)
+        self._conflicted_until = -math.inf  # poses ignored until then: two clocks answer as the autopilot
+        self._conflict_logged = -math.inf
         self._scan_id_3d = 0
         self.raw_sink: Callable[[Any], None] | None = None  # every message received (the recorder's .tlog)
         self._statustext_id = 0
@@ -529,26 +536,70 @@ class AutopilotLink:
 
     def _check_clock_reset(self) -> None:
         """The autopilot's clock restarted or jumped (seen in a time_boot_ms or a TIMESYNC reply): it has
-        most likely rebooted, so it forgot our rates, and its EKF origin may have moved."""
+        most likely rebooted, so it forgot our rates, and its EKF origin may have moved. Several times within
+        CLOCK_CONFLICT_WINDOW_S it is no reboot but two clocks (_clock_conflict)."""
         if self.timesync.resets == self._timesync_resets_seen:
             return
         self._timesync_resets_seen = self.timesync.resets
         self._count("autopilot_clock_resets")
+        if self._clock_conflict(self.clock()):
+            return
         self._assembler.on_autopilot_reboot()
         self.rates.restart()
         self._next_timesync = 0.0
         self._unix_anchor = None
 
+    def _clock_conflict(self, now: float) -> bool:
+        """Two autopilots answering as one system and component (a second vehicle, a bench unit or SITL left on
+        the network): their boot clocks alternate in the messages, each one a "reboot" that restarted the world
+        frame and the tracks, 160 times a second in a test. A real reboot takes far longer than
+        CLOCK_CONFLICT_WINDOW_S. While the clocks alternate, and CLOCK_CONFLICT_WINDOW_S after, poses are ignored:
+        the daemon runs without an own pose (the boat's frame), as with no autopilot, and says why once a minute."""
+        self._clock_resets.append(now)
+        resets = self._clock_resets
+        if len(resets) == resets.maxlen and now - resets[0] < CLOCK_CONFLICT_WINDOW_S:
+            if now >= self._conflicted_until:
+                self._assembler.forget_poses("two autopilot clocks on the link")
+            self._conflicted_until = now + CLOCK_CONFLICT_WINDOW_S
+            self.timesync.quiet = True
+            if now - self._conflict_logged >= 60.0:
+                self._conflict_logged = now
+                log.error(
+                    "autopilot clock went back %d times in %.1f s: two autopilots answer as system %d component %d "
+                    "on this link (another vehicle, a bench unit, SITL?); their poses are ignored while it lasts",
+                    len(resets),
+                    now - resets[0],
+                    self.target_system,
+                    self.autopilot_component,
+                )
+            return True
+        return now < self._conflicted_until
+
+    def _poses_usable(self, rx: float) -> bool:
+        if rx < self._conflicted_until:
+            self._count("rx_pose_clock_conflict")
+            return False
+        if self.timesync.quiet:
+            self.timesync.quiet = False
+            log.warning("autopilot clock steady again: poses used from now on (a new world frame)")
+        return True
+
     def _on_attitude(self, msg: Any, rx: float) -> None:
         t = self._stamp(msg.time_boot_ms, rx)
+        if not self._poses_usable(rx):
+            return
         self._assembler.on_attitude(t, msg.roll, msg.pitch, msg.yaw, msg.rollspeed, msg.pitchspeed, msg.yawspeed)
 
     def _on_local_position(self, msg: Any, rx: float) -> None:
         t = self._stamp(msg.time_boot_ms, rx)
+        if not self._poses_usable(rx):
+            return
         self._assembler.on_local_position(t, np.array([msg.x, msg.y, msg.z]), np.array([msg.vx, msg.vy, msg.vz]))
 
     def _on_global_position(self, msg: Any, rx: float) -> None:
         t = self._stamp(msg.time_boot_ms, rx)
+        if not self._poses_usable(rx):
+            return
         vel = np.array([msg.vx, msg.vy, msg.vz], dtype=float) / 100.0
         self._assembler.on_global_position(t, msg.lat * 1e-7, msg.lon * 1e-7, msg.alt * 1e-3, vel)
 

@@ -134,6 +134,17 @@ class PoseAssembler:
         with self._lock:
             self._last_local = None
 
+    def forget_poses(self, why: str) -> None:
+        """The poses cannot be trusted (two autopilots' clocks interleaved): a new world frame with no pose in it,
+        so the pipeline runs in the boat's frame until poses it can trust come again."""
+        self._pos = None
+        self._first_fix_t = None
+        with self._lock:
+            self._last_local = None
+            self._plane = None
+        self.position_source = None
+        self._new_world(why)
+
     def _new_world(self, why: str) -> None:
         self.world_epoch += 1
         self.history.clear()

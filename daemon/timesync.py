@@ -57,6 +57,7 @@ class TimeSync:
         self.offset_ns: int | None = None
         self.rtt_ns: int | None = None  # smallest round trip in the window
         self.resets = 0
+        self.quiet = False  # resets not logged (the link is reporting two clocks on it)
         self.last_reset_reason = ""
         self.rejected = 0  # replies to nobody's request, or with an impossible round trip
         self.accepted = 0
@@ -78,7 +79,8 @@ class TimeSync:
         self.rtt_ns = None
         self.resets += 1
         self.last_reset_reason = reason
-        log.info("timesync reset: %s", reason)
+        if not self.quiet:  # the link says once a minute why the clock keeps jumping (two autopilots)
+            log.info("timesync reset: %s", reason)
 
     # ------------------------------------------------------------------ exchanges
     def make_request(self, now_ns: int) -> tuple[int, int]:

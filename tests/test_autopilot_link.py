@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import math
 import socket
 import threading
@@ -140,6 +141,49 @@ def test_reboot_seen_in_time_boot_ms_of_default_streams() -> None:
     finally:
         link.stop()
         sim.stop()
+
+
+def test_two_autopilots_answering_as_one_are_named_and_their_poses_not_mixed(
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A second vehicle (or a bench unit, or SITL) on the network with the same system and component id: its boot
+    clock alternates with the boat's in the messages. Each alternation looked like a reboot: the world frame and
+    the tracks restarted 160 times a second and the log flooded. Named once instead; no pose is used while the
+    clocks alternate (the daemon runs in the boat's frame); the poses come back once only one clock is left."""
+    monkeypatch.setattr("daemon.autopilot.CLOCK_CONFLICT_WINDOW_S", 1.0)  # 10 s on a boat: a test waits less
+    caplog.set_level(logging.INFO, logger="daemon")
+    port = free_udp_port()
+    rates = {ATT: 25.0, LPN: 10.0}
+    boat = SimAutopilot(f"udpout:127.0.0.1:{port}", circle, default_rates_hz=rates, heartbeat_hz=5.0)
+    other = SimAutopilot(
+        f"udpout:127.0.0.1:{port}", circle, default_rates_hz=rates, heartbeat_hz=5.0, boot_uptime_s=5000.0
+    )
+    link = AutopilotLink(f"udpin:127.0.0.1:{port}")
+    boat.start()
+    link.start()
+    try:
+        assert wait_until(lambda: link.counters.get("pose_samples", 0) > 5, 5.0)
+        other.start()
+        assert wait_until(lambda: link.counters.get("rx_pose_clock_conflict", 0) > 20, 5.0), link.status()
+        epoch = link.world_epoch
+        time.sleep(0.5)
+        # the first alternations look like reboots (LOCAL_POSITION_NED: a new world each); then no more
+        assert link.world_epoch == epoch <= 3
+        assert len(link.poses) == 0  # nobody's poses while the clocks alternate
+        other.stop()
+        assert wait_until(lambda: len(link.poses) > 5, 5.0)  # one clock left: poses again
+        assert link.world_epoch == epoch
+    finally:
+        link.stop()
+        boat.stop()
+        other.stop()
+    named = [
+        r.getMessage() for r in caplog.records if "two autopilots answer as system 1 component 1" in r.getMessage()
+    ]
+    assert len(named) == 1 and named[0].startswith("autopilot clock went back 3 times in ")
+    assert sum("world frame changed" in r.getMessage() for r in caplog.records) == epoch
+    assert sum("timesync reset" in r.getMessage() for r in caplog.records) <= 3
+    assert any(r.getMessage().startswith("autopilot clock steady again") for r in caplog.records)
 
 
 def test_rates_re_requested_when_heartbeat_reappears(pair: tuple[AutopilotLink, SimAutopilot]) -> None:
