@@ -252,6 +252,8 @@ class DaemonLoop:
                 self._sensor_state[name] = True
                 self._notices.start(name, True)
                 continue
+            if was is None:  # not heard from by the end of the grace: said silent now
+                self._notices.start(name, True)
             self._sensor_state[name] = ok
             unsaid = self._notices.note(name, ok, out.t)
             if unsaid is None:
@@ -283,9 +285,10 @@ class DaemonLoop:
         first = self._publishing is None
         self._publishing = has_data
         if has_data:
+            if first or self._waiting_for_first_data:
+                self._notices.start(_DATA, True)
             if self._waiting_for_first_data:
                 self._waiting_for_first_data = False
-                self._notices.start(_DATA, True)
                 log.info("first sensor data: sending OBSTACLE_DISTANCE")
         elif first:
             # Sensors take a moment after start-up (a radar a second or two after its cfg); not an error yet.

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 
 import numpy as np
@@ -70,7 +71,32 @@ def test_a_sensor_flapping_at_its_timeout_does_not_flood_the_telemetry_link(
         lidar = k >= 100 or (k // 3) % 2 == 0  # flapping for 10 s, then steady
         loop._publish(PerceptionOutput(t, [], bins, lidar_fresh=lidar, radar_fresh=True))
     assert wait_until(lambda: len(sim.statustexts()) >= 3, 5.0)
+    time.sleep(0.5)  # a fourth, unwanted notice would be on its way by now
     texts = [s.text for s in sim.statustexts()]
     assert texts[:2] == ["usv-tracker: LiDAR silent", "usv-tracker: LiDAR back"]
     assert texts[2:] == ["usv-tracker: LiDAR back, unsteady"]
     assert loop.sent == 150  # the radar kept the feed going throughout
+
+
+def test_a_sensor_silent_from_start_up_and_an_outage_of_a_feed_that_started_at_once_are_said(
+    link: tuple[AutopilotLink, SimAutopilot],
+) -> None:
+    """The LiDAR delivers from the first tick, the radar never (its ports not there yet): the radar is said silent
+    once the start-up grace is over; the LiDAR's outage later stops the feed, and both are said, then their end."""
+    ap_link, sim = link
+    assert wait_until(lambda: ap_link.connected, 5.0)
+    loop = DaemonLoop(PerceptionPipeline(), SensorInputs(), ap_link, None, LoopSettings(radar_expected=True))
+    bins = np.full(72, 65535, dtype=np.uint16)
+    for k in range(70):
+        t = 0.1 * k
+        loop._publish(PerceptionOutput(t, [], bins, lidar_fresh=not 40 <= k < 60, radar_fresh=False))
+    assert wait_until(lambda: len(sim.statustexts()) >= 5, 5.0)
+    time.sleep(0.5)
+    assert [s.text for s in sim.statustexts()] == [
+        "usv-tracker: radar silent",
+        "usv-tracker: LiDAR silent",
+        "usv-tracker: no sensor data, obstacles withheld",
+        "usv-tracker: LiDAR back",
+        "usv-tracker: sensor data back",
+    ]
+    assert (loop.sent, loop.withheld) == (50, 20)
