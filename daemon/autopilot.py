@@ -532,6 +532,9 @@ class AutopilotLink:
         """Host time of an autopilot-stamped message; watches for reboots on the way."""
         self.timesync.check_boot_time(time_boot_ms, int(rx * NS_PER_S))
         self._check_clock_reset()
+        if self.timesync.quiet and rx >= self._conflicted_until:
+            self.timesync.quiet = False
+            log.warning("autopilot clock steady again: poses used from now on (a new world frame)")
         return self.timesync.to_host(time_boot_ms, rx)
 
     def _check_clock_reset(self) -> None:
@@ -576,12 +579,10 @@ class AutopilotLink:
         return now < self._conflicted_until
 
     def _poses_usable(self, rx: float) -> bool:
+        """Not while two clocks alternate (_clock_conflict): neither's pose, nor its time of day."""
         if rx < self._conflicted_until:
             self._count("rx_pose_clock_conflict")
             return False
-        if self.timesync.quiet:
-            self.timesync.quiet = False
-            log.warning("autopilot clock steady again: poses used from now on (a new world frame)")
         return True
 
     def _on_attitude(self, msg: Any, rx: float) -> None:
@@ -605,6 +606,9 @@ class AutopilotLink:
 
     def _on_system_time(self, msg: Any, rx: float) -> None:
         self._stamp(msg.time_boot_ms, rx)
+        if not self._poses_usable(rx):
+            self._unix_anchor = None
+            return
         if host_clock_sane(msg.time_unix_usec * 1e-6):
             t = self.timesync.to_host(msg.time_boot_ms, rx)
             self._unix_anchor = (int(msg.time_unix_usec), t)

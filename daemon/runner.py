@@ -173,7 +173,7 @@ def _radar_may_come(exc: BaseException) -> bool:
     from drivers.awr1843.errors import RadarConfigError, RadarPortError
 
     if isinstance(exc, RadarConfigError):
-        return "prompt" in str(exc).split(";")[0]  # no prompt: silence, not a refused line
+        return exc.silent
     return isinstance(exc, (RadarPortError, serial.SerialException))
 
 

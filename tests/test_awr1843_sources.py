@@ -112,15 +112,21 @@ def test_live_stream_with_injected_damage(fast_profile: RadarProfile) -> None:
     assert received_lines[-1] == "sensorStop"
 
 
-def test_start_up_with_a_refused_cfg_raises(fast_profile: RadarProfile) -> None:
+def test_start_up_with_a_refused_cfg_raises(fast_profile: RadarProfile, caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.INFO, logger="drivers.awr1843.sources")
     with Awr1843Emulator(failing_lines={"lowPower": -1}) as emu:
         source = SerialRadarSource(emu.cli_path, emu.data_path, fast_profile, stop_sensor_on_exit=False)
         with pytest.raises(RadarConfigError) as err:
             source.connect()  # the daemon's start-up check
-        with pytest.raises(RadarConfigError):
-            next(iter(source.frames(threading.Event())))  # a reader that connects itself raises the same
+        # a reader that connects itself (a radar retried in the background) ends its stream, once, with the line
+        # named: a refused line will not mend itself, and re-sending it would reconfigure the radar over and over
+        assert list(source.frames(threading.Event())) == []
     assert err.value.line == "lowPower 0 0"
     assert err.value.line_number == 25
+    assert not err.value.silent
+    refused = [r.getMessage() for r in caplog.records if "refused its cfg" in r.getMessage()]
+    assert len(refused) == 1 and "cfg line 25: 'lowPower 0 0'" in refused[0]
+    assert source.stats.configured == 0
 
 
 def test_silence_is_flagged_named_and_cleared(fast_profile: RadarProfile, caplog: pytest.LogCaptureFixture) -> None:
@@ -193,12 +199,12 @@ def test_a_radar_that_stops_with_its_ports_there_gets_its_cfg_again(
             reader.wait_for(lambda: len(reader.frames) >= 2)
             emu._reset_device_state()  # the board rebooted: not streaming, its cfg gone, its ports still there
             reader.wait_for(lambda: source.silent)
-            reader.wait_for(lambda: source.stats.configured == 2)
+            reader.wait_for(lambda: source.stats.configured == 2 and source.stats.cfg_resends == 1)
             before = len(reader.frames)
             reader.wait_for(lambda: len(reader.frames) >= before + 3 and not source.silent)
         finally:
             reader.close()
-    assert (source.stats.silences, source.stats.disconnects) == (1, 0)
+    assert (source.stats.silences, source.stats.disconnects, source.stats.reconnects) == (1, 0, 0)
     resent = [r.getMessage() for r in caplog.records if "sending the cfg again" in r.getMessage()]
     assert len(resent) == 1 and resent[0].startswith("AWR1843: no frame for ")
     assert f"s with its ports there ({ports}): sending the cfg again (1)" in resent[0]
@@ -216,7 +222,7 @@ def test_a_radar_someone_else_configures_is_never_sent_a_cfg(fast_profile: Radar
             assert reader.thread.is_alive() and reader.frames == []
         finally:
             reader.close()
-    assert source.stats.configured == 0
+    assert (source.stats.configured, source.stats.cfg_resends, source.stats.reconnects) == (0, 0, 0)
 
 
 def test_unplugged_cable_is_survived(fast_profile: RadarProfile, tmp_path: Path) -> None:
@@ -281,6 +287,24 @@ def test_radar_plugged_in_after_start_up(fast_profile: RadarProfile, tmp_path: P
         reader.close()
     assert [f.frame_number for f in reader.frames[:2]] == [40, 41]
     assert (source.stats.reconnects, source.stats.configured, source.stats.disconnects) == (1, 1, 0)
+
+
+def test_a_radar_that_never_comes_is_not_a_log_line_per_attempt(
+    fast_profile: RadarProfile, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    caplog.set_level(logging.INFO, logger="drivers.awr1843.sources")
+    source = SerialRadarSource(
+        str(tmp_path / "awr1843-cli"), str(tmp_path / "awr1843-data"), fast_profile, reconnect_backoff_s=(0.01,)
+    )
+    reader = Reader(source)
+    try:
+        time.sleep(1.0)  # some 50 attempts at 10 ms
+        assert reader.thread.is_alive() and reader.frames == []
+    finally:
+        reader.close()
+    attempts = [r.getMessage() for r in caplog.records if "reconnect attempt" in r.getMessage()]
+    assert len(attempts) == 3  # the first three; the next would be a minute on
+    assert attempts[-1].endswith("(said again once a minute while it fails)")
 
 
 def test_stop_is_honoured_while_reading(fast_profile: RadarProfile) -> None:

@@ -112,6 +112,7 @@ class CliSession:
             "wrong port (the data port never answers), wrong baud rate, board not running the OOB demo "
             "(SOP jumpers in flashing mode?) or no power",
             reply=received[-200:],
+            silent=True,
         )
 
     def command(self, line: str, *, line_number: int | None = None, timeout: float | None = None) -> CliReply:
@@ -131,7 +132,11 @@ class CliSession:
             lines = _reply_lines(text, line)
             if not got_prompt:
                 raise RadarConfigError(
-                    f"no prompt within {timeout:.1f} s on {self.port}", line_number, line, " | ".join(lines)
+                    f"no prompt within {timeout:.1f} s on {self.port}",
+                    line_number,
+                    line,
+                    " | ".join(lines),
+                    silent=True,
                 )
             for reply_line in lines:
                 m = _NOT_RECOGNIZED.search(reply_line)

@@ -22,10 +22,15 @@ class RadarProfileError(ValueError):
 class RadarConfigError(RuntimeError):
     """The device refused a configuration line, or did not answer it in time."""
 
-    def __init__(self, message: str, line_number: int | None = None, line: str = "", reply: str = "") -> None:
+    def __init__(
+        self, message: str, line_number: int | None = None, line: str = "", reply: str = "", silent: bool = False
+    ) -> None:
         self.line_number = line_number
         self.line = line
         self.reply = reply
+        # The device gave no prompt (not powered, still booting, another port): that can mend itself; a line it
+        # answered with an error or did not know will not.
+        self.silent = silent
         parts = [message]
         if line:
             where = f"cfg line {line_number}" if line_number is not None else "command"

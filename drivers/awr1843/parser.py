@@ -373,14 +373,15 @@ class RadarFrameParser:
             self._last_frame_number = hdr.frame_number
         if host_time - self._rejection_logged_at >= REJECTION_LOG_INTERVAL_S:
             board = why.startswith("platform")
+            # a chip family check-config knows by name, else "any" (a hex code is no value it takes)
+            setting = f'"{PLATFORMS[hdr.platform]}" (or "any")' if hdr.platform in PLATFORMS else '"any"'
             log.warning(
                 "AWR1843 data: %d frame(s) of another configuration rejected%s (frame %d: %s); %s",
                 self._rejected_since_log,
                 "" if self._rejection_logged_at == -math.inf else f" in {host_time - self._rejection_logged_at:.0f} s",
                 hdr.frame_number,
                 why,
-                f'another board sends them: if it is meant to, set [radar] platform = "{describe_platform(hdr.platform)}"'
-                ' (or "any")'
+                f"another board sends them: if it is meant to, set [radar] platform = {setting}"
                 if board
                 else "the radar is not running the cfg this daemon sent: another program reconfigured it",
             )

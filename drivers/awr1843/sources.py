@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -34,6 +35,9 @@ log = logging.getLogger(__name__)
 # decides a frame held for its last bytes (RadarFrameParser.idle). A replay of timed chunks does the same.
 QUIET_READ_S = 0.02
 
+RETRY_LOG_ATTEMPTS = 3  # failed reconnect attempts logged one by one; then once every RETRY_LOG_INTERVAL_S
+RETRY_LOG_INTERVAL_S = 60.0
+
 DATA_BAUDRATE = 921600
 DEFAULT_FRAME_PERIOD_S = 0.1
 
@@ -48,6 +52,7 @@ class SourceStats:
     disconnects: int = 0  # port lost (cable, USB reset)
     reconnects: int = 0
     configured: int = 0  # successful CLI configurations
+    cfg_resends: int = 0  # cfg sent again to a radar silent with its ports there
 
     def as_dict(self) -> dict[str, int | bool | str]:
         out: dict[str, int | bool | str] = dict(self.parser.as_dict())
@@ -57,6 +62,7 @@ class SourceStats:
             disconnects=self.disconnects,
             reconnects=self.reconnects,
             configured=self.configured,
+            cfg_resends=self.cfg_resends,
         )
         return out
 
@@ -195,13 +201,17 @@ class SerialRadarSource:
 
     # ------------------------------------------------------------------ stream
     def frames(self, stop: threading.Event) -> Iterator[RadarFrame]:
-        """Configure, then yield frames until ``stop`` is set. Raises only for a refused cfg at start."""
+        """Configure, then yield frames until ``stop`` is set, retrying a radar that is missing or silent. A cfg
+        line the radar refuses ends the stream (logged): it will not mend itself, and re-sending it would only
+        reconfigure the radar over and over."""
         if self._data is None:
             try:
                 self._connect()
-            except (RadarPortError, serial.SerialException, OSError) as exc:  # not RadarConfigError: fix the cfg
-                log.error("AWR1843: %s; will keep retrying", exc)
+            except (RadarConfigError, RadarPortError, serial.SerialException, OSError) as exc:
                 self._close_data()
+                if self._refused(exc):
+                    return
+                log.error("AWR1843: %s; will keep retrying", exc)
                 if not self._reconnect(stop):
                     return
         try:
@@ -227,6 +237,7 @@ class SerialRadarSource:
                 if not self._reconnect(stop):
                     return
                 last_frame = self.clock()
+                resends = 0
                 continue
             now = self.clock()
             if data and self.raw_sink is not None:
@@ -251,7 +262,7 @@ class SerialRadarSource:
                 )
                 self._close_data()
                 self.parser.reset_stream()
-                if not self._reconnect(stop):
+                if not self._reconnect(stop, resend=True):
                     return
                 # last_frame stays: the silence (and its next re-send) runs on until a frame comes
             elif not self.stats.silent and now - last_frame > self.silence_timeout_s:
@@ -274,9 +285,24 @@ class SerialRadarSource:
         due = sum(steps[: min(resends + 1, len(steps))]) + steps[-1] * max(resends + 1 - len(steps), 0)
         return silent_for_s >= due
 
-    def _reconnect(self, stop: threading.Event) -> bool:
-        """Retry with backoff until the ports are back and the radar accepts its cfg; False if stopped."""
+    def _refused(self, exc: BaseException) -> bool:
+        """A cfg line the radar answered with an error or did not know: logged, and the stream ends (True)."""
+        if not isinstance(exc, RadarConfigError) or exc.silent:
+            return False
+        log.error(
+            "AWR1843 (%s) refused its cfg: %s; radar off until the cfg is fixed and the daemon restarted",
+            self._ports_text(),
+            exc,
+        )
+        return True
+
+    def _reconnect(self, stop: threading.Event, resend: bool = False) -> bool:
+        """Retry with backoff until the ports are back and the radar accepts its cfg; False if stopped, or if the
+        radar refused a cfg line. ``resend``: the ports were never lost, the cfg is sent again to a silent radar.
+        The first attempts' failures are logged each, then once a minute: a radar that never comes is not 17,000
+        journal lines a day."""
         attempt = 0
+        logged_at = -math.inf
         while not stop.is_set():
             delay = self.reconnect_backoff_s[min(attempt, len(self.reconnect_backoff_s) - 1)]
             if stop.wait(delay):
@@ -286,10 +312,25 @@ class SerialRadarSource:
                 self._connect()
             except (RadarPortError, RadarConfigError, serial.SerialException, OSError) as exc:
                 self._close_data()
-                log.warning("AWR1843 reconnect attempt %d failed: %s", attempt, exc)
+                if self._refused(exc):
+                    return False
+                now = self.clock()
+                if attempt <= RETRY_LOG_ATTEMPTS or now - logged_at >= RETRY_LOG_INTERVAL_S:
+                    logged_at = now
+                    log.warning(
+                        "AWR1843 %s attempt %d failed: %s%s",
+                        "cfg" if resend else "reconnect",
+                        attempt,
+                        exc,
+                        "" if attempt < RETRY_LOG_ATTEMPTS else " (said again once a minute while it fails)",
+                    )
                 continue
-            self.stats.reconnects += 1
-            log.warning("AWR1843 reconnected after %d attempt(s) (%s)", attempt, self._ports_text())
+            if resend:
+                self.stats.cfg_resends += 1
+                log.warning("AWR1843 cfg sent again (%s); waiting for its frames", self._ports_text())
+            else:
+                self.stats.reconnects += 1
+                log.warning("AWR1843 reconnected after %d attempt(s) (%s)", attempt, self._ports_text())
             return True
         return False
 
