@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tracker.fusion import PublishedIds, fuse_track_groups
+from tracker.fusion import PublishedIds, fuse_track_groups, report_second_tracks_tentative
 from tracker.types import Track
 
 
@@ -99,3 +99,42 @@ def test_an_id_unseen_for_longer_than_the_memory_is_forgotten() -> None:
     assert [tr.id for tr in ids.publish(0.2, fuse_track_groups([track(12, 40.0, 0.0, "lidar")], [], 3.0))] == [7]
     ids.publish(0.3, [])
     assert [tr.id for tr in ids.publish(1.5, fuse_track_groups([track(12, 40.0, 0.0, "lidar")], [], 3.0))] == [12]
+
+
+def moving(
+    tid: int, north: float, east: float, length: float, width: float, v_north: float, heading: float = 0.0
+) -> Track:
+    return Track(
+        id=tid,
+        t=0.0,
+        position=np.array([north, east]),
+        velocity=np.array([v_north, 0.0]),
+        heading=heading,
+        yaw_rate=0.0,
+        length=length,
+        width=width,
+        height=2.0,
+        confirmed=True,
+    )
+
+
+def test_a_younger_track_on_an_older_hulls_box_is_reported_tentative() -> None:
+    """A 30 m hull's track covers what was seen of it (20 m); a piece beyond its end moving with it, 1.5 m past the
+    box, is that hull; so is one whose velocity is not known yet. A boat as close that moves apart (at rest beside the
+    moving host), a track 2.6 m off, an older track and one longer than the host stay vessels."""
+    host = moving(1, 0.0, 0.0, 20.0, 5.0, 3.0)  # heading north: length along north
+    piece = moving(7, 11.5, 0.0, 4.0, 2.0, 3.2)  # 1.5 m beyond the host's bow end, moving alike
+    crossing = moving(8, 0.0, 4.0, 3.0, 1.5, 0.0)  # beside the host, at rest while the host makes 3 m/s
+    far = moving(9, 0.0, 5.1, 4.0, 2.0, 3.0)  # 2.6 m off the host's side
+    unknown = moving(10, -11.0, 0.0, 3.0, 1.5, float("nan"))  # velocity not known yet: not known to move apart
+    out = report_second_tracks_tentative([host, piece, crossing, far, unknown], 2.0, 1.0)
+    assert [tr.confirmed for tr in out] == [True, False, True, True, False]
+    assert [tr.id for tr in out] == [1, 7, 8, 9, 10]
+    older_piece = moving(0, 11.5, 0.0, 4.0, 2.0, 3.2)  # the piece's track is the older one: it stays
+    longer = moving(11, 11.5, 0.0, 25.0, 2.0, 3.2)  # longer than the host: not its piece
+    assert [tr.confirmed for tr in report_second_tracks_tentative([host, older_piece, longer], 2.0, 1.0)] == [
+        True,
+        True,
+        True,
+    ]
+    assert report_second_tracks_tentative([host, piece], -1.0, 1.0)[1].confirmed  # negative: off

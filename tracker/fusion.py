@@ -110,3 +110,40 @@ class PublishedIds:
             if pub != track.id:
                 out[k] = replace(track, id=pub)
         return out
+
+
+def report_second_tracks_tentative(tracks: list[Track], gap_m: float, max_speed_difference_mps: float) -> list[Track]:
+    """The tracks, with each confirmed one that lies on another's hull reported tentative: its centre within
+    ``gap_m`` of the box of an older confirmed track (a lower id: started earlier) at least as long, the two not
+    moving apart (velocities within ``max_speed_difference_mps`` where both are known). A long hull seen in parts
+    gives its pieces tracks of their own beside the hull's, whose box covers only what was seen of it; a vessel
+    passing close by moves differently, or is older than the track beside it. ``gap_m`` < 0: none."""
+    if gap_m < 0 or len(tracks) < 2:
+        return tracks
+    conf = np.array([tr.confirmed for tr in tracks])
+    if conf.sum() < 2:
+        return tracks
+    pos = np.array([tr.position[:2] for tr in tracks], float)
+    vel = np.array([tr.velocity[:2] for tr in tracks], float)
+    heading = np.array([tr.heading for tr in tracks])
+    length = np.array([tr.length for tr in tracks])
+    width = np.array([tr.width for tr in tracks])
+    ids = np.array([tr.id for tr in tracks])
+    # (piece, host): the piece's centre in the host's box frame (along its heading, across it)
+    d = pos[:, None, :] - pos[None, :, :]
+    along = np.abs(d[..., 0] * np.cos(heading)[None, :] + d[..., 1] * np.sin(heading)[None, :])
+    across = np.abs(-d[..., 0] * np.sin(heading)[None, :] + d[..., 1] * np.cos(heading)[None, :])
+    with np.errstate(invalid="ignore"):
+        on_hull = (along <= length[None, :] / 2 + gap_m) & (across <= width[None, :] / 2 + gap_m)
+        apart = np.hypot(*(vel[:, None, :] - vel[None, :, :]).transpose(2, 0, 1)) > max_speed_difference_mps
+    host = (
+        on_hull
+        & ~apart  # NaN (a velocity not known yet) compares False: not known to move apart
+        & conf[:, None]
+        & conf[None, :]
+        & (ids[None, :] < ids[:, None])
+        & (length[None, :] >= length[:, None])
+        & np.all(np.isfinite(pos), axis=1)[:, None]
+    )
+    piece = host.any(axis=1)
+    return [replace(tr, confirmed=False) if p else tr for tr, p in zip(tracks, piece.tolist(), strict=True)]
