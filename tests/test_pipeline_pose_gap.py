@@ -49,3 +49,62 @@ def test_a_sweep_whose_poses_end_halfway_still_gives_its_obstacles_and_the_cycle
     assert pipeline.skipped_no_pose == 1  # tracking waits for a whole pose
     assert out.tracks == [] and np.any(out.distances_cm == UNKNOWN)
     assert math.isfinite(out.timings_ms["lidar"])
+
+
+class PoseUntil:
+    """The scene's own-boat pose up to ``until``; later, none (the autopilot went silent), as PoseHistory gives it."""
+
+    epoch = 0
+    available = True
+
+    def __init__(self, scene: object, until: float) -> None:
+        from bench.cycle import SceneEgo
+
+        self.inner = SceneEgo(scene)  # type: ignore[arg-type]
+        self.until = until
+
+    def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        pos, roll, pitch, yaw = (np.array(a, float) for a in self.inner.at_many(times))
+        late = np.asarray(times, float) > self.until
+        for a in (pos, roll, pitch, yaw):
+            a[late] = np.nan
+        return pos, roll, pitch, yaw
+
+    def at(self, t: float) -> object:
+        return None if t > self.until else self.inner.at(t)
+
+
+def test_with_the_pose_lost_the_radar_puts_no_raw_return_in_the_bins_and_its_tracks_are_not_news() -> None:
+    """Found replaying a recording whose .tlog was cut: once the pose was lost the radar's raw returns, mostly sea
+    clutter, went into the bins as obstacles (4 % of the obstacle bins false), and the tracks stayed confirmed where
+    they were last seen for 15 s."""
+    from daemon.config import Config
+    from daemon.runner import pipeline_for
+    from drivers.awr1843.parser import RadarFrameParser, encode_frame
+    from simulator.radar_model import Awr1843Model
+    from simulator.scenarios import get_scenario
+    from simulator.sea import Sea
+
+    scene = get_scenario("harbour", seed=0)
+    scene.sea = Sea.state(3, seed=2)  # clutter at every range the radar sees
+    config = Config()
+    config.lidar.enabled = False
+    config.radar.mount.x, config.radar.mount.z = scene.radar_mount.x, scene.radar_mount.z
+    pipeline = pipeline_for(config)
+    model = Awr1843Model(scene, scene.radar_mount, seed=1)
+    parser = RadarFrameParser(None, scene.radar_mount)
+    ego = PoseUntil(scene, until=8.0)
+    out = None
+    confirmed_before = 0
+    for k in range(100):  # 10 s: the pose ends at 8 s
+        t = 0.1 * (k + 1)
+        d = model.frame(t, k)
+        frames = parser.feed(encode_frame(k + 1, d.xyz_ti, d.doppler, d.snr_db, d.noise_db), t)
+        out = pipeline.step(t + 0.01, None, frames, ego)
+        if t < 7.95:
+            confirmed_before = sum(tr.confirmed for tr in out.tracks)
+    assert out is not None
+    assert confirmed_before >= 2  # the harbour's vessels in the radar's view were tracked while the pose lasted
+    assert pipeline.skipped_no_pose >= 15  # the radar kept delivering frames after the pose was lost
+    assert np.all(out.distances_cm == UNKNOWN)  # no raw return as an obstacle
+    assert out.tracks and not any(tr.confirmed for tr in out.tracks)

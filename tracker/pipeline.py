@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
 import numpy as np
@@ -251,6 +251,7 @@ class PerceptionPipeline:
         # (fwd, stbd) with None when the sweep's poses were unknown
         self._lidar_solid: tuple[np.ndarray, tuple[np.ndarray, float] | None] = (np.empty((0, 2)), None)
         self._radar_solid = np.empty((0, 2))  # newest radar frame's solid returns
+        self._radar_tracked = True  # the newest radar frame went through the tracker (not: no pose for it)
         self._epoch: int | None = None
         self.lidar_tracker = self.lidar_tracker_factory() if self.lidar_tracker_factory else None
         self.radar_tracker = self.radar_tracker_factory() if self.radar_tracker_factory else None
@@ -408,7 +409,7 @@ class PerceptionPipeline:
                 if len(shore):
                     solid.append(self._radar_speaks(world_to_body_2d(shore, own[0][:2], own[3]), lidar_fresh))
 
-        clear_to = _timed(timings, "coverage", lambda: self._clear_to(lidar_fresh, radar_fresh))
+        clear_to = _timed(timings, "coverage", lambda: self._clear_to(lidar_fresh, radar_fresh and self._radar_tracked))
         distances = _timed(
             timings,
             "obstacle_map",
@@ -446,6 +447,9 @@ class PerceptionPipeline:
             members = {id(tr): m for tr, m in groups}
             tracks = self._published.publish(t, [(tr, members[id(tr)]) for tr in tracks])
         tracks = report_second_tracks_tentative(tracks, s.second_track_gap_m, s.second_track_speed_difference_mps)
+        if ego_ok and own is None:
+            # No pose now: the trackers wait, and their tracks, frozen where they were last seen, are not news.
+            tracks = [replace(tr, confirmed=False) if tr.confirmed else tr for tr in tracks]
         return PerceptionOutput(
             t=t,
             tracks=tracks,
@@ -615,8 +619,13 @@ class PerceptionPipeline:
             return frame.xyz[finite][:, :2]
         pose = ego.at(frame.stamp) if ego_ok and ego is not None else None
         if ego_ok and pose is None:
+            # The pose is lost (autopilot silent): the tracker cannot place the frame, and the radar's raw returns
+            # are mostly sea clutter; as obstacles they filled the bins near the boat (9 a tick instead of 0.3),
+            # and the radar cannot vouch for "clear" either. Its bearings are unknown until the pose is back.
             self.skipped_no_pose += 1
-            return frame.xyz[finite][:, :2]
+            self._radar_tracked = False
+            return np.empty((0, 2))
+        self._radar_tracked = True
         if not self._may_track("radar"):
             # the frame's raw returns are mostly sea clutter near the boat: the shore and tracks as they were
             return self._radar_solid
