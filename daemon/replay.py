@@ -105,6 +105,7 @@ class ReplaySummary:
     cycle_p50_ms: float = 0.0  # one tick's pipeline and publishing
     cycle_p99_ms: float = 0.0
     interrupted: bool = False
+    no_pose: int = 0  # ticks with poses in use but none for the tick's time
 
     @property
     def ratio(self) -> float:
@@ -126,6 +127,7 @@ class ReplaySummary:
     def count(self, out: PerceptionOutput) -> None:
         self.ticks += 1
         self.sent += bool(out.lidar_fresh or out.radar_fresh)
+        self.no_pose += not out.pose_known
         for tr in out.tracks:
             self.track_ids.add(tr.id)
             if tr.confirmed:
@@ -270,6 +272,16 @@ def _replay(config: Config, options: ReplayOptions, streams: list[Any], wall_sta
     summary.wall_seconds = time.monotonic() - wall_start
     summary.decoder_waits = _waits(lidar_it, radar_it) - waits_before if options.prefetch else None
     summary.cycle_p50_ms, summary.cycle_p99_ms = loop.stats.percentiles()
+    if summary.no_pose:
+        # A .tlog cut short, or captures on another clock (a radar dump without its .times sidecar is paced from
+        # t = 0): without this the run looked whole, and half of it had gone without tracking.
+        log.warning(
+            "%d of %d ticks had no own pose: the .tlog ends before the captures or does not cover their times "
+            "(a radar dump without its .times sidecar starts at t = 0); tracking waited and the radar's bearings "
+            "were unknown there",
+            summary.no_pose,
+            summary.ticks,
+        )
     return summary
 
 

@@ -188,3 +188,24 @@ def test_a_progress_bar_on_a_terminal_and_none_in_a_pipe(recording: Path) -> Non
     assert len(SUMMARY.findall(piped)) == 1
     quiet = _replay_process(recording, True, "--speed", "3", "--quiet")
     assert "%|" not in quiet and len(SUMMARY.findall(quiet)) == 1
+
+
+def test_a_tlog_that_ends_early_is_said(recording: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """A .tlog cut short (a full disk, a pulled card) leaves the end of the run without an own pose: the replay says
+    how many ticks went without one, instead of looking whole."""
+    import logging
+    import shutil
+
+    cut = tmp_path / "cut"
+    shutil.copytree(recording, cut, ignore=shutil.ignore_patterns("*.jsonl"))
+    tlog = (cut / "autopilot.tlog").read_bytes()
+    (cut / "autopilot.tlog").write_bytes(tlog[: len(tlog) // 2])
+    caplog.set_level(logging.WARNING, logger="daemon.replay")
+    assert main(["replay", str(cut), "--fast", "--quiet", "--tracks-out", str(tmp_path / "t.jsonl")]) == 0
+    said = [r.getMessage() for r in caplog.records if "had no own pose" in r.getMessage()]
+    assert len(said) == 1
+    n, total = map(int, re.match(r"(\d+) of (\d+) ticks", said[0]).groups())  # type: ignore[union-attr]
+    assert total >= 25 and 0.3 * total <= n <= 0.7 * total  # about the half the .tlog no longer covers
+    caplog.clear()
+    assert main(["replay", str(recording), "--fast", "--quiet", "--tracks-out", str(tmp_path / "w.jsonl")]) == 0
+    assert not any("had no own pose" in r.getMessage() for r in caplog.records)  # a whole .tlog: nothing said

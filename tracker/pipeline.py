@@ -198,6 +198,8 @@ class PerceptionOutput:
     # Trackers ("lidar", "radar") skipped this cycle to keep the obstacle array inside its deadline: their tracks
     # coasted, the array came from this cycle's returns and the tracks as they were.
     tracking_skipped: tuple[str, ...] = ()
+    # False when an ego source is in use but had no pose for the tick (lost, or not covering the data's times)
+    pose_known: bool = True
 
 
 class TrackingCost:
@@ -464,6 +466,7 @@ class PerceptionPipeline:
             clear_to_m=clear_to,
             held_bins=held,
             tracking_skipped=tuple(dict.fromkeys(self._skipped)),
+            pose_known=not (ego_ok and own is None),
         )
 
     def _radar_speaks_at(self, points_fwd_stbd: np.ndarray, lidar_fresh: bool) -> np.ndarray:
