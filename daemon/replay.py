@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import logging
 import math
+import signal
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -143,6 +145,19 @@ def run_replay(config: Config, duration_s: float | None = None, fast: bool = Tru
     return 130 if summary.interrupted else 0
 
 
+def _stop_on_sigterm() -> Any:
+    """SIGTERM (``kill``, ``timeout``) ends a replay as Ctrl-C does: the tick loop stops, the summary is printed and
+    an --mcap file is finished (killed outright, it was left unreadable). The previous handler, or None when not
+    on the main thread (signals cannot be set there)."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def interrupt(_signum: int, _frame: object) -> None:
+        raise KeyboardInterrupt
+
+    return signal.signal(signal.SIGTERM, interrupt)
+
+
 def replay(config: Config, options: ReplayOptions) -> ReplaySummary:
     """Replay the captures ``config`` names; raises OSError/ValueError for captures that cannot be read."""
     if options.speed is not None and not (math.isfinite(options.speed) and options.speed > 0):
@@ -152,9 +167,12 @@ def replay(config: Config, options: ReplayOptions) -> ReplaySummary:
     wall_start = time.monotonic()
     sensors_off(config)
     streams: list[Any] = []
+    previous = _stop_on_sigterm()
     try:
         return _replay(config, options, streams, wall_start)
     finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
         for it in streams:
             close_stream(it)
 

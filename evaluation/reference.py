@@ -165,7 +165,7 @@ class GnssTruth:
         self.path = path
         self.radius = float(radius)
         try:
-            with open(path, newline="") as f:
+            with open(path, newline="", encoding="utf-8-sig") as f:  # a spreadsheet's BOM
                 rows = list(csv.reader(f))
         except (OSError, UnicodeDecodeError) as exc:
             raise EvaluationError(f"{path}: cannot read the GNSS CSV: {exc}") from exc
@@ -177,9 +177,13 @@ class GnssTruth:
         for line_no, row in enumerate(rows[1:], start=2):
             if not any(x.strip() for x in row):
                 continue
+            if len(row) <= max(col):
+                raise EvaluationError(
+                    f"{path} line {line_no}: {len(row)} column(s), the header names {len(header)} (time, lat, lon)"
+                )
             try:
                 t, lat, lon = (float(row[c]) for c in col)
-            except (ValueError, IndexError) as exc:
+            except ValueError as exc:
                 raise EvaluationError(f"{path} line {line_no}: {exc}") from exc
             if not all(math.isfinite(x) for x in (t, lat, lon)) or not (-90 <= lat <= 90 and -180 <= lon <= 180):
                 raise EvaluationError(f"{path} line {line_no}: time {t}, lat {lat}, lon {lon} out of range")
@@ -237,7 +241,7 @@ def _bracket(times: np.ndarray, t: float) -> tuple[int, int, float] | None:
 def detect_truth(path: Path, reference_radius: float = 0.0) -> SimulatorTruth | GnssTruth:
     """A truth CSV or a GNSS CSV, told apart by the header."""
     try:
-        with open(path, newline="") as f:
+        with open(path, newline="", encoding="utf-8-sig") as f:  # a spreadsheet's BOM
             first = next(csv.reader(f), [])
     except (OSError, UnicodeDecodeError) as exc:
         raise EvaluationError(f"{path}: cannot read: {exc}") from exc

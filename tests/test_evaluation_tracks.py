@@ -162,6 +162,14 @@ def test_gnss_reference(tmp_path: Path) -> None:
     far = evaluate_run(gnss, tracks, max_distance_m=30.0)  # the reference is 31..38 m out: out of range
     assert far.tracks.objects == 0 and far.visibility["vessel_ticks_out_of_range"] == 19
     assert math.isnan(far.tracks.mota)
+    # saved from a spreadsheet: a byte-order mark before the header reads the same
+    gnss.write_bytes(b"\xef\xbb\xbf" + gnss.read_bytes())
+    assert evaluate_run(gnss, tracks).tracks.matches == 19
+    # a row short of a column is named as such, not as an index error
+    rows = gnss.read_text(encoding="utf-8-sig").splitlines()
+    gnss.write_text("\n".join([*rows[:2], f"{t0 + 1},{lat[1]:.10f}", *rows[3:]]) + "\n")
+    with pytest.raises(EvaluationError, match=r"reference.csv line 3: 2 column\(s\), the header names 4"):
+        evaluate_run(gnss, tracks)
 
 
 def test_hota_exact_cases() -> None:

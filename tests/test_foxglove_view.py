@@ -340,3 +340,29 @@ def test_a_websocket_client_receives_tracks_from_the_live_server(recording: Path
     update = message_factory.GetMessageClass(pool.FindMessageTypeByName("foxglove.SceneUpdate")).FromString(frame[13:])
     assert [d.type for d in update.deletions] == [1]
     assert all(e.id.startswith("track/") and e.frame_id == "world" for e in update.entities)
+
+
+def test_a_replay_stopped_by_sigterm_finishes_its_mcap(recording: Path, tmp_path: Path) -> None:
+    """`kill` and `timeout` send SIGTERM: the replay stops as with Ctrl-C, prints its summary and finishes the MCAP
+    (killed outright, the file was left unreadable)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "stopped.mcap"
+    cmd = [sys.executable, "-m", "daemon.cli", "replay", str(recording), "--speed", "1", "--quiet", "--mcap", str(out)]
+    proc = subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60.0
+        while not (out.exists() and out.stat().st_size > 20_000) and time.monotonic() < deadline:
+            time.sleep(0.1)  # ticks are being written: the replay is under way
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60.0)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err
+    assert "replayed" in err and "(interrupted)" in err
+    topics = read_mcap(out)
+    assert 1 <= len(topics["/tf"]) < SECONDS * 10  # what was replayed before the signal, read back whole
