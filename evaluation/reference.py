@@ -193,6 +193,11 @@ class GnssTruth:
         if not data:
             raise EvaluationError(f"{path}: no GNSS samples")
         arr = np.array(data, float)
+        if np.median(arr[:, 0]) > 1e11:  # Unix seconds are ~1.8e9 now; milliseconds ~1.8e12
+            raise EvaluationError(
+                f"{path}: the time column looks like milliseconds ({arr[0, 0]:.0f}); it is read as Unix seconds (UTC):"
+                " divide it by 1000"
+            )
         self.times, self.lat, self.lon = arr[:, 0], arr[:, 1], arr[:, 2]
 
     @property

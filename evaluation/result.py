@@ -83,7 +83,11 @@ def format_text(r: EvaluationResult) -> str:
         f"{a['ticks_in_file']} ticks, {a['ticks_scored']} scored, {a['ticks_outside_truth']} outside the truth, "
         f"{a['ticks_without_pose']} without an own pose, {a['ticks_in_warmup']} in the warm-up",
         f"matching: track centre within {s['match_distance_m']:g} m of the hull footprint; "
-        f"a vessel is to be tracked with >= {s['min_returns']} returns in a reference window",
+        + (
+            f"a vessel is to be tracked with >= {s['min_returns']} returns in a reference window"
+            if r.inputs.get("returns")
+            else "every vessel in range is to be tracked (no record of what the sensors returned)"
+        ),
         "",
         "tracks (confirmed)",
         f"  MOTA {_pct(t.mota)}   MOTP {_num(t.motp_m)} m   IDF1 {_pct(t.idf1)}   HOTA {_pct(t.hota.hota)} "

@@ -165,6 +165,12 @@ def test_gnss_reference(tmp_path: Path) -> None:
     # saved from a spreadsheet: a byte-order mark before the header reads the same
     gnss.write_bytes(b"\xef\xbb\xbf" + gnss.read_bytes())
     assert evaluate_run(gnss, tracks).tracks.matches == 19
+    # a time column in milliseconds is named as such (it gave only "give the offset", then scored nothing)
+    ms = tmp_path / "ms.csv"
+    ms.write_text("time,lat,lon\n" + "".join(f"{(t0 + k) * 1000:.0f},{lat[k]:.10f},{lon[k]:.10f}\n" for k in range(4)))
+    with pytest.raises(EvaluationError, match=r"the time column looks like milliseconds \(1760000000000\)"):
+        evaluate_run(ms, tracks)
+    assert "every vessel in range is to be tracked" in evaluate_run(gnss, tracks).to_text()
     # a row short of a column is named as such, not as an index error
     rows = gnss.read_text(encoding="utf-8-sig").splitlines()
     gnss.write_text("\n".join([*rows[:2], f"{t0 + 1},{lat[1]:.10f}", *rows[3:]]) + "\n")
