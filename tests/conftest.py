@@ -1,13 +1,20 @@
-"""Shared test helpers: where the public captures live, a skip when they are not there, and UDP senders."""
+"""Shared test helpers: where the public captures live, a skip when they are not there, UDP senders, and an
+autopilot link paired with the simulated autopilot."""
 
 from __future__ import annotations
 
 import os
 import socket
+import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
+
+from daemon.autopilot import AutopilotLink
+from daemon.demo import free_udp_port
+from simulator.autopilot import SimAutopilot
+from tests.turning_boat import circle
 
 REPO = Path(__file__).resolve().parent.parent
 OWN_FIXTURES = REPO / "tests" / "fixtures"
@@ -38,3 +45,19 @@ def sender() -> Iterator[Callable[[str], socket.socket]]:
     yield make
     for sock in made:
         sock.close()
+
+
+@pytest.fixture
+def pair() -> Iterator[tuple[AutopilotLink, SimAutopilot]]:
+    """Sim listens (udpin), the link sends to it (udpout), as with a companion on an autopilot's UDP port."""
+    port = free_udp_port()
+    sim = SimAutopilot(f"udpin:127.0.0.1:{port}", circle, heartbeat_hz=5.0)
+    link = AutopilotLink(f"udpout:127.0.0.1:{port}", heartbeat_timeout=0.6)
+    sim.start()
+    link.start()
+    try:
+        yield link, sim
+    finally:
+        link.stop()
+        sim.stop()
+        assert not [t for t in threading.enumerate() if t.name in ("autopilot-link", "sim-autopilot") and t.is_alive()]

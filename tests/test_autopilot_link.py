@@ -3,60 +3,24 @@
 from __future__ import annotations
 
 import logging
-import math
 import socket
-import threading
 import time
-from collections.abc import Iterator
 
 import numpy as np
 import pytest
 
 from daemon.autopilot import AutopilotLink
+from daemon.demo import free_udp_port
 from daemon.mavlink_env import mavlink
 from daemon.pose_history import wrap_angle
-from drivers.frames import EgoPose
 from simulator.autopilot import SimAutopilot, wait_until
+from tests.turning_boat import OMEGA, circle
 
 ATT = mavlink.MAVLINK_MSG_ID_ATTITUDE
 GPI = mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
 LPN = mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED
 SYT = mavlink.MAVLINK_MSG_ID_SYSTEM_TIME
 REQUESTED_US = {ATT: 20_000, LPN: 50_000, GPI: 50_000, SYT: 1_000_000}
-
-T0 = time.monotonic()
-RADIUS, OMEGA = 20.0, 0.3  # a 6 m/s turn, yaw crossing +-180 deg after ~0.5 s
-
-
-def circle(t: float) -> EgoPose:
-    """Turning circle in NED; yaw = course, roll and pitch gently rocking."""
-    s = t - T0
-    a = OMEGA * s + math.pi - 0.15
-    pos = np.array([RADIUS * math.sin(a), RADIUS * (1 - math.cos(a)), 0.0])
-    vel = np.array([RADIUS * OMEGA * math.cos(a), RADIUS * OMEGA * math.sin(a), 0.0])
-    return EgoPose(t, pos, vel, 0.05 * math.sin(2 * s), 0.02 * math.cos(1.5 * s), wrap_angle(a), OMEGA)
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-@pytest.fixture
-def pair() -> Iterator[tuple[AutopilotLink, SimAutopilot]]:
-    """Sim listens (udpin), the link sends to it (udpout), as with a companion on an autopilot's UDP port."""
-    port = free_udp_port()
-    sim = SimAutopilot(f"udpin:127.0.0.1:{port}", circle, heartbeat_hz=5.0)
-    link = AutopilotLink(f"udpout:127.0.0.1:{port}", heartbeat_timeout=0.6)
-    sim.start()
-    link.start()
-    try:
-        yield link, sim
-    finally:
-        link.stop()
-        sim.stop()
-        assert not [t for t in threading.enumerate() if t.name in ("autopilot-link", "sim-autopilot") and t.is_alive()]
 
 
 def wait_for_pose(link: AutopilotLink, n: int = 60) -> None:

@@ -3,16 +3,13 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
 
 import numpy as np
-import pytest
 
 from daemon.autopilot import AutopilotLink
 from daemon.change_notices import ChangeNotices
 from daemon.loop import DaemonLoop, LoopSettings, SensorInputs
 from simulator.autopilot import SimAutopilot, wait_until
-from tests.test_autopilot_link import circle, free_udp_port
 from tracker.pipeline import PerceptionOutput, PerceptionPipeline
 
 
@@ -43,26 +40,12 @@ def test_flapping_is_counted_and_said_when_the_quiet_time_allows() -> None:
     assert n.note("LiDAR", False, 11.5) == 0  # 10 s after 1.4: said, the change itself
 
 
-@pytest.fixture
-def link() -> Iterator[tuple[AutopilotLink, SimAutopilot]]:
-    port = free_udp_port()
-    sim = SimAutopilot(f"udpin:127.0.0.1:{port}", circle, heartbeat_hz=5.0)
-    ap_link = AutopilotLink(f"udpout:127.0.0.1:{port}", heartbeat_timeout=0.6)
-    sim.start()
-    ap_link.start()
-    try:
-        yield ap_link, sim
-    finally:
-        ap_link.stop()
-        sim.stop()
-
-
 def test_a_sensor_flapping_at_its_timeout_does_not_flood_the_telemetry_link(
-    link: tuple[AutopilotLink, SimAutopilot],
+    pair: tuple[AutopilotLink, SimAutopilot],
 ) -> None:
     """The LiDAR of a LiDAR + radar boat comes and goes every 0.3 s for 10 s (a sender hovering at the 0.5 s
     timeout): the feed follows it tick by tick, the autopilot hears of it twice, then once more when it settles."""
-    ap_link, sim = link
+    ap_link, sim = pair
     assert wait_until(lambda: ap_link.connected, 5.0)
     loop = DaemonLoop(PerceptionPipeline(), SensorInputs(), ap_link, None, LoopSettings(radar_expected=True))
     bins = np.full(72, 65535, dtype=np.uint16)
@@ -79,11 +62,11 @@ def test_a_sensor_flapping_at_its_timeout_does_not_flood_the_telemetry_link(
 
 
 def test_a_sensor_silent_from_start_up_and_an_outage_of_a_feed_that_started_at_once_are_said(
-    link: tuple[AutopilotLink, SimAutopilot],
+    pair: tuple[AutopilotLink, SimAutopilot],
 ) -> None:
     """The LiDAR delivers from the first tick, the radar never (its ports not there yet): the radar is said silent
     once the start-up grace is over; the LiDAR's outage later stops the feed, and both are said, then their end."""
-    ap_link, sim = link
+    ap_link, sim = pair
     assert wait_until(lambda: ap_link.connected, 5.0)
     loop = DaemonLoop(PerceptionPipeline(), SensorInputs(), ap_link, None, LoopSettings(radar_expected=True))
     bins = np.full(72, 65535, dtype=np.uint16)

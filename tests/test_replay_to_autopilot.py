@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from daemon.cli import main
+from daemon.demo import free_udp_port
 from daemon.mavlink_env import mavlink
 from daemon.replay import recording_config, run_replay
 from drivers.frames import EgoPose
 from simulator.autopilot import SimAutopilot
-from tests.test_autopilot_link import free_udp_port
 
 # Real sockets and threads in real time on a 2-core machine that may be busy: a missed deadline is retried once
 # (a deterministic failure still fails); the assertions themselves are not loosened.
