@@ -25,6 +25,7 @@ from daemon.health import CycleStats, RateCounter
 from daemon.heap import release_free_memory
 from daemon.sdnotify import SystemdNotifier
 from drivers.frames import EgoPose, LidarScan, RadarFrame
+from tracker.obstacle_map import UNKNOWN as UNKNOWN_CM
 from tracker.pipeline import EgoSource, PerceptionOutput, PerceptionPipeline
 
 log = logging.getLogger(__name__)
@@ -41,6 +42,10 @@ STARTUP_GRACE_S = 3.0  # a sensor not heard from yet is only reported silent aft
 # said when the next one may go (daemon.change_notices). A flapping link said each of its 14 changes in 10 s.
 STATE_NOTICE_QUIET_S = 10.0
 _DATA = "sensor data"
+# The sensors deliver but vouch for no bearing: every bin unknown (rain or spray all round the boat closer than the
+# radar's near edge, the own pose lost). The spec: never an all-unknown OBSTACLE_DISTANCE, which the autopilot reads
+# as "sensor Good, nothing around"; withheld, it reports No Data.
+_SIGHT = "sight"
 MAV_SEVERITY_WARNING = 4
 MAV_SEVERITY_INFO = 6
 
@@ -107,6 +112,7 @@ class DaemonLoop:
         self.stats = CycleStats(period_s=1.0 / settings.rate_hz)
         self.sent = 0
         self.withheld = 0
+        self.blind = 0  # of the withheld ticks, those whose sensors delivered but vouched for no bearing
         self.ais_sent = 0
         self.failed_ticks = 0
         self._failed_in_a_row = 0
@@ -175,7 +181,10 @@ class DaemonLoop:
             self._notices.start(_DATA, False)
             self._report_no_data(f"since start-up ({STARTUP_GRACE_S:.0f} s)")
         self._say_data_state(has_data, out.t)
-        if has_data:
+        blind = has_data and bool(np.all(np.asarray(out.distances_cm) == UNKNOWN_CM))
+        if has_data and not self._in_grace(out.t):  # the first sweeps after start-up may vouch for nothing yet
+            self._say_sight(not blind, out.t)
+        if has_data and not blind:
             if self.publisher is not None:
                 self.publisher.send_obstacle_distance(
                     out.distances_cm,
@@ -189,12 +198,13 @@ class DaemonLoop:
             self.notifier.watchdog()
         else:
             self.withheld += 1
+            self.blind += blind
             # The loop itself is healthy; systemd must not restart us because a cable is out.
             self.notifier.watchdog()
         if self.tracks_out is not None:
             own = self.poses.at(out.t) if self.poses is not None and out.ego_available else None
             origin = self._world_origin() if own is not None else None
-            record = tick_record(out, sent=has_data, own=own, world_origin=origin)
+            record = tick_record(out, sent=has_data and not blind, own=own, world_origin=origin)
             self.tracks_out.write(json.dumps(record, separators=(",", ":")) + "\n")
 
     def _world_origin(self) -> tuple[float, float] | None:
@@ -309,6 +319,25 @@ class DaemonLoop:
         else:
             self._report_no_data(f"for {self.s.no_data_timeout_s:.1f} s", unsteady)
 
+    def _say_sight(self, seeing: bool, t: float) -> None:
+        """While the sensors deliver: whether they vouch for any bearing, said when it changes (ChangeNotices)."""
+        if not self._notices.known(_SIGHT):
+            self._notices.start(_SIGHT, True)
+        unsaid = self._notices.note(_SIGHT, seeing, t)
+        if unsaid is None:
+            return
+        unsteady = _unsteady(unsaid, self._notices.quiet_s)
+        if seeing:
+            log.info("the sensors vouch for bearings again: sending OBSTACLE_DISTANCE again%s", unsteady)
+            self._statustext(MAV_SEVERITY_INFO, "usv-tracker: sensors see again" + (", unsteady" if unsaid else ""))
+        else:
+            log.warning(
+                "the sensors deliver but vouch for no bearing (rain or spray all round the boat, or the own pose "
+                "lost): OBSTACLE_DISTANCE withheld so the autopilot reports No Data%s",
+                unsteady,
+            )
+            self._statustext(MAV_SEVERITY_WARNING, "usv-tracker: sensors blind, obstacles withheld")
+
     def _report_no_data(self, how_long: str, unsteady: str = "") -> None:
         log.error(
             "no sensor has delivered %s: OBSTACLE_DISTANCE withheld so the autopilot reports No Data%s",
@@ -342,7 +371,8 @@ class DaemonLoop:
             (f"lidar {lidar_rate:.1f}/s (dropped {li.dropped}) " if self.s.lidar_expected else "lidar off ")
             + (f"radar {radar_rate:.1f}/s (dropped {ra.dropped}) " if self.s.radar_expected else "radar off ")
             + f"sent {self._rates['sent'].rate(self.sent, t):.1f}/s withheld {self.withheld} "
-            f"cycle p50 {p50:.1f} ms p99 {p99:.1f} ms misses {self.stats.deadline_misses} tracks {n_tracks} "
+            + (f"(blind {self.blind}) " if self.blind else "")
+            + f"cycle p50 {p50:.1f} ms p99 {p99:.1f} ms misses {self.stats.deadline_misses} tracks {n_tracks} "
             "(stage p50 " + " ".join(f"{k} {v:.1f}" for k, v in self.stats.stage_p50().items()) + " ms)"
         )
         if self.degraded_ticks:
