@@ -265,21 +265,19 @@ class DaemonLoop:
             if was is None:  # not heard from by the end of the grace: said silent now
                 self._notices.start(name, True)
             self._sensor_state[name] = ok
-            unsaid = self._notices.note(name, ok, out.t)
-            if unsaid is None:
+            said = self._change_to_say(name, ok, out.t)
+            if said is None:
                 continue
-            unsteady = _unsteady(unsaid, self._notices.quiet_s)
+            journal, radio = said
             if ok:
-                log.info("%s delivering again%s", name, unsteady)
-                self._statustext(MAV_SEVERITY_INFO, f"usv-tracker: {name} back" + (", unsteady" if unsaid else ""))
+                self._tell(logging.INFO, f"{name} delivering again{journal}", f"usv-tracker: {name} back{radio}")
             else:
-                log.error(
-                    "%s silent for more than %.1f s: its bearings are reported unknown%s",
-                    name,
-                    self.s.no_data_timeout_s,
-                    unsteady,
+                self._tell(
+                    logging.ERROR,
+                    f"{name} silent for more than {self.s.no_data_timeout_s:.1f} s: its bearings are reported "
+                    f"unknown{journal}",
+                    f"usv-tracker: {name} silent{radio}",
                 )
-                self._statustext(MAV_SEVERITY_WARNING, f"usv-tracker: {name} silent" + (", unsteady" if unsaid else ""))
         up = sum(1 for ok in fresh.values() if ok)
         status = MAV_STATE_ACTIVE if up == len(fresh) else MAV_STATE_CRITICAL if up else MAV_STATE_EMERGENCY
         if status != self._status:
@@ -309,34 +307,53 @@ class DaemonLoop:
         """The feed's stops and restarts, said when they happen but at most once per quiet time (ChangeNotices)."""
         if self._waiting_for_first_data or not self._notices.known(_DATA):
             return
-        unsaid = self._notices.note(_DATA, has_data, t)
-        if unsaid is None:
+        said = self._change_to_say(_DATA, has_data, t)
+        if said is None:
             return
-        unsteady = _unsteady(unsaid, self._notices.quiet_s)
+        journal, radio = said
         if has_data:
-            log.info("sensor data is back: sending OBSTACLE_DISTANCE again%s", unsteady)
-            self._statustext(MAV_SEVERITY_INFO, "usv-tracker: sensor data back" + (", unsteady" if unsaid else ""))
+            self._tell(
+                logging.INFO,
+                f"sensor data is back: sending OBSTACLE_DISTANCE again{journal}",
+                f"usv-tracker: sensor data back{radio}",
+            )
         else:
-            self._report_no_data(f"for {self.s.no_data_timeout_s:.1f} s", unsteady)
+            self._report_no_data(f"for {self.s.no_data_timeout_s:.1f} s", journal)
 
     def _say_sight(self, seeing: bool, t: float) -> None:
         """While the sensors deliver: whether they vouch for any bearing, said when it changes (ChangeNotices)."""
         if not self._notices.known(_SIGHT):
             self._notices.start(_SIGHT, True)
-        unsaid = self._notices.note(_SIGHT, seeing, t)
-        if unsaid is None:
+        said = self._change_to_say(_SIGHT, seeing, t)
+        if said is None:
             return
-        unsteady = _unsteady(unsaid, self._notices.quiet_s)
+        journal, radio = said
         if seeing:
-            log.info("the sensors vouch for bearings again: sending OBSTACLE_DISTANCE again%s", unsteady)
-            self._statustext(MAV_SEVERITY_INFO, "usv-tracker: sensors see again" + (", unsteady" if unsaid else ""))
-        else:
-            log.warning(
-                "the sensors deliver but vouch for no bearing (rain or spray all round the boat, or the own pose "
-                "lost): OBSTACLE_DISTANCE withheld so the autopilot reports No Data%s",
-                unsteady,
+            self._tell(
+                logging.INFO,
+                f"the sensors vouch for bearings again: sending OBSTACLE_DISTANCE again{journal}",
+                f"usv-tracker: sensors see again{radio}",
             )
-            self._statustext(MAV_SEVERITY_WARNING, "usv-tracker: sensors blind, obstacles withheld")
+        else:
+            self._tell(
+                logging.WARNING,
+                "the sensors deliver but vouch for no bearing (rain or spray all round the boat, or the own pose "
+                f"lost): OBSTACLE_DISTANCE withheld so the autopilot reports No Data{journal}",
+                "usv-tracker: sensors blind, obstacles withheld",
+            )
+
+    def _change_to_say(self, key: str, state: bool, t: float) -> tuple[str, str] | None:
+        """When the change of ``key`` to ``state`` at ``t`` is to be said now (ChangeNotices): what the journal line
+        and the STATUSTEXT add about the changes before it that were not said; None when it is not to be said."""
+        unsaid = self._notices.note(key, state, t)
+        if unsaid is None:
+            return None
+        return _unsteady(unsaid, self._notices.quiet_s), ", unsteady" if unsaid else ""
+
+    def _tell(self, level: int, journal: str, radio: str) -> None:
+        """A journal line at ``level`` and the same news as a STATUSTEXT (warning from WARNING up, else info)."""
+        log.log(level, "%s", journal)
+        self._statustext(MAV_SEVERITY_WARNING if level >= logging.WARNING else MAV_SEVERITY_INFO, radio)
 
     def _report_no_data(self, how_long: str, unsteady: str = "") -> None:
         log.error(
