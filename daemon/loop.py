@@ -25,7 +25,6 @@ from daemon.health import CycleStats, RateCounter
 from daemon.heap import release_free_memory
 from daemon.sdnotify import SystemdNotifier
 from drivers.frames import EgoPose, LidarScan, RadarFrame
-from tracker.obstacle_map import UNKNOWN as UNKNOWN_CM
 from tracker.pipeline import EgoSource, PerceptionOutput, PerceptionPipeline
 
 log = logging.getLogger(__name__)
@@ -42,10 +41,11 @@ STARTUP_GRACE_S = 3.0  # a sensor not heard from yet is only reported silent aft
 # said when the next one may go (daemon.change_notices). A flapping link said each of its 14 changes in 10 s.
 STATE_NOTICE_QUIET_S = 10.0
 _DATA = "sensor data"
-# The sensors deliver but vouch for no bearing: every bin unknown (rain or spray all round the boat closer than the
-# radar's near edge, the own pose lost). The spec: never an all-unknown OBSTACLE_DISTANCE, which the autopilot reads
-# as "sensor Good, nothing around"; withheld, it reports No Data.
-_SIGHT = "sight"
+# The radar alone delivers and the own pose is lost: the tracker cannot place its frames, so they give the array
+# nothing (tracker.pipeline) and every bin is unknown. That is no valid sensor input (the spec): sent, the array would
+# read as "sensor Good, nothing around"; withheld, the autopilot reports No Data. (With the LiDAR delivering, its
+# returns go into the array in the boat's frame, which needs no pose.)
+_PLACED = "radar placed"
 MAV_SEVERITY_WARNING = 4
 MAV_SEVERITY_INFO = 6
 
@@ -112,7 +112,7 @@ class DaemonLoop:
         self.stats = CycleStats(period_s=1.0 / settings.rate_hz)
         self.sent = 0
         self.withheld = 0
-        self.blind = 0  # of the withheld ticks, those whose sensors delivered but vouched for no bearing
+        self.unplaced = 0  # of the withheld ticks, those whose radar alone delivered without the own pose (_PLACED)
         self.ais_sent = 0
         self.failed_ticks = 0
         self._failed_in_a_row = 0
@@ -181,10 +181,11 @@ class DaemonLoop:
             self._notices.start(_DATA, False)
             self._report_no_data(f"since start-up ({STARTUP_GRACE_S:.0f} s)")
         self._say_data_state(has_data, out.t)
-        blind = has_data and bool(np.all(np.asarray(out.distances_cm) == UNKNOWN_CM))
-        if has_data and not self._in_grace(out.t):  # the first sweeps after start-up may vouch for nothing yet
-            self._say_sight(not blind, out.t)
-        if has_data and not blind:
+        radar_alone = has_data and not out.lidar_fresh
+        unplaced = radar_alone and not out.pose_known
+        if has_data:
+            self._say_placed(not unplaced, out.t)
+        if has_data and not unplaced:
             if self.publisher is not None:
                 self.publisher.send_obstacle_distance(
                     out.distances_cm,
@@ -198,13 +199,13 @@ class DaemonLoop:
             self.notifier.watchdog()
         else:
             self.withheld += 1
-            self.blind += blind
+            self.unplaced += unplaced
             # The loop itself is healthy; systemd must not restart us because a cable is out.
             self.notifier.watchdog()
         if self.tracks_out is not None:
             own = self.poses.at(out.t) if self.poses is not None and out.ego_available else None
             origin = self._world_origin() if own is not None else None
-            record = tick_record(out, sent=has_data and not blind, own=own, world_origin=origin)
+            record = tick_record(out, sent=has_data and not unplaced, own=own, world_origin=origin)
             self.tracks_out.write(json.dumps(record, separators=(",", ":")) + "\n")
 
     def _world_origin(self) -> tuple[float, float] | None:
@@ -320,26 +321,27 @@ class DaemonLoop:
         else:
             self._report_no_data(f"for {self.s.no_data_timeout_s:.1f} s", journal)
 
-    def _say_sight(self, seeing: bool, t: float) -> None:
-        """While the sensors deliver: whether they vouch for any bearing, said when it changes (ChangeNotices)."""
-        if not self._notices.known(_SIGHT):
-            self._notices.start(_SIGHT, True)
-        said = self._change_to_say(_SIGHT, seeing, t)
+    def _say_placed(self, placed: bool, t: float) -> None:
+        """While data comes: whether the array can be sent, which it cannot while the radar alone delivers and its
+        frames cannot be placed (the own pose lost); said when that changes (ChangeNotices)."""
+        if not self._notices.known(_PLACED):
+            self._notices.start(_PLACED, True)
+        said = self._change_to_say(_PLACED, placed, t)
         if said is None:
             return
         journal, radio = said
-        if seeing:
+        if placed:
             self._tell(
                 logging.INFO,
-                f"the sensors vouch for bearings again: sending OBSTACLE_DISTANCE again{journal}",
-                f"usv-tracker: sensors see again{radio}",
+                f"OBSTACLE_DISTANCE sent again: the own pose is back or the LiDAR delivers{journal}",
+                f"usv-tracker: obstacles sent again{radio}",
             )
         else:
             self._tell(
                 logging.WARNING,
-                "the sensors deliver but vouch for no bearing (rain or spray all round the boat, or the own pose "
-                f"lost): OBSTACLE_DISTANCE withheld so the autopilot reports No Data{journal}",
-                "usv-tracker: sensors blind, obstacles withheld",
+                "the radar delivers but the own pose is lost, so its frames cannot be placed: OBSTACLE_DISTANCE "
+                f"withheld so the autopilot reports No Data{journal}",
+                "usv-tracker: no pose, obstacles withheld",
             )
 
     def _change_to_say(self, key: str, state: bool, t: float) -> tuple[str, str] | None:
@@ -388,7 +390,7 @@ class DaemonLoop:
             (f"lidar {lidar_rate:.1f}/s (dropped {li.dropped}) " if self.s.lidar_expected else "lidar off ")
             + (f"radar {radar_rate:.1f}/s (dropped {ra.dropped}) " if self.s.radar_expected else "radar off ")
             + f"sent {self._rates['sent'].rate(self.sent, t):.1f}/s withheld {self.withheld} "
-            + (f"(blind {self.blind}) " if self.blind else "")
+            + (f"(radar without pose {self.unplaced}) " if self.unplaced else "")
             + f"cycle p50 {p50:.1f} ms p99 {p99:.1f} ms misses {self.stats.deadline_misses} tracks {n_tracks} "
             "(stage p50 " + " ".join(f"{k} {v:.1f}" for k, v in self.stats.stage_p50().items()) + " ms)"
         )

@@ -49,7 +49,6 @@ def test_a_sensor_flapping_at_its_timeout_does_not_flood_the_telemetry_link(
     assert wait_until(lambda: ap_link.connected, 5.0)
     loop = DaemonLoop(PerceptionPipeline(), SensorInputs(), ap_link, None, LoopSettings(radar_expected=True))
     bins = np.full(72, 65535, dtype=np.uint16)
-    bins[:20] = 10001  # clear ahead out to 100 m
     for k in range(150):
         t = 5.0 + 0.1 * k  # after the start-up grace
         lidar = k >= 100 or (k // 3) % 2 == 0  # flapping for 10 s, then steady
@@ -71,7 +70,6 @@ def test_a_sensor_silent_from_start_up_and_an_outage_of_a_feed_that_started_at_o
     assert wait_until(lambda: ap_link.connected, 5.0)
     loop = DaemonLoop(PerceptionPipeline(), SensorInputs(), ap_link, None, LoopSettings(radar_expected=True))
     bins = np.full(72, 65535, dtype=np.uint16)
-    bins[:20] = 10001  # clear ahead out to 100 m
     for k in range(70):
         t = 0.1 * k
         loop._publish(PerceptionOutput(t, [], bins, lidar_fresh=not 40 <= k < 60, radar_fresh=False))
@@ -87,29 +85,26 @@ def test_a_sensor_silent_from_start_up_and_an_outage_of_a_feed_that_started_at_o
     assert (loop.sent, loop.withheld) == (50, 20)
 
 
-def test_sensors_that_deliver_but_vouch_for_no_bearing_withhold_the_array_and_say_so(
+def test_the_radar_alone_without_the_own_pose_withholds_the_array_and_says_so(
     pair: tuple[AutopilotLink, SimAutopilot],
 ) -> None:
-    """Heavy rain all round the boat closer than the radar's near edge: both sensors deliver, every bin is unknown.
-    An all-unknown OBSTACLE_DISTANCE reads as "sensor Good, nothing around" to the autopilot (spec): it is withheld,
-    so the autopilot reports No Data, and the crew hears why, then when the sensors see again."""
+    """A radar-only boat whose autopilot's pose stops for 2 s: the tracker cannot place the radar's frames, so every
+    bin is unknown. Sent, that array reads as "sensor Good, nothing around" to the autopilot (spec): it is withheld,
+    so the autopilot reports No Data, and the crew hears why, then that the array goes again. An all-unknown array
+    while the pose is known (nothing in the radar's view) is sent as it is: it is what the sensors saw."""
     ap_link, sim = pair
     assert wait_until(lambda: ap_link.connected, 5.0)
-    loop = DaemonLoop(PerceptionPipeline(), SensorInputs(), ap_link, None, LoopSettings(radar_expected=True))
-    seeing = np.full(72, 65535, dtype=np.uint16)
-    seeing[60:] = seeing[:12] = 10001  # the radar's 120 deg ahead clear
-    blind = np.full(72, 65535, dtype=np.uint16)
+    loop = DaemonLoop(PerceptionPipeline(), SensorInputs(), ap_link, None, LoopSettings(lidar_expected=False))
+    unknown = np.full(72, 65535, dtype=np.uint16)
     for k in range(70):
-        t = 0.1 * k
-        bins = blind if k < 2 or 40 <= k < 60 else seeing  # the first sweeps after start-up vouch for nothing too
-        loop._publish(PerceptionOutput(t, [], bins, lidar_fresh=True, radar_fresh=True))
-    assert wait_until(lambda: len(sim.statustexts()) >= 2 and len(sim.obstacle_distances()) >= 48, 5.0)
+        out = PerceptionOutput(0.1 * k, [], unknown, lidar_fresh=False, radar_fresh=True, pose_known=not 40 <= k < 60)
+        loop._publish(out)
+    assert wait_until(lambda: len(sim.statustexts()) >= 2 and len(sim.obstacle_distances()) >= 50, 5.0)
     time.sleep(0.5)
     assert [s.text for s in sim.statustexts()] == [
-        "usv-tracker: sensors blind, obstacles withheld",
-        "usv-tracker: sensors see again",
+        "usv-tracker: no pose, obstacles withheld",
+        "usv-tracker: obstacles sent again",
     ]
-    assert (loop.sent, loop.withheld, loop.blind) == (48, 22, 22)
-    received = sim.obstacle_distances()
-    assert len(received) == 48 and all(np.any(np.asarray(m.distances) != 65535) for m in received)
-    assert "(blind 22)" in loop.health_line(7.0)
+    assert (loop.sent, loop.withheld, loop.unplaced) == (50, 20, 20)
+    assert len(sim.obstacle_distances()) == 50
+    assert "(radar without pose 20)" in loop.health_line(7.0)

@@ -107,4 +107,5 @@ def test_with_the_pose_lost_the_radar_puts_no_raw_return_in_the_bins_and_its_tra
     assert confirmed_before >= 2  # the harbour's vessels in the radar's view were tracked while the pose lasted
     assert pipeline.skipped_no_pose >= 15  # the radar kept delivering frames after the pose was lost
     assert np.all(out.distances_cm == UNKNOWN)  # no raw return as an obstacle
+    assert not out.pose_known  # so the daemon's loop withholds the array (tests/test_change_notices.py)
     assert out.tracks and not any(tr.confirmed for tr in out.tracks)
