@@ -714,12 +714,16 @@ class LidarTracker:
         return (shaped & ~moving) | flat
 
     def _unseen_guess(self, velocity_known: np.ndarray) -> np.ndarray:
-        """(T,) bool: tracks whose velocity is not known yet (``velocity_known`` False), unseen for longer than
-        ``max_reported_unseen_unknown_motion``. Their position is where the vessel was, not where it is: reported
-        tentative while they coast."""
-        limit = self.config.lifecycle.max_reported_unseen_unknown_motion
-        unseen = np.array([life.time_since_update for life in self._lives]) > limit + 1e-9
-        return unseen & ~velocity_known
+        """(T,) bool: tracks whose velocity is not known yet (``velocity_known`` False) or that were hit fewer than
+        ``min_hits_reported_unseen`` times, unseen for longer than ``max_reported_unseen_unknown_motion``. The
+        position of the first is where the vessel was, not where it is; the second may have been a wave crest that
+        three revolutions confirmed: reported tentative while they coast."""
+        cfg = self.config.lifecycle
+        unseen = (
+            np.array([life.time_since_update for life in self._lives]) > cfg.max_reported_unseen_unknown_motion + 1e-9
+        )
+        few_hits = np.array([life.hits for life in self._lives]) < cfg.min_hits_reported_unseen
+        return unseen & (~velocity_known | few_hits)
 
     def _velocity_known(self, p: np.ndarray) -> np.ndarray:
         """(T,) bool for covariances ``p`` (T, DIM_X, DIM_X): the velocity is settled (both standard deviations at
