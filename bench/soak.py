@@ -181,6 +181,7 @@ def _snapshot(proc: subprocess.Popen[bytes], trace_dir: Path, k: int) -> int:
 HEALTH = re.compile(
     r"health: lidar (?P<lidar>[\d.]+)/s \(dropped (?P<lidar_dropped>\d+)\) radar (?P<radar>[\d.]+)/s "
     r"\(dropped (?P<radar_dropped>\d+)\) sent (?P<sent>[\d.]+)/s withheld (?P<withheld>\d+) "
+    r"(?:\(radar without pose (?P<unplaced>\d+)\) )?"
     r"cycle p50 (?P<p50>[\d.]+) ms p99 (?P<p99>[\d.]+) ms misses (?P<misses>\d+) tracks (?P<tracks>\d+)"
 )
 

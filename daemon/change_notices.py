@@ -25,6 +25,15 @@ class ChangeNotices:
         self._times[key] = deque(maxlen=self.burst)
         self._unsaid[key] = 0
 
+    def assume(self, key: str, state: bool) -> None:
+        """Take the key's state as ``state`` without a notice (what was said of it no longer holds, e.g. the data it
+        was about stopped and was said stopped), keeping its recent notices for the rate limit."""
+        if key not in self._seen:
+            self.start(key, state)
+            return
+        self._seen[key] = self._said[key] = state
+        self._unsaid[key] = 0
+
     def known(self, key: str) -> bool:
         return key in self._seen
 

@@ -41,10 +41,7 @@ STARTUP_GRACE_S = 3.0  # a sensor not heard from yet is only reported silent aft
 # said when the next one may go (daemon.change_notices). A flapping link said each of its 14 changes in 10 s.
 STATE_NOTICE_QUIET_S = 10.0
 _DATA = "sensor data"
-# The radar alone delivers and the own pose is lost: the tracker cannot place its frames, so they give the array
-# nothing (tracker.pipeline) and every bin is unknown. That is no valid sensor input (the spec): sent, the array would
-# read as "sensor Good, nothing around"; withheld, the autopilot reports No Data. (With the LiDAR delivering, its
-# returns go into the array in the boat's frame, which needs no pose.)
+# The notices of the array withheld while the radar alone delivers without the own pose (radar_unplaced).
 _PLACED = "radar placed"
 MAV_SEVERITY_WARNING = 4
 MAV_SEVERITY_INFO = 6
@@ -173,19 +170,21 @@ class DaemonLoop:
 
     def _publish(self, out: PerceptionOutput) -> None:
         has_data = out.lidar_fresh or out.radar_fresh
-        self._check_sensors(out)
+        unplaced = radar_unplaced(out)  # sent, its all-unknown array reads as "sensor Good, nothing around" (spec)
+        self._check_sensors(out, unplaced)
         if has_data != self._publishing:
-            self._on_data_state_change(has_data)
+            self._on_data_state_change(has_data, unplaced)
         elif not has_data and self._waiting_for_first_data and not self._in_grace(out.t):
             self._waiting_for_first_data = False
             self._notices.start(_DATA, False)
             self._report_no_data(f"since start-up ({STARTUP_GRACE_S:.0f} s)")
-        self._say_data_state(has_data, out.t)
-        radar_alone = has_data and not out.lidar_fresh
-        unplaced = radar_alone and not out.pose_known
-        if has_data:
+        self._say_data_state(has_data, unplaced, out.t)
+        if not has_data:
+            # said afresh when data returns: the radar back without the pose is withheld again, and said so
+            self._notices.assume(_PLACED, True)
+        elif not self._in_grace(out.t):  # the first poses may come a moment after the radar's first frames
             self._say_placed(not unplaced, out.t)
-        if has_data and not unplaced:
+        if sendable(out):
             if self.publisher is not None:
                 self.publisher.send_obstacle_distance(
                     out.distances_cm,
@@ -205,7 +204,7 @@ class DaemonLoop:
         if self.tracks_out is not None:
             own = self.poses.at(out.t) if self.poses is not None and out.ego_available else None
             origin = self._world_origin() if own is not None else None
-            record = tick_record(out, sent=has_data and not unplaced, own=own, world_origin=origin)
+            record = tick_record(out, sent=sendable(out), own=own, world_origin=origin)
             self.tracks_out.write(json.dumps(record, separators=(",", ":")) + "\n")
 
     def _world_origin(self) -> tuple[float, float] | None:
@@ -243,7 +242,7 @@ class DaemonLoop:
             if math.isfinite(la) and math.isfinite(lo):
                 self.ais_sent += bool(send(ais_vessel(tr, float(la), float(lo), s.ais_mmsi_base)))
 
-    def _check_sensors(self, out: PerceptionOutput) -> None:
+    def _check_sensors(self, out: PerceptionOutput, unplaced: bool) -> None:
         """Per-sensor up/down transitions: a log line and a STATUSTEXT each, and the heartbeat's system_status.
 
         A sensor not heard from yet is not "down" during the first STARTUP_GRACE_S: a radar takes a second or two to
@@ -281,6 +280,8 @@ class DaemonLoop:
                 )
         up = sum(1 for ok in fresh.values() if ok)
         status = MAV_STATE_ACTIVE if up == len(fresh) else MAV_STATE_CRITICAL if up else MAV_STATE_EMERGENCY
+        if unplaced:  # the radar delivers but cannot be placed: no obstacle output, as with no sensor at all
+            status = MAV_STATE_EMERGENCY
         if status != self._status:
             self._status = status
             self._set_status(status)
@@ -290,7 +291,7 @@ class DaemonLoop:
             self._first_tick = t
         return t - self._first_tick < STARTUP_GRACE_S
 
-    def _on_data_state_change(self, has_data: bool) -> None:
+    def _on_data_state_change(self, has_data: bool, unplaced: bool) -> None:
         first = self._publishing is None
         self._publishing = has_data
         if has_data:
@@ -298,13 +299,18 @@ class DaemonLoop:
                 self._notices.start(_DATA, True)
             if self._waiting_for_first_data:
                 self._waiting_for_first_data = False
-                log.info("first sensor data: sending OBSTACLE_DISTANCE")
+                log.info(
+                    "first sensor data: %s",
+                    "OBSTACLE_DISTANCE withheld until the own pose places the radar's frames"
+                    if unplaced
+                    else "sending OBSTACLE_DISTANCE",
+                )
         elif first:
             # Sensors take a moment after start-up (a radar a second or two after its cfg); not an error yet.
             self._waiting_for_first_data = True
             log.info("waiting for sensor data: OBSTACLE_DISTANCE starts with it")
 
-    def _say_data_state(self, has_data: bool, t: float) -> None:
+    def _say_data_state(self, has_data: bool, unplaced: bool, t: float) -> None:
         """The feed's stops and restarts, said when they happen but at most once per quiet time (ChangeNotices)."""
         if self._waiting_for_first_data or not self._notices.known(_DATA):
             return
@@ -315,7 +321,13 @@ class DaemonLoop:
         if has_data:
             self._tell(
                 logging.INFO,
-                f"sensor data is back: sending OBSTACLE_DISTANCE again{journal}",
+                "sensor data is back: "
+                + (
+                    "the radar alone, without the own pose: still withheld"
+                    if unplaced
+                    else "sending OBSTACLE_DISTANCE again"
+                )
+                + journal,
                 f"usv-tracker: sensor data back{radio}",
             )
         else:
@@ -560,6 +572,18 @@ def tick_record(
         if world_origin is None
         else [round(world_origin[0], 8), round(world_origin[1], 8)],
     }
+
+
+def radar_unplaced(out: PerceptionOutput) -> bool:
+    """Only the radar delivers and the own pose is lost: its frames cannot be placed, every bin is unknown, and the
+    array is withheld (no valid input, as the spec means it; with the LiDAR delivering, its returns go into the array
+    in the boat's frame, which needs no pose)."""
+    return out.radar_fresh and not out.lidar_fresh and not out.pose_known
+
+
+def sendable(out: PerceptionOutput) -> bool:
+    """Whether the tick's obstacle array goes to the autopilot: some sensor delivers, and not the radar unplaced."""
+    return (out.lidar_fresh or out.radar_fresh) and not radar_unplaced(out)
 
 
 def _unsteady(unsaid: int, quiet_s: float) -> str:

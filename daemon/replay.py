@@ -22,7 +22,7 @@ from typing import Any, Protocol
 from daemon.buffers import BoundedQueue, LatestSlot
 from daemon.config import Config
 from daemon.ego import HistoryEgo, ShiftedEgo
-from daemon.loop import DaemonLoop, LoopSettings, ObstaclePublisher, SensorInputs
+from daemon.loop import DaemonLoop, LoopSettings, ObstaclePublisher, SensorInputs, sendable
 from daemon.pose_history import PoseHistory
 from daemon.replay_sources import Peekable, close_stream, feed_pose, lidar_scans, radar_frames, tlog_messages
 from daemon.runner import pipeline_for, sensors_off
@@ -98,7 +98,7 @@ class ReplaySummary:
     scans: int = 0
     radar_frames: int = 0
     poses: int = 0
-    sent: int = 0  # ticks whose bins were sent (or would have been, without a publisher)
+    sent: int = 0  # ticks whose bins were sent (or would have been, without a publisher): daemon.loop.sendable
     data_seconds: float = 0.0
     wall_seconds: float = 0.0  # from opening the captures to the last tick
     track_ids: set[int] = field(default_factory=set)  # every track written
@@ -128,7 +128,7 @@ class ReplaySummary:
 
     def count(self, out: PerceptionOutput) -> None:
         self.ticks += 1
-        self.sent += bool(out.lidar_fresh or out.radar_fresh)
+        self.sent += sendable(out)
         self.no_pose += not out.pose_known
         for tr in out.tracks:
             self.track_ids.add(tr.id)
@@ -295,8 +295,8 @@ def _replay(config: Config, options: ReplayOptions, streams: list[Any], wall_sta
         # t = 0): without this the run looked whole, and half of it had gone without tracking.
         log.warning(
             "%d of %d ticks had no own pose: the .tlog ends before the captures or does not cover their times "
-            "(a radar dump without its .times sidecar starts at t = 0); tracking waited and the radar's bearings "
-            "were unknown there",
+            "(a radar dump without its .times sidecar starts at t = 0); tracking waited, the radar's bearings "
+            "were unknown there, and with the radar alone no obstacle array was sent",
             summary.no_pose,
             summary.ticks,
         )

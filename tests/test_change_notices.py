@@ -8,7 +8,7 @@ import numpy as np
 
 from daemon.autopilot import AutopilotLink
 from daemon.change_notices import ChangeNotices
-from daemon.loop import DaemonLoop, LoopSettings, SensorInputs
+from daemon.loop import MAV_STATE_EMERGENCY, DaemonLoop, LoopSettings, SensorInputs
 from simulator.autopilot import SimAutopilot, wait_until
 from tracker.pipeline import PerceptionOutput, PerceptionPipeline
 
@@ -90,21 +90,30 @@ def test_the_radar_alone_without_the_own_pose_withholds_the_array_and_says_so(
 ) -> None:
     """A radar-only boat whose autopilot's pose stops for 2 s: the tracker cannot place the radar's frames, so every
     bin is unknown. Sent, that array reads as "sensor Good, nothing around" to the autopilot (spec): it is withheld,
-    so the autopilot reports No Data, and the crew hears why, then that the array goes again. An all-unknown array
-    while the pose is known (nothing in the radar's view) is sent as it is: it is what the sensors saw."""
+    so the autopilot reports No Data, the heartbeat says no output, and the crew hears why, then that the array goes
+    again. Later the radar stops for 8 s and comes back while the pose is lost again: that is said too, not left at
+    "sensor data back". An all-unknown array while the pose is known (nothing in the radar's view) is sent as it
+    is: it is what the sensors saw."""
     ap_link, sim = pair
     assert wait_until(lambda: ap_link.connected, 5.0)
     loop = DaemonLoop(PerceptionPipeline(), SensorInputs(), ap_link, None, LoopSettings(lidar_expected=False))
     unknown = np.full(72, 65535, dtype=np.uint16)
-    for k in range(70):
-        out = PerceptionOutput(0.1 * k, [], unknown, lidar_fresh=False, radar_fresh=True, pose_known=not 40 <= k < 60)
-        loop._publish(out)
-    assert wait_until(lambda: len(sim.statustexts()) >= 2 and len(sim.obstacle_distances()) >= 50, 5.0)
+    for k in range(170):
+        pose = not (40 <= k < 60 or k >= 140)
+        radar = not 70 <= k < 150
+        loop._publish(PerceptionOutput(0.1 * k, [], unknown, lidar_fresh=False, radar_fresh=radar, pose_known=pose))
+    assert wait_until(lambda: len(sim.statustexts()) >= 7 and len(sim.obstacle_distances()) >= 50, 5.0)
     time.sleep(0.5)
     assert [s.text for s in sim.statustexts()] == [
         "usv-tracker: no pose, obstacles withheld",
         "usv-tracker: obstacles sent again",
+        "usv-tracker: radar silent",
+        "usv-tracker: no sensor data, obstacles withheld",
+        "usv-tracker: radar back",
+        "usv-tracker: sensor data back",
+        "usv-tracker: no pose, obstacles withheld",
     ]
-    assert (loop.sent, loop.withheld, loop.unplaced) == (50, 20, 20)
+    assert (loop.sent, loop.withheld, loop.unplaced) == (50, 120, 40)
     assert len(sim.obstacle_distances()) == 50
-    assert "(radar without pose 20)" in loop.health_line(7.0)
+    assert loop._status == MAV_STATE_EMERGENCY  # the radar delivers, but nothing goes out
+    assert "(radar without pose 40)" in loop.health_line(17.0)
