@@ -162,6 +162,28 @@ def test_the_radar_tracker_is_set_by_role_and_an_old_flat_key_is_pointed_to_its_
     assert "tracker.radar.clustering: ClusteringConfig.min_points: must be >= 1, got 0" in out.stderr
 
 
+def test_the_lidar_lifecycle_is_set_from_the_config_and_its_problems_name_the_key_once(tmp_path: Path) -> None:
+    from daemon.tracker_adapters import tracker_factories
+
+    path = tmp_path / "c.toml"
+    path.write_text("[tracker.lidar.lifecycle]\nmin_hits_reported_unseen = 0\n")
+    lidar, _, _ = tracker_factories(load_config(path))
+    assert lidar is not None and lidar().config.lifecycle.min_hits_reported_unseen == 0  # 0: the rule off
+    path.write_text("[tracker.lidar.lifecycle]\nmin_hits_reported_unseen = -1\n")
+    out = check_config(path)
+    assert out.returncode == 2, out.stdout + out.stderr
+    assert "tracker.lidar.lifecycle: min_hits_reported_unseen: must be >= 0 (0: off), got -1" in out.stderr
+    path.write_text("[tracker.lidar.lifecycle]\nmin_hits_reported_unseen = -1\nconfirm_hits = 9\n")
+    out = check_config(path)
+    assert out.returncode == 2, out.stdout + out.stderr
+    # the first problem the group's class finds is named, with its key, under the group's path (not "lifecycle: "
+    # twice, as before)
+    assert (
+        "tracker.lidar.lifecycle: confirm_hits, confirm_window: need 1 <= confirm_hits <= confirm_window, got 9 of 5"
+        in out.stderr
+    )
+
+
 def test_values_that_load_but_cannot_work_are_named(tmp_path: Path) -> None:
     path = tmp_path / "c.toml"
     path.write_text(

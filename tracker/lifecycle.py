@@ -58,11 +58,11 @@ class LifecycleConfig:
     def __post_init__(self) -> None:
         if not 1 <= self.confirm_hits <= self.confirm_window:
             raise ValueError(
-                f"lifecycle: need 1 <= confirm_hits <= confirm_window, got {self.confirm_hits} of {self.confirm_window}"
+                f"confirm_hits, confirm_window: need 1 <= confirm_hits <= confirm_window, got {self.confirm_hits} of {self.confirm_window}"
             )
         if self.confirm_hits_alone and not 1 <= self.confirm_hits_alone <= self.confirm_hits:
             raise ValueError(
-                f"lifecycle: need 0 (off) or 1 <= confirm_hits_alone <= confirm_hits, got {self.confirm_hits_alone}"
+                f"confirm_hits_alone: need 0 (off) or 1 <= confirm_hits_alone <= confirm_hits, got {self.confirm_hits_alone}"
             )
         limits = (
             self.max_unseen_time,
@@ -71,7 +71,7 @@ class LifecycleConfig:
             self.max_reported_unseen_unknown_motion,
         )
         if min(limits) < 0:
-            raise ValueError("lifecycle: the max_unseen_time limits must be >= 0")
+            raise ValueError("max_unseen_time*, max_reported_unseen_unknown_motion: must be >= 0")
 
 
 class IdSource:

@@ -639,7 +639,7 @@ class LidarLifecycleConfig(LifecycleConfig):
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.min_hits_reported_unseen < 0:
-            raise ValueError(f"lifecycle: min_hits_reported_unseen must be >= 0, got {self.min_hits_reported_unseen}")
+            raise ValueError(f"min_hits_reported_unseen: must be >= 0 (0: off), got {self.min_hits_reported_unseen}")
 
 
 @dataclass
