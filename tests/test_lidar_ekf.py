@@ -17,7 +17,6 @@ from tracker.lidar.ekf import (
     WID,
     EkfBank,
     Measurement,
-    measurement_noise,
     measurement_noises,
     visibility,
     wrap_angle,
@@ -25,18 +24,18 @@ from tracker.lidar.ekf import (
 from tracker.types import ShapeKind
 
 CFG = EkfConfig()
-R_FULL = measurement_noise(None, CFG)
+R_FULL = np.diag(np.square(CFG.r_full_std))  # eq. 12
 
 
 def test_eq12_full_visibility_noise_and_eq11_inflation() -> None:
     assert np.sqrt(np.diag(R_FULL)) == pytest.approx([0.1, 0.1, 0.05, 0.5, 0.5, 0.5])
     p = np.array([1.0, 1.0, 0.5, 0.5, 0.0, 1.0])
-    diag = measurement_noise(p, CFG)
+    diag = measurement_noises(p[None], CFG)[0]
     assert np.diag(diag - R_FULL) == pytest.approx(CFG.r_inflation * np.array([0, 0, 0.25, 0.25, 1.0, 0]))
     assert diag - np.diag(np.diag(diag)) == pytest.approx(np.zeros((6, 6)))
-    outer = measurement_noise(p, EkfConfig(inflation_form="outer"))
+    outer = measurement_noises(p[None], EkfConfig(inflation_form="outer"))[0]
     assert outer - R_FULL == pytest.approx(CFG.r_inflation * np.outer(1 - p, 1 - p))
-    assert measurement_noise(p, EkfConfig(adaptive_r=False)) == pytest.approx(R_FULL)
+    assert measurement_noises(p[None], EkfConfig(adaptive_r=False))[0] == pytest.approx(R_FULL)
 
 
 @pytest.mark.parametrize(
@@ -79,12 +78,12 @@ def test_quarter_turn_alias_keeps_the_heading() -> None:
     bank = EkfBank(CFG)
     bank.add(box((0.0, 0.0), math.radians(10.0), 8.0, 3.0))
     # Only the stern is visible: the fitter reports a 3 m side at 100 deg, which is the same box turned 90 deg.
-    chosen = bank.choose_alias(0, box((0.0, 0.0), math.radians(100.0), 3.0, 0.1))
+    chosen = bank.choose_aliases([(0, box((0.0, 0.0), math.radians(100.0), 3.0, 0.1))], [(True, True)])[0]
     assert chosen.heading == pytest.approx(math.radians(10.0))
     assert (chosen.length, chosen.width) == (0.1, 3.0)
     # And 180 deg: a box fit in [0, pi) near 190 deg is reported as 10 deg; the track near 190 keeps 190.
     bank.filters[0].x[PSI] = wrap_angle(math.radians(190.0))
-    chosen = bank.choose_alias(0, box((0.0, 0.0), math.radians(12.0), 8.0, 3.0))
+    chosen = bank.choose_aliases([(0, box((0.0, 0.0), math.radians(12.0), 8.0, 3.0))], [(True, True)])[0]
     assert wrap_angle(chosen.heading - math.radians(192.0)) == pytest.approx(0.0, abs=1e-12)
 
 
@@ -92,7 +91,9 @@ def test_ellipse_alias_uses_size_when_heading_is_uncertain() -> None:
     bank = EkfBank(CFG)
     bank.add(box((0.0, 0.0), math.radians(30.0), 8.0, 3.0, ShapeKind.ELLIPSE))
     bank.filters[0].P[PSI, PSI] = math.pi**2  # heading unknown: size decides
-    chosen = bank.choose_alias(0, box((0.0, 0.0), math.radians(120.0), 3.0, 8.0, ShapeKind.ELLIPSE))
+    chosen = bank.choose_aliases(
+        [(0, box((0.0, 0.0), math.radians(120.0), 3.0, 8.0, ShapeKind.ELLIPSE))], [(True, True)]
+    )[0]
     assert (chosen.length, chosen.width) == (8.0, 3.0)
 
 

@@ -20,12 +20,12 @@ from simulator.truth import truth_at
 from tests.lidar_synthetic import SyntheticObject, scan_objects
 from tracker.lidar import LidarTracker, LidarTrackerConfig
 from tracker.lidar.config import ConfigError, EkfConfig, ShapeConfig
-from tracker.lidar.ekf import LEN, PE, PN, VE, VN, WID, EkfBank, Measurement, faces_seen, measurement_noise
+from tracker.lidar.ekf import LEN, PE, PN, VE, VN, WID, EkfBank, Measurement, faces_seen
 from tracker.lidar.preprocess import preprocess
 from tracker.lidar.shape_fit import (
     DegenerateClusterError,
     ShapeFit,
-    complete_symmetric_hull,
+    complete_symmetric_hulls,
     fit_ellipse,
     fit_ellipses,
     fit_lshape_corner,
@@ -73,7 +73,7 @@ def test_hull_symmetry_doubles_a_bow_seen_from_abeam() -> None:
     sensor = place(np.array([[0.0, 25.0]]), center, heading)[0]
     fit = fit_lshape_corner(pts)
     assert fit.width == pytest.approx(2.0, abs=1e-9)  # side to stem: half the beam
-    done = complete_symmetric_hull(fit, pts, sensor)
+    done = complete_symmetric_hulls([fit], [pts], sensor)[0]
     assert done.completed and not fit.completed
     assert (done.length, done.width) == pytest.approx((12.0, 4.0), abs=1e-9)
     assert done.center == pytest.approx(center, abs=1e-9)
@@ -95,9 +95,9 @@ def test_hull_symmetry_leaves_square_ends_and_cabins_alone(body: np.ndarray) -> 
     pts = place(body, center, heading)
     sensor = place(np.array([[-12.0, 25.0]]), center, heading)[0]
     fit = fit_lshape_corner(pts)  # the cabin turns the box 2.6 deg off the side: no taper either
-    assert complete_symmetric_hull(fit, pts, sensor) is fit
+    assert complete_symmetric_hulls([fit], [pts], sensor)[0] is fit
     guarded = guard_heading(fit, pts)
-    assert complete_symmetric_hull(guarded, pts, sensor) is guarded
+    assert complete_symmetric_hulls([guarded], [pts], sensor)[0] is guarded
 
 
 def test_heading_guard_recovers_the_hull_from_a_cabin_face() -> None:
@@ -114,7 +114,7 @@ def test_heading_guard_recovers_the_hull_from_a_cabin_face() -> None:
     assert heading_diff(guarded.heading, heading) < 1e-9
     assert guarded.length == pytest.approx(length, abs=1e-9)
     assert guarded.width == pytest.approx(0.9 * width, abs=1e-9)  # side to the cabin's far corner
-    done = complete_symmetric_hull(guarded, pts, np.zeros(2))
+    done = complete_symmetric_hulls([guarded], [pts], np.zeros(2))[0]
     assert done.width == pytest.approx(width, abs=1e-9)  # twice the stem's depth, not the cabin's
     assert done.center == pytest.approx(center, abs=1e-9)
 
@@ -192,7 +192,7 @@ def test_faces_seen(sensor: tuple[float, float], expected: tuple[bool, bool]) ->
 def box(
     center: tuple[float, float], heading: float, length: float, width: float, sensor: tuple[float, float]
 ) -> Measurement:
-    r = measurement_noise(None, EkfConfig())
+    r = np.diag(np.square(EkfConfig().r_full_std))
     return Measurement(np.array(center, float), heading, length, width, 2.0, ShapeKind.BOX, r, np.array(sensor, float))
 
 
@@ -208,7 +208,7 @@ def test_stacked_alias_choice_equals_one_at_a_time() -> None:
         seen.append((bool(rng.integers(2)), bool(rng.integers(2))))
     stacked = bank.choose_aliases(pairs, seen)
     for (i, m), s, got in zip(pairs, seen, stacked, strict=True):
-        want = bank.choose_alias(i, m, s)
+        want = bank.choose_aliases([(i, m)], [s])[0]  # the same pair alone
         assert (got.heading, got.length, got.width) == pytest.approx((want.heading, want.length, want.width))
     turned = sum(g is not m for g, (_, m) in zip(stacked, pairs, strict=True))
     assert 10 <= turned < len(pairs)  # both outcomes exercised: kept as measured, and turned to another alias

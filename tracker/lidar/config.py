@@ -261,7 +261,7 @@ class ShapeConfig:
     rotation_min_distance: float = 0.01  # m, closeness criterion floor d0 of Algorithm 2's source [7]
     # Corner method: a corner closer than this to the P1-P2 diagonal means one visible side ("I-shape").
     corner_min_offset: float = 0.15  # m (ours)
-    # Hull symmetry (ours, not in the paper; shape_fit.complete_symmetric_hull): a box fit of one long side and a
+    # Hull symmetry (ours, not in the paper; shape_fit.complete_symmetric_hulls): a box fit of one long side and a
     # tapered end (a bow seen from abeam) has only seen to the stem, on the centreline: the tracker widens it to
     # twice the stem's depth. A taper is told from a square end (a container's) by how far back along the hull
     # the deeper half of the end's points reaches: more than max(taper_min_band, taper_band_ratio * depth).

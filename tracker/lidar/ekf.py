@@ -118,13 +118,6 @@ def visibility(
     return p
 
 
-def measurement_noise(p_vis: np.ndarray | None, config: EkfConfig) -> np.ndarray:
-    """Eq. 11 for one visibility vector (:func:`measurement_noises` of one); ``p_vis`` None: R_full (eq. 12)."""
-    if p_vis is None:
-        return np.diag(np.square(np.asarray(config.r_full_std, dtype=float)))
-    return measurement_noises(np.asarray(p_vis, dtype=float)[None], config)[0]
-
-
 def measurement_noises(p_vis: np.ndarray, config: EkfConfig) -> np.ndarray:
     """Eq. 11 for (k, 6) visibilities: (k, 6, 6) R_k = R_full + r (1 - p)(1 - p)^T, or its diagonal (see
     ``EkfConfig.inflation_form``); R_full alone without ``adaptive_r`` (eq. 12)."""
@@ -153,7 +146,7 @@ class Measurement:
     r: np.ndarray  # (6, 6) measurement covariance (eq. 11)
     # Own boat (north, east) when the cluster was seen; enables the view-aware update (EkfConfig.view_aware).
     sensor: np.ndarray | None = None
-    completed: bool = False  # width doubled by hull symmetry (shape_fit.complete_symmetric_hull): whole
+    completed: bool = False  # width doubled by hull symmetry (shape_fit.complete_symmetric_hulls): whole
     # Ends, in bearing from the sensor (low, high), that a nearer object's shadow reaches (clustering.shadows):
     # the hull may go on there, so the view-aware update measures the other end, or neither.
     shadowed: tuple[bool, bool] = (False, False)
@@ -302,17 +295,9 @@ class EkfBank:
             ekf.x, ekf.P, ekf.F = x[j], p[j], f[j]
             ekf.x_prior, ekf.P_prior = x_prior[j], p_prior[j]
 
-    def choose_alias(self, i: int, m: Measurement, seen: tuple[bool, bool] = (True, True)) -> Measurement:
-        """The alias of ``m`` closest (Mahalanobis in heading, length, width) to track ``i``'s prediction.
-
-        ``seen`` says whether the track's (length, width) extents are fully in view; a size that may be cut short
-        only counts against an alias when it comes out larger than the track's.
-        """
-        return m if m.kind is ShapeKind.POINT else self.choose_aliases([(i, m)], [seen])[0]
-
     def choose_aliases(self, pairs: list[tuple[int, Measurement]], seen: list[tuple[bool, bool]]) -> list[Measurement]:
-        """:meth:`choose_alias` for many (track, measurement) pairs at once (box or ellipse kinds only): the four
-        quarter turns of each measurement, residuals in (heading, length, width), the size rows of an extent not
+        """The alias of each measurement closest (Mahalanobis in heading, length, width) to its track's prediction,
+        for many (track, measurement) pairs at once (box or ellipse kinds only): the four quarter turns of each, residuals in (heading, length, width), the size rows of an extent not
         in view counted only where the alias comes out larger than the track."""
         k = len(pairs)
         if k == 0:
@@ -412,7 +397,7 @@ class EkfBank:
           of shrinking to, and sliding with, its lit piece.
 
         The heading and height update as usual; directions are the predicted heading's. ``aliased`` is ``m``'s
-        alias chosen with ``seen`` (:meth:`choose_alias`). Returns the aliased measurement and, unless it is
+        alias chosen with ``seen`` (:meth:`choose_aliases`). Returns the aliased measurement and, unless it is
         eq. 7's plain update, the rows (z, H, R, heading row) to apply.
         """
         cfg = self.config

@@ -16,7 +16,7 @@ squared point-to-shape distance (m^2) and the kind.
   ellipse's is the Sampson distance, a first-order geometric distance that needs no iterative solve.
 
 Ours, not in the paper, used by the tracker's detection step: :func:`guard_heading` (a cabin's faces inside the
-outline break the L-shape assumption; the outline's own edges are tried too), :func:`complete_symmetric_hull` (a
+outline break the L-shape assumption; the outline's own edges are tried too), :func:`complete_symmetric_hulls` (a
 boat seen from abeam shows its stem on the centreline: the beam is twice its depth). The corner and ellipse fits and
 the completion run a whole scan's clusters at once as stacked arrays (:func:`fit_lshape_corners`,
 :func:`fit_ellipses`, :func:`complete_symmetric_hulls`); one cluster is a batch of one.
@@ -54,7 +54,7 @@ class ShapeFit:
     kind: ShapeKind
     n_points: int
     method: str  # corner | rotation | bruteforce | ellipse | point
-    # Width doubled by hull symmetry: only one side and a tapered end were seen (see complete_symmetric_hull).
+    # Width doubled by hull symmetry: only one side and a tapered end were seen (see complete_symmetric_hulls).
     completed: bool = False
 
     def corners(self) -> np.ndarray:
@@ -528,10 +528,10 @@ def guard_heading(
     return box_from_heading(xy, float(thetas[best]), fit.method, origin)
 
 
-def complete_symmetric_hull(
-    fit: ShapeFit, points: np.ndarray, sensor_position: np.ndarray, config: ShapeConfig | None = None
-) -> ShapeFit:
-    """Widen a box seen from one side to the full beam when a tapered end shows where the centreline is.
+def complete_symmetric_hulls(
+    fits: list[ShapeFit], clouds: list[np.ndarray], sensor_position: np.ndarray, config: ShapeConfig | None = None
+) -> list[ShapeFit]:
+    """Widen each box seen from one side to the full beam when a tapered end shows where the centreline is.
 
     Seen from abeam, a boat shows one side and the near half of its bow (or a rounded stern) curving in to the
     stem, which lies on the centreline; the box around that is half the beam, its centre a quarter beam short.
@@ -540,16 +540,9 @@ def complete_symmetric_hull(
     the deepest one (from the near side) is the end's tip. Where the deeper half of that end's points reaches back
     along the hull by more than a square corner's blur, the end is tapered and the beam is twice the tip's depth.
     A square end as deep as the box means the whole width is in view already. Cabin faces amidships are ignored.
-    Returns ``fit`` itself when nothing applies; otherwise a copy with ``completed`` set.
-    """
-    return complete_symmetric_hulls([fit], [points], sensor_position, config)[0]
-
-
-def complete_symmetric_hulls(
-    fits: list[ShapeFit], clouds: list[np.ndarray], sensor_position: np.ndarray, config: ShapeConfig | None = None
-) -> list[ShapeFit]:
-    """:func:`complete_symmetric_hull` for many fits at once (each with its cluster's points): the per-point steps
-    run on stacked, padded arrays, the few per-fit decisions in Python."""
+    Each fit comes with its cluster's points; a fit to which nothing applies is returned itself, the others as a
+    copy with ``completed`` set. The per-point steps run on stacked, padded arrays, the few per-fit decisions in
+    Python."""
     cfg = config or ShapeConfig()
     out = list(fits)
     sensor = np.asarray(sensor_position, dtype=float)[:2]
@@ -602,7 +595,7 @@ def complete_symmetric_hulls(
 
 
 def _taper_depth(ends: list[tuple[int, float, float]], width: float, cfg: ShapeConfig) -> float | None:
-    """complete_symmetric_hull's decision from each end's (points at it, tip depth, band): the centreline's depth
+    """complete_symmetric_hulls' decision from each end's (points at it, tip depth, band): the centreline's depth
     behind the near side, or None to keep the fit."""
     tip_depth = 0.0
     for count, tip, band in ends:
@@ -620,7 +613,7 @@ def _taper_depth(ends: list[tuple[int, float, float]], width: float, cfg: ShapeC
 
 
 def _completed(fit: ShapeFit, tip_depth: float, c: float, s: float, near: float) -> ShapeFit:
-    """``fit`` widened to twice ``tip_depth`` about the centreline (see complete_symmetric_hull)."""
+    """``fit`` widened to twice ``tip_depth`` about the centreline (see complete_symmetric_hulls)."""
     width = 2.0 * tip_depth
     shift = near * (0.5 * fit.width - tip_depth)  # new centre's v in the old box frame
     center = fit.center + shift * np.array([-s, c])

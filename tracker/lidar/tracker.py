@@ -56,7 +56,7 @@ log = logging.getLogger(__name__)
 class LidarDetection(Detection):
     """A :class:`Detection` that also says whether its width was completed by hull symmetry."""
 
-    completed: bool = False  # shape_fit.complete_symmetric_hull doubled the width: the whole beam is measured
+    completed: bool = False  # shape_fit.complete_symmetric_hulls doubled the width: the whole beam is measured
 
 
 class LidarTracker:
