@@ -171,6 +171,7 @@ class DaemonLoop:
     def _publish(self, out: PerceptionOutput) -> None:
         has_data = out.lidar_fresh or out.radar_fresh
         unplaced = radar_unplaced(out)  # sent, its all-unknown array reads as "sensor Good, nothing around" (spec)
+        send = sendable(out)
         self._check_sensors(out, unplaced)
         if has_data != self._publishing:
             self._on_data_state_change(has_data, unplaced)
@@ -184,7 +185,7 @@ class DaemonLoop:
             self._notices.assume(_PLACED, True)
         elif not self._in_grace(out.t):  # the first poses may come a moment after the radar's first frames
             self._say_placed(not unplaced, out.t)
-        if sendable(out):
+        if send:
             if self.publisher is not None:
                 self.publisher.send_obstacle_distance(
                     out.distances_cm,
@@ -204,7 +205,7 @@ class DaemonLoop:
         if self.tracks_out is not None:
             own = self.poses.at(out.t) if self.poses is not None and out.ego_available else None
             origin = self._world_origin() if own is not None else None
-            record = tick_record(out, sent=sendable(out), own=own, world_origin=origin)
+            record = tick_record(out, sent=send, own=own, world_origin=origin)
             self.tracks_out.write(json.dumps(record, separators=(",", ":")) + "\n")
 
     def _world_origin(self) -> tuple[float, float] | None:

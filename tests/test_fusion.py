@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from tracker.fusion import PublishedIds, fuse_track_groups, report_second_tracks_tentative
@@ -101,21 +103,9 @@ def test_an_id_unseen_for_longer_than_the_memory_is_forgotten() -> None:
     assert [tr.id for tr in ids.publish(1.5, fuse_track_groups([track(12, 40.0, 0.0, "lidar")], [], 3.0))] == [12]
 
 
-def moving(
-    tid: int, north: float, east: float, length: float, width: float, v_north: float, heading: float = 0.0
-) -> Track:
-    return Track(
-        id=tid,
-        t=0.0,
-        position=np.array([north, east]),
-        velocity=np.array([v_north, 0.0]),
-        heading=heading,
-        yaw_rate=0.0,
-        length=length,
-        width=width,
-        height=2.0,
-        confirmed=True,
-    )
+def moving(tid: int, north: float, east: float, length: float, width: float, v_north: float) -> Track:
+    """A confirmed LiDAR track heading north (its length along north) at ``v_north`` m/s."""
+    return dataclasses.replace(track(tid, north, east, "lidar", length, width), velocity=np.array([v_north, 0.0]))
 
 
 def test_a_younger_track_on_an_older_hulls_box_is_reported_tentative() -> None:
