@@ -10,10 +10,24 @@ import pytest
 
 from drivers.mount import Mount
 from tests.sea_geometry import RAIN, SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
-from tracker.lidar.coverage import band_intervals, beam_elevations_level, swept_bins, vouched_range
+from tracker.lidar.coverage import band_intervals, beam_elevations_level, reach_from, swept_bins
 from tracker.obstacle_map import UNKNOWN
 
 MOUNT = Mount(z=-1.6)
+
+
+def vouched_range(
+    elevation: np.ndarray,
+    sensor_height: np.ndarray,
+    margin: float,
+    obstacle_height: float,
+    inner: float,
+    max_range: float,
+) -> np.ndarray:
+    """(B,) range out to which a solid ``obstacle_height`` tall would have been returned, per bearing: how the
+    coverage model chains the beams' bands from ``inner`` outward."""
+    lo, hi = band_intervals(elevation, sensor_height, margin, obstacle_height, max_range)
+    return reach_from(lo, hi, inner, max_range)
 
 
 def level_elevations(n: int = 1) -> tuple[np.ndarray, np.ndarray]:

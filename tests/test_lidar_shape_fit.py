@@ -17,7 +17,6 @@ from tracker.lidar.shape_fit import (
     DegenerateClusterError,
     ShapeFit,
     cluster_height,
-    ellipse_sampson_sq,
     fit_ellipse,
     fit_lshape_bruteforce,
     fit_lshape_corner,
@@ -164,11 +163,16 @@ def test_ellipse_rejects_what_is_not_an_ellipse() -> None:
         fit_ellipse(np.ones((6, 2)))
 
 
-def test_sampson_distance_by_hand() -> None:
-    # Unit circle x^2 + y^2 - 1 = 0, point (2, 0): F = 3, grad F = (4, 0), Sampson = 3 / 4.
-    circle = np.array([1.0, 0.0, 1.0, 0.0, 0.0, -1.0])
-    d2 = ellipse_sampson_sq(circle, np.array([[2.0, 0.0], [0.0, -1.0]]).T)
-    assert d2 == pytest.approx([0.75**2, 0.0])
+def test_ellipse_mse_is_the_mean_squared_sampson_distance() -> None:
+    # A circle of radius 5 whose returns alternate 0.1 m outside and inside it: the fit is the circle (by symmetry)
+    # and each return's Sampson distance F / |grad F| = (2 r d + d^2) / (2 (r + d)) is 0.1 m to within 1 %, so the
+    # MSE is 0.01 m^2; returns exactly on it give 0.
+    a = np.linspace(0.0, 2.0 * math.pi, 40, endpoint=False)
+    r = 5.0 + 0.1 * np.where(np.arange(40) % 2 == 0, 1.0, -1.0)
+    fit = fit_ellipse(np.column_stack([r * np.cos(a) + 20.0, r * np.sin(a) - 3.0]))
+    assert fit.mse == pytest.approx(0.01, rel=0.01)
+    np.testing.assert_allclose(fit.center, [20.0, -3.0], atol=1e-9)
+    assert fit_ellipse(np.column_stack([5.0 * np.cos(a), 5.0 * np.sin(a)])).mse < 1e-20
 
 
 @pytest.mark.parametrize("method", ["corner", "rotation", "bruteforce"])

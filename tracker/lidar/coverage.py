@@ -114,21 +114,6 @@ def reach_from(lo: np.ndarray, hi: np.ndarray, inner: float, max_range: float) -
     return np.where(reach > inner + 1e-9, reach, 0.0)
 
 
-def vouched_range(
-    elevation: np.ndarray,
-    sensor_height: np.ndarray,
-    margin: float,
-    obstacle_height: float,
-    inner: float,
-    max_range: float,
-) -> np.ndarray:
-    """(B,) range out to which a solid ``obstacle_height`` tall would have been returned, per bearing: the end of
-    the stretch from ``inner`` that the beams' bands [margin, obstacle_height] cover without a gap; 0 when the
-    stretch does not even start at ``inner`` (nothing is vouched for)."""
-    lo, hi = band_intervals(elevation, sensor_height, margin, obstacle_height, max_range)
-    return reach_from(lo, hi, inner, max_range)
-
-
 SUB_BEARINGS = np.array([-2.0, 0.0, 2.0])  # deg about each bin's centre where coverage is judged (the worst wins)
 N_BINS = 72
 # The bins' centres among the judged bearings (bin_bearings): rows of a (72 * 3, ...) array, one per bin.

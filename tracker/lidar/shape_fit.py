@@ -314,16 +314,6 @@ def boxes_from_headings(
 # Ellipse fitting
 
 
-def ellipse_sampson_sq(conic: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Squared Sampson distance of (2, n) points to a conic: F^2 / |grad F|^2, a first-order geometric distance."""
-    a, b, c, d, e, f = conic
-    x, y = q
-    val = (a * x + b * y + d) * x + (c * y + e) * y + f
-    gx = 2.0 * a * x + b * y + d
-    gy = b * x + 2.0 * c * y + e
-    return val * val / np.maximum(gx * gx + gy * gy, 1e-300)
-
-
 def fit_ellipse(points: np.ndarray) -> ShapeFit:
     """Direct least-squares ellipse, cut to the points' extent along its major axis (sec. 2.2.2): :func:`fit_ellipses`
     of one."""

@@ -253,10 +253,6 @@ class StructureMemory:
         lids[idx] = self.lids_at(t, samples).reshape(mean.shape[0], -1).min(axis=1)
         return out, lids
 
-    def known_fraction(self, t: float, points_ne: np.ndarray) -> float:
-        """Share of the points that are :meth:`known`."""
-        return float(np.mean(self.known(t, points_ne))) if len(points_ne) else 0.0
-
 
 def thin_pieces(
     footprints: list[np.ndarray], max_thickness_m: float, min_length_m: float
