@@ -418,12 +418,12 @@ class EkfBank:
             d = sizes[a] - float(x[LEN + a])
             if d > cfg.partial_tolerance:  # at least this long: open the size up to it, and measure it
                 # With the near edge where it was: the centre is as uncertain as half the size, against it.
-                side = 1.0 if rel[a] > 0.0 else -1.0
+                near = 1.0 if rel[a] > 0.0 else -1.0
                 j = LEN + a
                 ekf.P[j, j] += d * d
                 ekf.P[PN : PE + 1, PN : PE + 1] += 0.25 * d * d * np.outer(axes[a], axes[a])
-                ekf.P[PN : PE + 1, j] -= 0.5 * side * d * d * axes[a]
-                ekf.P[j, PN : PE + 1] -= 0.5 * side * d * d * axes[a]
+                ekf.P[PN : PE + 1, j] -= 0.5 * near * d * d * axes[a]
+                ekf.P[j, PN : PE + 1] -= 0.5 * near * d * d * axes[a]
                 measured[a] = True
             # Only a sensor clearly beyond one end of the axis (that end's face in view at less than ~80 deg
             # incidence) knows which edge is the near one; from abeam, a short extent may have lost either end

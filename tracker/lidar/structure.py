@@ -150,7 +150,9 @@ class StructureMemory:
         i, j = ij[:, 0], ij[:, 1]
         return i, j, (i >= 0) & (i < self.cells) & (j >= 0) & (j < self.cells)
 
-    def _stamp(self, grid: np.ndarray, t: float, points_ne: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    def _stamp(
+        self, grid: np.ndarray, t: float, points_ne: np.ndarray
+    ) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray] | None:
         """Set ``grid``'s cells under the points to ``t``; the (i, j) of the points on the grid and a mask of them,
         None when there was nothing to stamp."""
         if self.origin is None or len(points_ne) == 0:
