@@ -58,11 +58,13 @@ class LifecycleConfig:
     def __post_init__(self) -> None:
         if not 1 <= self.confirm_hits <= self.confirm_window:
             raise ValueError(
-                f"confirm_hits, confirm_window: need 1 <= confirm_hits <= confirm_window, got {self.confirm_hits} of {self.confirm_window}"
+                "confirm_hits, confirm_window: need 1 <= confirm_hits <= confirm_window, "
+                f"got {self.confirm_hits} of {self.confirm_window}"
             )
         if self.confirm_hits_alone and not 1 <= self.confirm_hits_alone <= self.confirm_hits:
             raise ValueError(
-                f"confirm_hits_alone: need 0 (off) or 1 <= confirm_hits_alone <= confirm_hits, got {self.confirm_hits_alone}"
+                "confirm_hits_alone: need 0 (off) or 1 <= confirm_hits_alone <= confirm_hits, "
+                f"got {self.confirm_hits_alone}"
             )
         limits = (
             self.max_unseen_time,
