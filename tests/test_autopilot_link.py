@@ -14,7 +14,7 @@ from daemon.demo import free_udp_port
 from daemon.mavlink_env import mavlink
 from daemon.pose_history import wrap_angle
 from simulator.autopilot import SimAutopilot, wait_until
-from tests.turning_boat import OMEGA, circle
+from tests.turning_boat import OMEGA, RADIUS, circle
 
 ATT = mavlink.MAVLINK_MSG_ID_ATTITUDE
 GPI = mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
@@ -45,11 +45,15 @@ def test_pose_is_interpolated_against_the_trajectory(pair: tuple[AutopilotLink, 
     clock_error = float(np.mean(wrap_angle(np.array([circle(float(t)).yaw for t in q]) - yaw))) / OMEGA
     assert abs(clock_error) < 0.005
     truth = [circle(float(t) - clock_error) for t in q]
-    # tolerance: 3 mm from reckoning the 20 Hz position 50 ms ahead on a 1.8 m/s^2 turn, float32 fields
-    np.testing.assert_allclose(pos, np.array([p.position for p in truth]), atol=0.01)
-    np.testing.assert_allclose(wrap_angle(yaw - np.array([p.yaw for p in truth])), 0.0, atol=2e-4)
-    np.testing.assert_allclose(roll, [p.roll for p in truth], atol=2e-4)
-    np.testing.assert_allclose(pitch, [p.pitch for p in truth], atol=2e-4)
+    # Tolerances: 3 mm from reckoning the 20 Hz position 50 ms ahead on a 1.8 m/s^2 turn, float32 fields; plus a
+    # TIMESYNC update inside the 0.5 s window, which on a busy machine steps the clock estimate by up to ~2 ms
+    # (a 1.5 ms step failed a run beside three busy processes): each figure's rate x 2 ms. Still well under what
+    # the nearest 20 ms sample instead of the interpolation gives (60 mm, 3e-3 rad of yaw, 1e-3 of roll).
+    step_s = 0.002
+    np.testing.assert_allclose(pos, np.array([p.position for p in truth]), atol=0.01 + RADIUS * OMEGA * step_s)
+    np.testing.assert_allclose(wrap_angle(yaw - np.array([p.yaw for p in truth])), 0.0, atol=2e-4 + OMEGA * step_s)
+    np.testing.assert_allclose(roll, [p.roll for p in truth], atol=2e-4 + 0.1 * step_s)  # roll rate <= 0.1 rad/s
+    np.testing.assert_allclose(pitch, [p.pitch for p in truth], atol=2e-4 + 0.03 * step_s)  # pitch rate <= 0.03
     one = link.poses.at(float(q[40]))
     assert one is not None
     np.testing.assert_allclose(one.velocity, truth[40].velocity, atol=0.05)
