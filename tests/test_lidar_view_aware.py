@@ -1,4 +1,4 @@
-"""Our additions to the paper's LiDAR tracker: heading guard, hull symmetry, view-aware AEKF update, sweep
+"""Our additions to the paper's LiDAR tracker: heading guard, view-aware AEKF update, sweep
 compensation, the batched fitters, and the whole honest path (simulated packets -> decoder -> tracker) on a boat.
 
 Geometry is exact (outlines sampled every 0.15 m, the footprint grid) so that expected values follow from it.
@@ -25,7 +25,6 @@ from tracker.lidar.preprocess import preprocess
 from tracker.lidar.shape_fit import (
     DegenerateClusterError,
     ShapeFit,
-    complete_symmetric_hulls,
     fit_ellipse,
     fit_ellipses,
     fit_lshape_corner,
@@ -67,39 +66,6 @@ def pointed_hull_starboard(length: float, width: float, cabin: bool = True) -> n
 # Shape fitting additions
 
 
-def test_hull_symmetry_doubles_a_bow_seen_from_abeam() -> None:
-    center, heading = np.array([10.0, 20.0]), math.radians(30.0)
-    pts = place(pointed_hull_starboard(12.0, 4.0), center, heading)
-    sensor = place(np.array([[0.0, 25.0]]), center, heading)[0]
-    fit = fit_lshape_corner(pts)
-    assert fit.width == pytest.approx(2.0, abs=1e-9)  # side to stem: half the beam
-    done = complete_symmetric_hulls([fit], [pts], sensor)[0]
-    assert done.completed and not fit.completed
-    assert (done.length, done.width) == pytest.approx((12.0, 4.0), abs=1e-9)
-    assert done.center == pytest.approx(center, abs=1e-9)
-    assert heading_diff(done.heading, heading) < 1e-9
-
-
-@pytest.mark.parametrize(
-    "body",
-    [
-        # A container's L: long side and square end, seen from the starboard quarter.
-        np.concatenate([seg((-4.3, 1.8), (4.3, 1.8)), seg((-4.3, -1.8), (-4.3, 1.8))]),
-        # A box hull from abeam with a cabin side 0.4 m in, amidships: no tapered end.
-        np.concatenate([seg((-6.0, 2.0), (6.0, 2.0)), seg((-3.6, 1.6), (1.2, 1.6))]),
-    ],
-    ids=["square-end", "cabin-amidships"],
-)
-def test_hull_symmetry_leaves_square_ends_and_cabins_alone(body: np.ndarray) -> None:
-    center, heading = np.array([-5.0, 40.0]), math.radians(75.0)
-    pts = place(body, center, heading)
-    sensor = place(np.array([[-12.0, 25.0]]), center, heading)[0]
-    fit = fit_lshape_corner(pts)  # the cabin turns the box 2.6 deg off the side: no taper either
-    assert complete_symmetric_hulls([fit], [pts], sensor)[0] is fit
-    guarded = guard_heading(fit, pts)
-    assert complete_symmetric_hulls([guarded], [pts], sensor)[0] is guarded
-
-
 def test_heading_guard_recovers_the_hull_from_a_cabin_face() -> None:
     """A crew boat's starboard side, bow face, cabin side and the cabin's front face across the hull."""
     length, width = 43.0, 10.4
@@ -114,9 +80,6 @@ def test_heading_guard_recovers_the_hull_from_a_cabin_face() -> None:
     assert heading_diff(guarded.heading, heading) < 1e-9
     assert guarded.length == pytest.approx(length, abs=1e-9)
     assert guarded.width == pytest.approx(0.9 * width, abs=1e-9)  # side to the cabin's far corner
-    done = complete_symmetric_hulls([guarded], [pts], np.zeros(2))[0]
-    assert done.width == pytest.approx(width, abs=1e-9)  # twice the stem's depth, not the cabin's
-    assert done.center == pytest.approx(center, abs=1e-9)
 
 
 def test_heading_guard_keeps_a_clean_l() -> None:
@@ -279,8 +242,8 @@ def test_sweep_compensation_uses_point_times() -> None:
 
 
 def test_new_config_values_name_their_key() -> None:
-    with pytest.raises(ConfigError, match=r"ShapeConfig\.taper_end_zone"):
-        ShapeConfig(taper_end_zone=0.7)
+    with pytest.raises(ConfigError, match=r"ShapeConfig\.guard_min_mse"):
+        ShapeConfig(guard_min_mse=-0.1)
     with pytest.raises(ConfigError, match=r"EkfConfig\.unseen_size_std"):
         EkfConfig(unseen_size_std=0.0)
     with pytest.raises(ConfigError, match=r"EkfConfig\.face_min_angle"):
@@ -294,8 +257,9 @@ def test_new_config_values_name_their_key() -> None:
 def test_fisher_tracked_through_packets_and_decoder() -> None:
     """The simulator's fisher boat (12 x 4 m, circling 25 m off at 3 m/s; only its starboard side and bow ever face
     the sensor), 7 s through noisy packets, the VLP-16 decoder and preprocessing: the tracker's box must be the
-    true hull (beam from hull symmetry) within decimetres from the first second; the heading within 3 deg once
-    the turn rate is learnt (after ~5 s: eq. 11 trusts a 25 m fit's heading little)."""
+    true hull within decimetres from the first second (the unseen beam a prior of a third of the seen length, its
+    centre behind the seen side: 0.37 m off at first, 0.15 m by 2 s); the heading within 3 deg once the turn rate
+    is learnt (after ~5 s: eq. 11 trusts a 25 m fit's heading little)."""
     scene = get_scenario("fisher")
     model = Vlp16Model(scene, scene.lidar_mount, seed=3)
     assembler = ScanAssembler(mount=scene.lidar_mount)
@@ -315,11 +279,12 @@ def test_fisher_tracked_through_packets_and_decoder() -> None:
             continue
         truth = truth_at(scene, scan.stamp).vessels[0]
         (track,) = [tr for tr in tracks if tr.confirmed]
-        errors.append(np.hypot(*(track.position - truth.position)))
+        errors.append((scan.stamp, np.hypot(*(track.position - truth.position))))
         assert (track.length, track.width) == pytest.approx((12.0, 4.0), abs=0.4)
         heading_error = abs((track.heading - truth.heading + math.pi) % (2 * math.pi) - math.pi)
         assert heading_error < math.radians(3.0 if scan.stamp > 5.0 else 8.0)
         if scan.stamp > 2.0:
             assert np.hypot(*track.velocity) == pytest.approx(3.0, abs=0.2)
     assert len(errors) >= 55
-    assert max(errors) < 0.35
+    assert max(e for _, e in errors) < 0.4
+    assert max(e for t, e in errors if t >= 2.0) < 0.2

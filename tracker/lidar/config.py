@@ -261,38 +261,16 @@ class ShapeConfig:
     rotation_min_distance: float = 0.01  # m, closeness criterion floor d0 of Algorithm 2's source [7]
     # Corner method: a corner closer than this to the P1-P2 diagonal means one visible side ("I-shape").
     corner_min_offset: float = 0.15  # m (ours)
-    # Hull symmetry (ours, not in the paper; shape_fit.complete_symmetric_hulls): a box fit of one long side and a
-    # tapered end (a bow seen from abeam) has only seen to the stem, on the centreline: the tracker widens it to
-    # twice the stem's depth. A taper is told from a square end (a container's) by how far back along the hull
-    # the deeper half of the end's points reaches: more than max(taper_min_band, taper_band_ratio * depth).
-    # Like Algorithm 4's box-or-ellipse choice it decides what kind of object this is (a boat's hull or a
-    # rectangular box), so it is part of mode "adaptive" only; the L-shape modes keep the box they fit.
-    symmetric_hull: bool = True
     # Heading guard (ours): the tracker also tries the smallest-area rectangle's heading and keeps whichever box
     # more points hug (shape_fit.guard_heading); a cabin's faces inside the outline fool Algorithms 1-3.
     heading_guard: bool = True
     guard_min_mse: float = 0.001  # m^2: a box whose points hug its edges closer than ~3 cm is an L; no guard
-    taper_min_band: float = 0.3  # m, above the footprint grid's and the range noise's blur of a square corner
-    taper_band_ratio: float = 0.3  # a taper steeper than ~73 deg from the hull axis counts as a square end
-    taper_band_max_ratio: float = 2.0  # and one gentler than ~14 deg is a straight side seen slightly turned
-    taper_end_zone: float = 0.15  # x length: where a stem is looked for at each end (cabins sit amidships)
-    taper_min_depth: float = 0.4  # m; a shallower one-sided view is a flat side, no taper to measure
 
     def __post_init__(self) -> None:
         choice(self, "mode", ("adaptive", "lshape-bruteforce", "lshape-rotation", "lshape-corner", "ellipse"))
         choice(self, "lshape_method", ("bruteforce", "rotation", "corner"))
         positive(self, "rotation_step", "rotation_min_distance")
-        positive(
-            self,
-            "corner_min_offset",
-            "taper_min_band",
-            "taper_band_ratio",
-            "taper_min_depth",
-            "guard_min_mse",
-            allow_zero=True,
-        )
-        if not 0.0 < self.taper_end_zone <= 0.5:
-            raise ConfigError(f"ShapeConfig.taper_end_zone: must be within (0, 0.5], got {self.taper_end_zone!r}")
+        positive(self, "corner_min_offset", "guard_min_mse", allow_zero=True)
         if self.rotation_step >= math.pi / 2:
             raise ConfigError("ShapeConfig.rotation_step: must be below 90 deg (radians inside)")
 

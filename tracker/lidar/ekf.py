@@ -146,7 +146,6 @@ class Measurement:
     r: np.ndarray  # (6, 6) measurement covariance (eq. 11)
     # Own boat (north, east) when the cluster was seen; enables the view-aware update (EkfConfig.view_aware).
     sensor: np.ndarray | None = None
-    completed: bool = False  # width doubled by hull symmetry (shape_fit.complete_symmetric_hulls): whole
     # Ends, in bearing from the sensor (low, high), that a nearer object's shadow reaches (clustering.shadows):
     # the hull may go on there, so the view-aware update measures the other end, or neither.
     shadowed: tuple[bool, bool] = (False, False)
@@ -252,7 +251,7 @@ class EkfBank:
         prior = cfg.beam_ratio * m.length
         # Would a hull of the prior's beam show an end face from here? Then the thin outline is the whole object.
         _, width_seen = faces_seen(m.center, m.heading, m.length, prior, m.sensor, cfg.face_min_angle)
-        if width_seen or m.completed or m.width >= prior:
+        if width_seen or m.width >= prior:
             return
         c, s = math.cos(m.heading), math.sin(m.heading)
         e_v = np.array([-s, c])
@@ -386,10 +385,9 @@ class EkfBank:
         * d > partial_tolerance: the hull is at least that long; the size's variance grows by d^2 (the
           centre's along the axis by (d / 2)^2, tied to the size so that the near edge stays put) and the extent
           is measured, seen or not: the size and centre move most of the way at once, not the velocity.
-        * no face across the axis in view (:func:`faces_seen`; a width completed by hull symmetry counts as
-          seen), or d < -partial_tolerance, with the sensor beyond one end of the axis: the far edge may be
-          missing (out of view, or too sparse to show), so the axis measures the coordinate of its near edge,
-          h = p.e + side * size / 2, not the centre.
+        * no face across the axis in view (:func:`faces_seen`), or d < -partial_tolerance, with the sensor beyond
+          one end of the axis: the far edge may be missing (out of view, or too sparse to show), so the axis
+          measures the coordinate of its near edge, h = p.e + side * size / 2, not the centre.
         * otherwise the size itself is measured only when seen, so a one-sided view never shrinks it.
         * a shadow over an end (``m.shadowed``), on the axis that runs more across the line of sight: that end is
           not the hull's; the axis measures the other end's coordinate (both shadowed: no coordinate along it), and
@@ -404,9 +402,6 @@ class EkfBank:
         ekf = self.filters[i]
         x = ekf.x
         assert m.sensor is not None
-        if m.completed:  # the measured width is whole; after a quarter-turn alias it is the track's length
-            quarter = abs(wrap_angle(aliased.heading - m.heading)) % math.pi > 0.25 * math.pi
-            seen = (True, seen[1]) if quarter else (seen[0], True)
         m = aliased
         c, s = math.cos(float(x[PSI])), math.sin(float(x[PSI]))
         axes = np.array([[c, s], [-s, c]])  # rows: e_u, e_v in (north, east)

@@ -16,10 +16,9 @@ squared point-to-shape distance (m^2) and the kind.
   ellipse's is the Sampson distance, a first-order geometric distance that needs no iterative solve.
 
 Ours, not in the paper, used by the tracker's detection step: :func:`guard_heading` (a cabin's faces inside the
-outline break the L-shape assumption; the outline's own edges are tried too), :func:`complete_symmetric_hulls` (a
-boat seen from abeam shows its stem on the centreline: the beam is twice its depth). The corner and ellipse fits and
-the completion run a whole scan's clusters at once as stacked arrays (:func:`fit_lshape_corners`,
-:func:`fit_ellipses`, :func:`complete_symmetric_hulls`); one cluster is a batch of one.
+outline break the L-shape assumption; the outline's own edges are tried too). The corner and ellipse fits run a
+whole scan's clusters at once as stacked arrays (:func:`fit_lshape_corners`, :func:`fit_ellipses`); one cluster is a
+batch of one.
 
 Degenerate input: non-finite rows are dropped; no finite point at all raises :class:`DegenerateClusterError`;
 one or two distinct points give a POINT fit; collinear points give a BOX of width 0. The ellipse fit raises
@@ -54,8 +53,6 @@ class ShapeFit:
     kind: ShapeKind
     n_points: int
     method: str  # corner | rotation | bruteforce | ellipse | point
-    # Width doubled by hull symmetry: only one side and a tapered end were seen (see complete_symmetric_hulls).
-    completed: bool = False
 
     def corners(self) -> np.ndarray:
         """(4, 2) corners of the oriented rectangle (an ellipse's bounding rectangle)."""
@@ -450,7 +447,7 @@ def fit_ellipses(
 
 
 # ---------------------------------------------------------------------------------------------------------------------
-# Hull symmetry (ours, not in the paper)
+# Heading guard (ours, not in the paper)
 
 
 _EXTREME_DIRS = np.stack(
@@ -516,101 +513,6 @@ def guard_heading(
     if best == 0 or abs((thetas[best] - thetas[0] + 0.25 * math.pi) % HALF_PI - 0.25 * math.pi) < 1e-3:
         return fit
     return box_from_heading(xy, float(thetas[best]), fit.method, origin)
-
-
-def complete_symmetric_hulls(
-    fits: list[ShapeFit], clouds: list[np.ndarray], sensor_position: np.ndarray, config: ShapeConfig | None = None
-) -> list[ShapeFit]:
-    """Widen each box seen from one side to the full beam when a tapered end shows where the centreline is.
-
-    Seen from abeam, a boat shows one side and the near half of its bow (or a rounded stern) curving in to the
-    stem, which lies on the centreline; the box around that is half the beam, its centre a quarter beam short.
-    A container's square end, in the same view, runs straight across to its far corner. So: with the sensor
-    beside the box (outside it across the width), look at the points near each end (``taper_end_zone`` x length);
-    the deepest one (from the near side) is the end's tip. Where the deeper half of that end's points reaches back
-    along the hull by more than a square corner's blur, the end is tapered and the beam is twice the tip's depth.
-    A square end as deep as the box means the whole width is in view already. Cabin faces amidships are ignored.
-    Each fit comes with its cluster's points; a fit to which nothing applies is returned itself, the others as a
-    copy with ``completed`` set. The per-point steps run on stacked, padded arrays, the few per-fit decisions in
-    Python."""
-    cfg = config or ShapeConfig()
-    out = list(fits)
-    sensor = np.asarray(sensor_position, dtype=float)[:2]
-    batch: list[tuple[int, float, float, float]] = []  # (index, cos, sin, which side the sensor is on)
-    for i, fit in enumerate(fits):
-        if fit.kind is not ShapeKind.BOX or fit.n_points < 6 or fit.length <= 0.0:
-            continue
-        c, s = math.cos(fit.heading), math.sin(fit.heading)
-        rel = sensor - fit.center
-        sv = float(rel[1] * c - rel[0] * s)
-        if abs(sv) <= 0.5 * fit.width:  # the sensor is not beside the box: no one-sided view across the width
-            continue
-        batch.append((i, c, s, 1.0 if sv > 0.0 else -1.0))
-    if not batch:
-        return out
-    sizes = [len(clouds[i]) for i, _, _, _ in batch]
-    k, nmax = len(batch), max(sizes)
-    pn, pe = np.zeros((k, nmax)), np.zeros((k, nmax))
-    mask = np.zeros((k, nmax), dtype=bool)
-    for j, (i, _, _, _) in enumerate(batch):
-        pts = np.asarray(clouds[i], dtype=float)
-        pn[j, : sizes[j]], pe[j, : sizes[j]] = pts[:, 0], pts[:, 1]
-        mask[j, : sizes[j]] = True
-    with np.errstate(invalid="ignore"):
-        mask &= np.isfinite(pn) & np.isfinite(pe)
-    c = np.array([b[1] for b in batch])[:, None]
-    s = np.array([b[2] for b in batch])[:, None]
-    near = np.array([b[3] for b in batch])[:, None]
-    center = np.array([fits[i].center for i, _, _, _ in batch])
-    half_w = np.array([0.5 * fits[i].width for i, _, _, _ in batch])[:, None]
-    half_l = np.array([0.5 * fits[i].length for i, _, _, _ in batch])[:, None]
-    zone = np.array([0.5 * fits[i].length - cfg.taper_end_zone * fits[i].length for i, _, _, _ in batch])[:, None]
-    dn, de = pn - center[:, :1], pe - center[:, 1:]
-    u = dn * c + de * s
-    v = de * c - dn * s
-    depth = half_w - near * v  # 0 on the near side, fit.width on the far edge
-    ends = []
-    for end in (1.0, -1.0):
-        at_end = mask & (u * end >= zone)
-        tip = np.where(at_end, depth, -np.inf).max(axis=1)
-        deeper = at_end & (depth > 0.5 * tip[:, None])
-        band = np.where(deeper, half_l - end * u, -np.inf).max(axis=1)  # how far back the deeper half reaches
-        ends.append((np.count_nonzero(at_end, axis=1), tip, band))
-    for j, (i, cj, sj, nearj) in enumerate(batch):
-        tips = [(int(n[j]), float(tip[j]), float(band[j])) for n, tip, band in ends]
-        tip_depth = _taper_depth(tips, fits[i].width, cfg)
-        if tip_depth is not None:
-            out[i] = _completed(fits[i], tip_depth, cj, sj, nearj)
-    return out
-
-
-def _taper_depth(ends: list[tuple[int, float, float]], width: float, cfg: ShapeConfig) -> float | None:
-    """complete_symmetric_hulls' decision from each end's (points at it, tip depth, band): the centreline's depth
-    behind the near side, or None to keep the fit."""
-    tip_depth = 0.0
-    for count, tip, band in ends:
-        if count < 3 or tip < cfg.taper_min_depth:
-            continue
-        if band > cfg.taper_band_max_ratio * tip:
-            continue  # too gentle for a stem: a straight side the box is slightly turned against
-        if band > max(cfg.taper_min_band, cfg.taper_band_ratio * tip):
-            tip_depth = max(tip_depth, tip)
-        elif tip >= 0.9 * width:
-            return None  # a square end across the whole box: the width is seen
-    if tip_depth <= 0.0 or 2.0 * tip_depth < width:
-        return None  # no taper, or one too shallow to hold what was seen beyond it
-    return tip_depth
-
-
-def _completed(fit: ShapeFit, tip_depth: float, c: float, s: float, near: float) -> ShapeFit:
-    """``fit`` widened to twice ``tip_depth`` about the centreline (see complete_symmetric_hulls)."""
-    width = 2.0 * tip_depth
-    shift = near * (0.5 * fit.width - tip_depth)  # new centre's v in the old box frame
-    center = fit.center + shift * np.array([-s, c])
-    length, heading = fit.length, fit.heading
-    if width > length:
-        length, width, heading = width, length, _axis_angle(heading + HALF_PI)
-    return ShapeFit(center, heading, length, width, fit.mse, fit.kind, fit.n_points, fit.method, completed=True)
 
 
 # ---------------------------------------------------------------------------------------------------------------------

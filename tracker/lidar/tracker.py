@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -37,7 +36,6 @@ from tracker.lidar.shape_fit import (
     DegenerateClusterError,
     ShapeFit,
     cluster_height,
-    complete_symmetric_hulls,
     fit_ellipses,
     fit_lshape_corners,
     fit_shape,
@@ -50,13 +48,6 @@ from tracker.line_of_sight import in_shadow
 from tracker.types import Detection, ShapeKind, Track
 
 log = logging.getLogger(__name__)
-
-
-@dataclass
-class LidarDetection(Detection):
-    """A :class:`Detection` that also says whether its width was completed by hull symmetry."""
-
-    completed: bool = False  # shape_fit.complete_symmetric_hulls doubled the width: the whole beam is measured
 
 
 class LidarTracker:
@@ -172,8 +163,8 @@ class LidarTracker:
     @staticmethod
     def _detection_of(
         fit: ShapeFit, footprint: np.ndarray, t: float, height: float, range_m: float, n_points: int
-    ) -> LidarDetection:
-        return LidarDetection(
+    ) -> Detection:
+        return Detection(
             t=t,
             center=fit.center,
             heading=fit.heading,
@@ -186,7 +177,6 @@ class LidarTracker:
             range_m=range_m,
             points=footprint,
             source="lidar",
-            completed=fit.completed,
         )
 
     def _structure(self, result: ClusterResult, t: float, own: np.ndarray) -> np.ndarray:
@@ -320,8 +310,8 @@ class LidarTracker:
     ) -> ShapeFit:
         """The shape a detection reports for one cluster's (n, 2) footprint seen from ``own`` (north, east).
 
-        The configured fit (paper sec. 2.2-2.3), then, as configured, the heading guard and (mode "adaptive") the
-        hull symmetry completion. Raises :class:`DegenerateClusterError` for a footprint without finite points.
+        The configured fit (paper sec. 2.2-2.3), then, as configured, the heading guard. Raises
+        :class:`DegenerateClusterError` for a footprint without finite points.
         """
         fit = self.fit_footprints([footprint], own, [ellipse], [box])[0]
         if isinstance(fit, DegenerateClusterError):
@@ -336,8 +326,8 @@ class LidarTracker:
         boxes: list[ShapeFit | None],
         prepared: list[tuple[np.ndarray, np.ndarray] | DegenerateClusterError] | None = None,
     ) -> list[ShapeFit | DegenerateClusterError]:
-        """:meth:`fit_footprint` for each footprint (the error it would raise in place of a fit), the hull
-        symmetry completion for all of them at once. ``prepared``: :func:`prepare_all` of the footprints."""
+        """:meth:`fit_footprint` for each footprint (the error it would raise in place of a fit). ``prepared``:
+        :func:`prepare_all` of the footprints."""
         fits: list[ShapeFit | DegenerateClusterError] = []
         ready = prepared if prepared is not None else [None] * len(footprints)
         for footprint, ellipse, box, prep in zip(footprints, ellipses, boxes, ready, strict=True):
@@ -346,13 +336,6 @@ class LidarTracker:
                 fits.append(self._guarded_fit(footprint, own, ellipse, box, centred))
             except DegenerateClusterError as exc:
                 fits.append(exc)
-        if self._completes_hulls():
-            ok = [(j, fit) for j, fit in enumerate(fits) if isinstance(fit, ShapeFit)]
-            done = complete_symmetric_hulls(
-                [fit for _, fit in ok], [footprints[j] for j, _ in ok], own, self.config.shape
-            )
-            for (j, _), fit in zip(ok, done, strict=True):
-                fits[j] = fit
         return fits
 
     def _guarded_fit(
@@ -369,10 +352,6 @@ class LidarTracker:
         if cfg.heading_guard and fit.mse > cfg.guard_min_mse:
             fit = guard_heading(fit, footprint, prepared=prepared)
         return fit
-
-    def _completes_hulls(self) -> bool:
-        cfg = self.config.shape
-        return cfg.symmetric_hull and cfg.mode == "adaptive"  # the hull-shape decision belongs to the adaptive mode
 
     def _merge_split_detections(self, detections: list[Detection], t: float, own: np.ndarray) -> list[Detection]:
         """Refit as one the detections that lie inside one confirmed track's predicted footprint and no other's.
@@ -443,7 +422,6 @@ class LidarTracker:
                 det.shape,
                 r[j],
                 own.copy(),
-                det.shape is ShapeKind.BOX and getattr(det, "completed", False),
             )
             for j, det in enumerate(detections)
         ]
@@ -533,7 +511,7 @@ class LidarTracker:
                 self.last_cluster_track[k] = life.id
         return self.tracks()
 
-    def _alone(self, t: float, detections: list[LidarDetection], assignment: Assignment) -> np.ndarray:
+    def _alone(self, t: float, detections: list[Detection], assignment: Assignment) -> np.ndarray:
         """(D,) bool: within ``association.alone_m`` of the detection's centre lies no live track's predicted centre
         (other than the one the detection updates) and no structure remembered (tracker.lidar.structure): where
         the false tracks are born, beside a hull and along a quay (LidarLifecycleConfig.confirm_hits_alone).
