@@ -262,7 +262,10 @@ class ShapeConfig:
     # Corner method: a corner closer than this to the P1-P2 diagonal means one visible side ("I-shape").
     corner_min_offset: float = 0.15  # m (ours)
     # Heading guard (ours): the tracker also tries the smallest-area rectangle's heading and keeps whichever box
-    # more points hug (shape_fit.guard_heading); a cabin's faces inside the outline fool Algorithms 1-3.
+    # more points hug (shape_fit.guard_heading); a cabin's faces inside the outline fool Algorithms 1-3. Held out
+    # (random:1001-1050, fused) against off: MOTA 0.9407 -> 0.9438, worst scene 0.776 -> 0.821, false positives
+    # 4,959 -> 4,555, false-obstacle bins 6,073 -> 3,864, position error 1.23 -> 1.14 m (25 scenes better, 21
+    # worse).
     heading_guard: bool = True
     guard_min_mse: float = 0.001  # m^2: a box whose points hug its edges closer than ~3 cm is an L; no guard
 
@@ -320,7 +323,11 @@ class EkfConfig:
     # obliquely from afar is sparse: an extent with no face across it in view (subtending at least
     # face_min_angle), or shorter than the track's by more than partial_tolerance, measures its visible edge,
     # not the centre; only a seen extent measures the size; one longer than the track's by more than
-    # partial_tolerance opens the size's variance and is measured, seen or not. False gives the paper's centre measurement.
+    # partial_tolerance opens the size's variance and is measured, seen or not. False gives the paper's centre
+    # measurement. Held out (random:1001-1050, fused) against False: MOTA 0.9321 -> 0.9438, worst scene 0.719 ->
+    # 0.821, false positives 7,208 -> 4,555, position error 1.53 -> 1.14 m, speed error 0.26 -> 0.18 m/s,
+    # false-obstacle bins 5,611 -> 3,864 (35 scenes better, 14 worse); id switches 239 -> 255, false-clear bins
+    # 595 -> 605.
     view_aware: bool = True
     face_min_angle: float = 0.01  # rad: three VLP-16 azimuth steps at 10 Hz (0.2 deg each)
     partial_tolerance: float = 0.3  # m, about the footprint grid and the fit's noise on an extent
