@@ -349,8 +349,8 @@ class EkfBank:
             seen = [self._seen(i, m) for i, m in aware]
             partial: list[int] = []
             partial_rows: list[tuple[np.ndarray, np.ndarray, np.ndarray, int]] = []
-            for (i, m), aliased, s in zip(aware, self.choose_aliases(aware, seen), seen, strict=True):
-                aliased, rows = self._view_aware_plan(i, m, aliased, s)
+            for (i, _), aliased, s in zip(aware, self.choose_aliases(aware, seen), seen, strict=True):
+                rows = self._view_aware_plan(i, aliased, s)
                 if rows is None:
                     full.append((i, aliased))
                 else:
@@ -376,8 +376,8 @@ class EkfBank:
         )
 
     def _view_aware_plan(
-        self, i: int, m: Measurement, aliased: Measurement, seen: tuple[bool, bool]
-    ) -> tuple[Measurement, tuple[np.ndarray, np.ndarray, np.ndarray, int] | None]:
+        self, i: int, m: Measurement, seen: tuple[bool, bool]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int] | None:
         """Eq. 7's update, with the centre measured from the visible edge where the far one may be missing.
 
         In the track's frame (u along its heading, v across), per axis, with d = measured extent - track size:
@@ -394,15 +394,14 @@ class EkfBank:
           its size only if it came out longer. A ship behind a passing boat keeps its length and its place instead
           of shrinking to, and sliding with, its lit piece.
 
-        The heading and height update as usual; directions are the predicted heading's. ``aliased`` is ``m``'s
-        alias chosen with ``seen`` (:meth:`choose_aliases`). Returns the aliased measurement and, unless it is
-        eq. 7's plain update, the rows (z, H, R, heading row) to apply.
+        The heading and height update as usual; directions are the predicted heading's. ``m`` is the measurement's
+        alias chosen with ``seen`` (:meth:`choose_aliases`). Returns the rows (z, H, R, heading row) to apply, or
+        None where it is eq. 7's plain update.
         """
         cfg = self.config
         ekf = self.filters[i]
         x = ekf.x
         assert m.sensor is not None
-        m = aliased
         c, s = math.cos(float(x[PSI])), math.sin(float(x[PSI]))
         axes = np.array([[c, s], [-s, c]])  # rows: e_u, e_v in (north, east)
         rel = axes @ (m.sensor - m.center)
@@ -436,8 +435,8 @@ class EkfBank:
             located[cut] = not (plus_cut and minus_cut)
             side[cut] = -1.0 if plus_cut else (1.0 if minus_cut else 0.0)
         if measured[0] and measured[1] and side == [0.0, 0.0] and located[0] and located[1]:
-            return m, None
-        return m, self._partial_rows(m, axes, side, measured, located)
+            return None
+        return self._partial_rows(m, axes, side, measured, located)
 
     @staticmethod
     def _partial_rows(
