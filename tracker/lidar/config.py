@@ -335,11 +335,11 @@ class EkfConfig:
     # length-to-beam ratio of small craft is 2.5-4, ours) with unseen_size_std uncertainty, behind the seen side.
     beam_ratio: float = 1.0 / 3.0
     unseen_size_std: float = 2.0  # m
-    # With per-point times (LidarTracker.step's point_times), each detection is moved by the track's velocity
-    # from when its cluster was swept to the scan's time (a 3 m/s boat moves up to 0.3 m in one revolution).
-    # Held out (random:1001-1050, fused) against False: position error 1.185 -> 1.136 m, the figure it improves;
-    # but MOTA 0.9447 -> 0.9438, false positives 4,435 -> 4,555, id switches 244 -> 255 (11 scenes better, 25
-    # worse; tuning seeds 45-100 the same way). Why the tracks lose with the better positions is not traced yet.
+    # With per-point times (LidarTracker.step's point_times), each detection's centre is measured as where the
+    # hull was when its cluster was swept, h(x) = p - lag v (a 3 m/s boat moves up to 0.3 m in one revolution).
+    # Held out (random:1001-1050, fused) against False: position error 1.185 -> 1.133 m, the figure it improves,
+    # MOTA 0.9447 -> 0.9446. Moving the detection by the track's estimated velocity instead (stop 56) fed that
+    # estimate back into its own measurement: MOTA 0.9438, false positives 4,555 against 4,506 now.
     compensate_sweep: bool = True
 
     def __post_init__(self) -> None:

@@ -149,6 +149,10 @@ class Measurement:
     # Ends, in bearing from the sensor (low, high), that a nearer object's shadow reaches (clustering.shadows):
     # the hull may go on there, so the view-aware update measures the other end, or neither.
     shadowed: tuple[bool, bool] = (False, False)
+    # s between the cluster's sweep and the scan's time: the centre is where the hull was then, h(x) = p - lag v,
+    # so the filter weighs the lag by its own velocity uncertainty instead of trusting the estimate (EkfConfig.
+    # compensate_sweep).
+    lag: float = 0.0
 
     def vector(self) -> np.ndarray:
         return np.array([self.center[0], self.center[1], self.heading, self.length, self.width, self.height])
@@ -178,8 +182,18 @@ def _update_full(filters: list[ExtendedKalmanFilter], ms: list[Measurement]) -> 
     x = np.array([f.x for f in filters])
     y = np.array([[m.center[0], m.center[1], m.heading, m.length, m.width, m.height] for m in ms]) - x[:, _Z_STATES]
     y[:, Z_PSI] = (y[:, Z_PSI] + math.pi) % (2.0 * math.pi) - math.pi
-    h = np.broadcast_to(H_FULL, (len(ms), DIM_Z, DIM_X))
+    lags = np.array([m.lag for m in ms])
+    h = np.repeat(H_FULL[None], len(ms), axis=0)
+    h[:, 0, VN] = h[:, 1, VE] = -lags
+    y[:, :2] += lags[:, None] * x[:, [VN, VE]]
     _apply(filters, x, h, y, np.array([m.r for m in ms]))
+
+
+def _lagged(h: np.ndarray, lag: float) -> np.ndarray:
+    """Position rows ``h`` of a measurement swept ``lag`` s before the state's time: -lag x them on the velocity."""
+    out = h.copy()
+    out[:, VN : VE + 1] = -lag * h[:, PN : PE + 1]
+    return out
 
 
 def _apply(filters: list[ExtendedKalmanFilter], x: np.ndarray, h: np.ndarray, y: np.ndarray, r: np.ndarray) -> None:
@@ -339,7 +353,8 @@ class EkfBank:
         shaped = [(i, m) for i, m in pairs if m.kind is not ShapeKind.POINT]
         if points:
             _update_rows(
-                [self.filters[i] for i, _ in points], [(m.center, H_POSITION, m.r[:2, :2], -1) for _, m in points]
+                [self.filters[i] for i, _ in points],
+                [(m.center, _lagged(H_POSITION, m.lag), m.r[:2, :2], -1) for _, m in points],
             )
         view_aware = self.config.view_aware
         aware = [(i, m) for i, m in shaped if view_aware and m.sensor is not None]
@@ -457,6 +472,7 @@ class EkfBank:
         picked = axes[along]
         r[:k, :k] = picked @ m.r[:2, :2] @ picked.T
         rows[:k, PN : PE + 1] = picked
+        rows[:k, VN : VE + 1] = -m.lag * picked
         sizes = (m.length, m.width)
         for row, a in enumerate(along):
             z[row] = float(axes[a] @ m.center)

@@ -475,10 +475,7 @@ class LidarTracker:
         alone = self._alone(t, detections, assignment)
 
         self.bank.update_many(
-            [
-                (int(ti), self._swept_to(measurements[di], int(ti), t - detections[di].t))
-                for ti, di in assignment.matches
-            ]
+            [(int(ti), self._swept(measurements[di], t - detections[di].t)) for ti, di in assignment.matches]
         )
         # after the update: where each hit track is seen, with its velocity if known (for reacquisition)
         known = self._velocity_known(self.bank.covariances()) if self._lives else np.zeros(0, dtype=bool)
@@ -705,19 +702,15 @@ class LidarTracker:
 
     def _velocity_known(self, p: np.ndarray) -> np.ndarray:
         """(T,) bool for covariances ``p`` (T, DIM_X, DIM_X): the velocity is settled (both standard deviations at
-        most ``velocity_valid_std``). Unsettled velocities are not published, not used to move a swept detection,
-        and keep a coasting track unreported (LifecycleConfig.max_reported_unseen_unknown_motion)."""
+        most ``velocity_valid_std``). Unsettled velocities are not published and keep a coasting track unreported
+        (LifecycleConfig.max_reported_unseen_unknown_motion)."""
         return np.maximum(p[:, VN, VN], p[:, VE, VE]) <= self.config.ekf.velocity_valid_std**2
 
-    def _swept_to(self, m: Measurement, ti: int, lag: float) -> Measurement:
-        """``m`` moved by track ``ti``'s predicted velocity over ``lag`` s (from its sweep to the scan time)."""
+    def _swept(self, m: Measurement, lag: float) -> Measurement:
+        """``m`` carrying ``lag`` s from its sweep to the scan time, for the update's measurement model."""
         if not (self.config.ekf.compensate_sweep and lag > 0.0):
             return m
-        ekf = self.bank.filters[ti]
-        if not self._velocity_known(ekf.P[None])[0]:
-            return m  # velocity not known yet: moving the detection would only add noise
-        shifted = m.center + lag * ekf.x[[VN, VE]]
-        return dataclasses.replace(m, center=shifted)
+        return dataclasses.replace(m, lag=lag)
 
     def _associate(self, measurements: list[Measurement]) -> Assignment:
         x, p = self.bank.states(), self.bank.covariances()
