@@ -23,7 +23,9 @@ track. Once the track's speed is clearly known, its heading is turned once by 18
 Ours, not in the paper (``EkfConfig.view_aware``; see :meth:`EkfBank._view_aware_plan`): a LiDAR sees at most two
 sides, so an extent whose far end is out of view only bounds the size from below, and the update then measures the
 near edge instead of the centre; a newborn seen from one side gets a prior beam behind that side; a track whose
-width outgrows its length is re-expressed a quarter turn on (:meth:`EkfBank._canonical`).
+width outgrows its length is re-expressed a quarter turn on (:meth:`EkfBank._canonical`). A cluster swept
+``Measurement.lag`` s before the scan's time measures where the hull was then: its centre rows observe p - lag v,
+still linear in the state.
 """
 
 from __future__ import annotations
@@ -149,9 +151,9 @@ class Measurement:
     # Ends, in bearing from the sensor (low, high), that a nearer object's shadow reaches (clustering.shadows):
     # the hull may go on there, so the view-aware update measures the other end, or neither.
     shadowed: tuple[bool, bool] = (False, False)
-    # s between the cluster's sweep and the scan's time: the centre is where the hull was then, h(x) = p - lag v,
-    # so the filter weighs the lag by its own velocity uncertainty instead of trusting the estimate (EkfConfig.
-    # compensate_sweep).
+    # Time (s) from the cluster's sweep to the scan's: the centre is where the hull was then, h(x) = p - lag v, so
+    # the filter weighs the lag by its own velocity uncertainty instead of trusting the estimate
+    # (EkfConfig.compensate_sweep).
     lag: float = 0.0
 
     def vector(self) -> np.ndarray:
