@@ -29,10 +29,6 @@ class ConfigError(TrackerConfigError):
         super().__init__(where + "; ".join(problems))
 
 
-def _type_name(tp: Any) -> str:
-    return {bool: "true or false", int: "an integer", float: "a number", str: "a string"}.get(tp, str(tp))
-
-
 def _coerce(value: Any, tp: Any, key: str, problems: list[str]) -> Any:
     origin = typing.get_origin(tp)
     if origin in (typing.Union, types.UnionType):
@@ -147,8 +143,3 @@ def build_with_problems(cls: type[T], table: dict[str, Any]) -> tuple[T, list[st
     problems: list[str] = []
     obj = _build(cls, table, "", problems)
     return obj, problems
-
-
-def to_table(obj: Any) -> dict[str, Any]:
-    """Dataclass -> plain dict, for printing the effective configuration."""
-    return dataclasses.asdict(obj)
