@@ -185,17 +185,16 @@ def _update_full(filters: list[ExtendedKalmanFilter], ms: list[Measurement]) -> 
     y = np.array([[m.center[0], m.center[1], m.heading, m.length, m.width, m.height] for m in ms]) - x[:, _Z_STATES]
     y[:, Z_PSI] = (y[:, Z_PSI] + math.pi) % (2.0 * math.pi) - math.pi
     lags = np.array([m.lag for m in ms])
-    h = np.repeat(H_FULL[None], len(ms), axis=0)
-    h[:, 0, VN] = h[:, 1, VE] = -lags
+    h = _lag_rows(np.repeat(H_FULL[None], len(ms), axis=0), lags)
     y[:, :2] += lags[:, None] * x[:, [VN, VE]]
     _apply(filters, x, h, y, np.array([m.r for m in ms]))
 
 
-def _lagged(h: np.ndarray, lag: float) -> np.ndarray:
-    """Position rows ``h`` of a measurement swept ``lag`` s before the state's time: -lag x them on the velocity."""
-    out = h.copy()
-    out[:, VN : VE + 1] = -lag * h[:, PN : PE + 1]
-    return out
+def _lag_rows(h: np.ndarray, lag: np.ndarray | float) -> np.ndarray:
+    """``h`` (..., rows, DIM_X) of measurements swept ``lag`` s (one per leading index) before the state's time, in
+    place: each row's position columns, times -lag, on its velocity columns, so that it observes p - lag v."""
+    h[..., VN : VE + 1] = -np.asarray(lag, dtype=float)[..., None, None] * h[..., PN : PE + 1]
+    return h
 
 
 def _apply(filters: list[ExtendedKalmanFilter], x: np.ndarray, h: np.ndarray, y: np.ndarray, r: np.ndarray) -> None:
@@ -356,7 +355,7 @@ class EkfBank:
         if points:
             _update_rows(
                 [self.filters[i] for i, _ in points],
-                [(m.center, _lagged(H_POSITION, m.lag), m.r[:2, :2], -1) for _, m in points],
+                [(m.center, _lag_rows(H_POSITION.copy(), m.lag), m.r[:2, :2], -1) for _, m in points],
             )
         view_aware = self.config.view_aware
         aware = [(i, m) for i, m in shaped if view_aware and m.sensor is not None]
@@ -474,7 +473,6 @@ class EkfBank:
         picked = axes[along]
         r[:k, :k] = picked @ m.r[:2, :2] @ picked.T
         rows[:k, PN : PE + 1] = picked
-        rows[:k, VN : VE + 1] = -m.lag * picked
         sizes = (m.length, m.width)
         for row, a in enumerate(along):
             z[row] = float(axes[a] @ m.center)
@@ -485,7 +483,7 @@ class EkfBank:
             rows[j, state] = 1.0
             z[j] = value
             r[j, j] = m.r[comp, comp]
-        return z, rows, r, k
+        return z, _lag_rows(rows, m.lag), r, k
 
     def _canonical(self, i: int) -> None:
         """Keep length >= width: a track whose width has outgrown its length is the same box turned 90 deg.
