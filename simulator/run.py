@@ -14,17 +14,14 @@ from __future__ import annotations
 import argparse
 import contextlib
 import logging
-import socket
-import threading
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
-from drivers.vlp16.packet import encode_data_packet, encode_position_packet
 from simulator.autopilot import SimAutopilot
 from simulator.awr1843_device import Awr1843Emulator, DevicePoints
-from simulator.lidar_model import Vlp16Model
+from simulator.lidar_sender import LidarSenderProcess, SenderTarget
 from simulator.radar_model import SHIPPED_PROFILE, Awr1843Model
 from simulator.scenarios import get_scenario
 from simulator.scene import Scene
@@ -54,7 +51,6 @@ class SimulationRun:
     and the autopilot at ``daemon_mavlink_url``."""
 
     settings: SimulationSettings = field(default_factory=SimulationSettings)
-    clock: Callable[[], float] = time.monotonic
     scene: Scene | None = None  # a ready-made scene instead of the named scenario (tests build their own)
     radar_failing_lines: dict[str, int] | None = None  # cfg lines the emulated radar answers with "Error <n>"
 
@@ -62,14 +58,10 @@ class SimulationRun:
         if self.scene is None:
             self.scene = get_scenario(self.settings.scenario, seed=self.settings.seed)
         self.t_start = 0.0
-        self.packets_sent = 0
-        self.lidar_paused = threading.Event()
-        self._stop = threading.Event()
-        self._threads: list[threading.Thread] = []
         self.radar: Awr1843Emulator | None = None
         self.autopilot: SimAutopilot | None = None
         self._radar_model: Awr1843Model | None = None
-        self._sock: socket.socket | None = None
+        self._lidar: LidarSenderProcess | None = None
 
     # ---- URLs the daemon uses ------------------------------------------------------------------------------
     @property
@@ -92,11 +84,11 @@ class SimulationRun:
         return f"udpout:{host}:{port}"
 
     def sim_time(self, host_t: float | None = None) -> float:
-        return (self.clock() if host_t is None else host_t) - self.t_start
+        return (time.monotonic() if host_t is None else host_t) - self.t_start
 
     # ---- lifecycle ---------------------------------------------------------------------------------------------
     def start(self) -> None:
-        self.t_start = self.clock()
+        self.t_start = time.monotonic()  # system-wide, so the LiDAR's own process shares it
         s = self.settings
         if s.autopilot:
             self.autopilot = SimAutopilot(s.mavlink_url, lambda t: self.scene.own.pose(t - self.t_start))
@@ -108,23 +100,28 @@ class SimulationRun:
             )
             self.radar.start()
         if s.lidar:
-            self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-            t = threading.Thread(target=self._lidar_loop, name="sim-lidar", daemon=True)
-            t.start()
-            self._threads.append(t)
+            assert self.scene is not None
+            target = SenderTarget(s.lidar_host, s.lidar_port, s.position_port, s.seed, self.t_start)
+            self._lidar = LidarSenderProcess(self.scene, target)
+            self._lidar.start()
 
     def stop(self) -> None:
-        self._stop.set()
-        for t in self._threads:
-            t.join(timeout=2.0)
-        self._threads.clear()
+        if self._lidar is not None:
+            self._lidar.stop()
         if self.radar is not None:
             self.radar.stop()
         if self.autopilot is not None:
             self.autopilot.stop()
-        if self._sock is not None:
-            self._sock.close()
-            self._sock = None
+
+    @property
+    def lidar_paused(self) -> Any:
+        """Set: the LiDAR's packets stop (a pulled cable); clear: they flow again."""
+        assert self._lidar is not None, "the LiDAR is not simulated in this run"
+        return self._lidar.paused
+
+    @property
+    def packets_sent(self) -> int:
+        return self._lidar.packets_sent if self._lidar is not None else 0
 
     def __enter__(self) -> SimulationRun:
         self.start()
@@ -138,31 +135,6 @@ class SimulationRun:
         assert self._radar_model is not None
         d = self._radar_model.frame(self.sim_time(host_t), frame_number)
         return DevicePoints(d.xyz_ti, d.doppler, d.snr_db, d.noise_db)
-
-    def _lidar_loop(self) -> None:
-        model = Vlp16Model(self.scene, self.scene.lidar_mount, seed=self.settings.seed)
-        dest = (self.settings.lidar_host, self.settings.lidar_port)
-        pos_dest = (self.settings.lidar_host, self.settings.position_port)
-        chunk = 0.05  # s of packets computed at once: vectorised ray casting, then paced sending
-        t_sim = self.sim_time()
-        next_position = t_sim
-        assert self._sock is not None
-        while not self._stop.is_set():
-            for pkt in model.packets(t_sim, t_sim + chunk):
-                delay = self.t_start + pkt.t - self.clock()
-                if delay > 0 and self._stop.wait(delay):
-                    return
-                if self.lidar_paused.is_set():
-                    continue
-                payload = encode_data_packet(pkt.block_azimuth_cdeg, pkt.distance_m, pkt.reflectivity, pkt.timestamp_us)
-                with contextlib.suppress(OSError):  # nobody listening yet: a real sensor does not care either
-                    self._sock.sendto(payload, dest)
-                    self.packets_sent += 1
-                if pkt.t >= next_position:
-                    with contextlib.suppress(OSError):
-                        self._sock.sendto(encode_position_packet(pkt.timestamp_us), pos_dest)
-                    next_position += 1.0
-            t_sim += chunk
 
 
 def run_simulator_cli(args: argparse.Namespace) -> int:
