@@ -86,7 +86,7 @@ def test_component_labels_match_scipy_connected_components(seed: int) -> None:
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    from tracker.radar.dbscan import component_labels
+    from tracker.grouping import component_labels
 
     rng = np.random.default_rng(seed)
     n = 300

@@ -30,9 +30,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.sparse.csgraph import connected_components
 
 from tracker.grid_shift import shift_in_place
+from tracker.grouping import component_labels
 from tracker.lidar.config import StructureConfig
 
 _NEIGHBOURS = np.array([(i, j) for i in (-1, 0, 1) for j in (-1, 0, 1)], dtype=np.int64)
@@ -289,10 +289,9 @@ def collinear_runs(
     d = mean[None, :, :] - mean[:, None, :]  # (P, P, 2): j's mean from i's
     off = np.abs((d * normal[:, None, :]).sum(axis=2))  # j's mean off i's line
     parallel = np.abs(axis @ axis.T) >= math.cos(_RUN_MAX_ANGLE_RAD)
-    n_runs, run = connected_components(
-        parallel & (off <= _RUN_MAX_OFFSET_M) & (off.T <= _RUN_MAX_OFFSET_M), directed=False
-    )
-    for r in np.flatnonzero(np.bincount(run, minlength=n_runs) >= min_pieces):  # few: one per wall in view
+    first, second = np.nonzero(np.triu(parallel & (off <= _RUN_MAX_OFFSET_M) & (off.T <= _RUN_MAX_OFFSET_M), 1))
+    run = component_labels(idx.size, first, second)  # each piece's run, named by its lowest piece
+    for r in np.flatnonzero(np.bincount(run, minlength=idx.size) >= min_pieces):  # few: one per wall in view
         members = np.flatnonzero(run == r)
         ref = axis[members[0]]
         ends = (mean[members] @ ref)[:, None] + np.column_stack([lo[members], hi[members]]) * (axis[members] @ ref)[

@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from tracker.grouping import component_labels
+
 
 def kd_tree(points: np.ndarray) -> cKDTree:
     """A k-d tree split at sliding midpoints, its nodes not shrunk to their points: the same neighbours and distances
@@ -63,33 +65,6 @@ def dbscan(points: np.ndarray, eps: float, min_points: int) -> np.ndarray:
         first[1:] = src[1:] != src[:-1]
         labels[src[first]] = labels[dst[first]]
     return labels
-
-
-def component_labels(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(n,) connected-component label of each node given edges a[k] - b[k]: the lowest node index in its component.
-
-    Root hooking with edge filtering: every node points at a root; each round, every edge still joining two
-    different roots hooks the higher root onto the lower, pointers are flattened, and edges inside one root's tree
-    are dropped for good. A component's lowest node is never hooked, so it ends as the root of all its nodes. The
-    edge list shrinks each round, so a shore window's ~16k cell links cost a quarter of what min-label propagation
-    over all of them every round did; for the few hundred nodes of a radar frame this is several times faster than
-    building a sparse matrix for scipy's connected_components.
-    """
-    lab = np.arange(n)
-    if a.size == 0:
-        return lab
-    while True:
-        la, lb = lab[a], lab[b]
-        cross = la != lb
-        if not cross.any():
-            return lab
-        a, b, la, lb = a[cross], b[cross], la[cross], lb[cross]
-        np.minimum.at(lab, np.maximum(la, lb), np.minimum(la, lb))
-        while True:  # flatten: every node points at its root again
-            up = lab[lab]
-            if np.array_equal(up, lab):
-                break
-            lab = up
 
 
 def dbscan_1d_grouped(values: np.ndarray, groups: np.ndarray, eps: float, min_points: int) -> np.ndarray:

@@ -16,7 +16,8 @@ from collections import deque
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tracker.radar.dbscan import component_labels, kd_tree
+from tracker.grouping import component_labels
+from tracker.radar.dbscan import kd_tree
 
 
 class ShoreLines:

@@ -19,10 +19,11 @@ from filterpy.kalman import KalmanFilter
 from drivers.frames import EgoPose, RadarFrame
 from tracker.assignment import gated_assignment
 from tracker.existence import ExistenceEvidence, boxes_area, boxes_members, clutter_tail
+from tracker.grouping import component_labels
 from tracker.lifecycle import IdSource, Lifecycle, TrackLife, TrackStatus
 from tracker.radar import kalman, occlusion
 from tracker.radar.config import RadarTrackerConfig
-from tracker.radar.dbscan import component_labels, dbscan
+from tracker.radar.dbscan import dbscan
 from tracker.radar.detector import SHORE_KEEP, DetectorOutput, RadarCluster, RadarDetector
 from tracker.radar.motion import MotionDiscriminator
 from tracker.radar.occlusion import ShadowCasters
