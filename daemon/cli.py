@@ -15,7 +15,7 @@ from daemon.view.options import add_view_arguments
 log = logging.getLogger("usv-tracker")
 
 SCENE_HELP = (
-    "harbour (default), crossing, container, crew_boat, fisher, radar_paper[:static|low|mid|high], dense, or "
+    "harbour (default), crossing, container, crew_boat, fisher, radar_paper[:static|low|mid|high], dense, moorings, or "
     "random:SEED[:SECONDS], a whole harbour drawn from SEED (seeds 1-100 for tuning, 1001-1100 held out)"
 )
 

@@ -905,10 +905,11 @@ def _vessel_prisms(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     """
     outlines, owner, bottom, top = [], [], [], []
     for j, v in enumerate(scene.vessels):  # per vessel, once
-        outlines.append(v.outline_body())
-        owner.append(j)
-        bottom.append(-math.inf)
-        top.append(v.hull_top)
+        for part in v.hull_parts_body():
+            outlines.append(part)
+            owner.append(j)
+            bottom.append(-math.inf)
+            top.append(v.hull_top)
         if v.has_cabin:
             outlines.append(v.cabin_body())
             owner.append(j)

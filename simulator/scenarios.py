@@ -70,6 +70,26 @@ def crossing(seed: int = 0) -> Scene:
     return Scene("crossing", _still_own(), vessels, [], duration=24.0, description=crossing.__doc__ or "")
 
 
+def moorings(seed: int = 0) -> Scene:
+    """Curved hulls: the own boat runs north at 1.5 m/s through a mooring field of round buoys (1.2 and 2 m), round-
+    ended tenders and RIBs at their moorings, a box-hulled workboat among them, and a RIB crossing at 3 m/s: the
+    LiDAR's adaptive fit (paper 000's Algorithm 4) meets hulls an ellipse fits better than a box."""
+    del seed
+    own = OwnBoat(Trajectory.constant_velocity((0.0, 0.0), (1.5, 0.0)))
+    still = Trajectory.stationary
+    vessels = [
+        Vessel("buoy-1", 2.0, 2.0, 1.2, still((20.0, 12.0), 0.0), hull="buoy"),
+        Vessel("buoy-2", 1.2, 1.2, 0.8, still((35.0, -10.0), 0.0), hull="buoy"),
+        Vessel("buoy-3", 2.0, 2.0, 1.2, still((50.0, 14.0), 0.0), hull="buoy"),
+        Vessel("tender-1", 4.0, 1.8, 0.8, still((28.0, 18.0), math.radians(200.0)), hull="round"),
+        Vessel("tender-2", 5.0, 2.0, 0.9, still((42.0, -16.0), math.radians(170.0)), hull="round"),
+        Vessel("rib-1", 8.0, 3.0, 1.2, still((60.0, 20.0), math.radians(190.0)), hull="round"),
+        Vessel("workboat", 9.0, 3.5, 1.6, still((55.0, -20.0), math.radians(180.0)), hull="box", freeboard=1.0),
+        Vessel("rib-crossing", 7.0, 2.6, 1.2, Trajectory.constant_velocity((45.0, -40.0), (0.0, 3.0)), hull="round"),
+    ]
+    return Scene("moorings", own, vessels, [], duration=30.0, description=moorings.__doc__ or "")
+
+
 def container(seed: int = 0) -> Scene:
     """Paper 000's floating container (8.6 x 3.6 m, box) lying still; the own boat passes it at 2 m/s, 45 -> 20 m."""
     del seed
@@ -171,6 +191,7 @@ SCENARIOS: dict[str, Callable[..., Scene]] = {
     "harbour": harbour,
     "crossing": crossing,
     "container": container,
+    "moorings": moorings,
     "crew_boat": crew_boat,
     "fisher": fisher,
     "radar_paper": radar_paper,

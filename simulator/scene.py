@@ -28,6 +28,8 @@ from drivers.mount import Mount
 from simulator.sea import Sea
 
 MAX_VERTICES = 5  # pentagon hull; boxes are padded with a repeated vertex (a zero-length, inert edge)
+HULLS = ("box", "pointed", "round", "buoy")
+CURVE_POINTS = 9  # vertices on a curved hull's half-round: 22.5 deg apart, within 2 % of the radius of the curve
 
 # Labels shared by the sensor models for points that do not come from a vessel (vessels are labelled 0..V-1).
 LABEL_CLUTTER = -1  # LiDAR water/spray returns, radar sea clutter
@@ -236,8 +238,9 @@ class Vessel:
     """A boat: a prism from the water line to ``freeboard``, plus a superstructure up to ``height`` if higher.
 
     ``hull`` "box" is a rectangle, "pointed" a rectangle whose front ``bow_fraction`` of the length narrows to a point
-    on the centre line (a pentagon). ``height`` is the top of the highest part above the water, which is what the
-    truth reports and what a sensor can see.
+    on the centre line (a pentagon), "round" a rectangle with a half-round bow and stern (a RIB's tubes, a tender),
+    "buoy" an elliptic cylinder (a buoy, a round float when length = width). ``height`` is the top of the highest
+    part above the water, which is what the truth reports and what a sensor can see.
     """
 
     name: str
@@ -255,8 +258,8 @@ class Vessel:
     rcs_scale: float = 1.0  # radar: multiplies the echo strength of the visible sides
 
     def __post_init__(self) -> None:
-        if self.hull not in ("box", "pointed"):
-            raise ValueError(f"vessel {self.name!r}: hull must be 'box' or 'pointed', not {self.hull!r}")
+        if self.hull not in HULLS:
+            raise ValueError(f"vessel {self.name!r}: hull must be one of {', '.join(HULLS)}, not {self.hull!r}")
         if not all(math.isfinite(x) and x > 0 for x in (self.length, self.width, self.height)):
             raise ValueError(f"vessel {self.name!r}: length, width and height must be finite and > 0")
         if not 0 <= self.bow_fraction < 1:
@@ -273,12 +276,45 @@ class Vessel:
         return self.freeboard is not None and self.freeboard < self.height
 
     def outline_body(self) -> np.ndarray:
-        """(5, 2) hull footprint in (forward, starboard), counter-clockwise in that plane, padded to 5 vertices."""
+        """(5, 2) hull footprint in (forward, starboard), counter-clockwise in that plane, padded to 5 vertices. A
+        curved hull's is a pentagon on its outline (the truth's footprint and the radar's corners): its sides lie
+        at most 0.19 x the radius of a curve inside it."""
         L, W = self.length / 2, self.width / 2
         if self.hull == "box":
             return np.array([[-L, -W], [L, -W], [L, W], [-L, W], [-L, W]])
+        if self.hull == "buoy":
+            a = np.pi + 2.0 * np.pi * np.arange(5) / 5
+            return np.column_stack([L * np.cos(a), W * np.sin(a)])
+        if self.hull == "round":
+            r = min(L, W)
+            d = r * math.sqrt(0.5)
+            return np.array([[-L + r - d, -d], [L - r, -W], [L, 0.0], [L - r, W], [-L + r - d, d]])
         b = self.length * self.bow_fraction
         return np.array([[-L, -W], [L - b, -W], [L, 0.0], [L - b, W], [-L, W]])
+
+    def hull_parts_body(self) -> list[np.ndarray]:
+        """The hull as convex prisms of at most 5 vertices each, (5, 2) in (forward, starboard): the outline itself
+        for box and pointed hulls; a curved hull's polygon (CURVE_POINTS on each half-round) cut into a fan of
+        pentagons that share their chords. The ray casters take the nearest entry over all parts, so the chords
+        inside the hull never show."""
+        if self.hull in ("box", "pointed"):
+            return [self.outline_body()]
+        L, W = self.length / 2, self.width / 2
+        if self.hull == "buoy":
+            a = np.pi + 2.0 * np.pi * np.arange(2 * CURVE_POINTS) / (2 * CURVE_POINTS)
+            poly = np.column_stack([L * np.cos(a), W * np.sin(a)])
+        else:
+            r = min(L, W)
+            a = np.linspace(-0.5 * np.pi, 0.5 * np.pi, CURVE_POINTS)  # the bow's half-round, port to starboard
+            bow = np.column_stack([L - r + r * np.cos(a), r * np.sin(a)])
+            stern = np.column_stack([-L + r - r * np.cos(a), -r * np.sin(a)])  # starboard to port
+            poly = np.concatenate([stern[-1:], bow, stern[:-1]])  # from the stern's port end, counter-clockwise
+        parts = []
+        for i in range(1, poly.shape[0] - 1, MAX_VERTICES - 2):
+            idx = [0, *range(i, min(i + MAX_VERTICES - 1, poly.shape[0]))]
+            idx += [idx[-1]] * (MAX_VERTICES - len(idx))  # padded with a repeated vertex, an inert edge
+            parts.append(poly[idx])
+        return parts
 
     def cabin_body(self) -> np.ndarray:
         L = self.length * self.cabin_length_fraction / 2
@@ -487,12 +523,13 @@ class Scene:
         s = self.vessel_states(t)
         outlines, bottoms, tops, labels, refl, owner = [], [], [], [], [], []
         for j, v in enumerate(self.vessels):
-            outlines.append(v.outline_body())
-            bottoms.append(0.0)
-            tops.append(v.hull_top)
-            labels.append(j)
-            refl.append(v.reflectivity)
-            owner.append(j)
+            for part in v.hull_parts_body():
+                outlines.append(part)
+                bottoms.append(0.0)
+                tops.append(v.hull_top)
+                labels.append(j)
+                refl.append(v.reflectivity)
+                owner.append(j)
             if v.has_cabin:
                 outlines.append(v.cabin_body())
                 bottoms.append(v.hull_top)

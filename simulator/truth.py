@@ -91,7 +91,7 @@ def truth_at(scene: Scene, t: float) -> SceneTruth:
         s = scene.vessel_states(t)
         fp = scene.footprints(t)[0]
         for j, v in enumerate(scene.vessels):
-            outline = fp[j] if v.hull == "pointed" else fp[j, :4]
+            outline = fp[j, :4] if v.hull == "box" else fp[j]
             vessels.append(
                 VesselTruth(
                     id=j,

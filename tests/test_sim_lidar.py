@@ -247,3 +247,32 @@ def test_packets_survive_the_real_encoder_and_velodyne_decoder() -> None:
     ideal = model.hits_between(0.0, packets[-1].t + PACKET_PERIOD_S).xyz_sensor
     nearest = np.min(np.linalg.norm(xyz[:, None, :] - ideal[None, :, :], axis=2), axis=1)
     assert nearest.max() < 5e-3  # and y, z (vertical beam offsets included) agree too
+
+
+def _off_curve(hull: str, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Signed distance (m, + outside) of body points from the outline of a 2 m buoy or a 6 x 2.4 m round hull."""
+    if hull == "buoy":
+        return np.hypot(x, y) - 1.0
+    r, straight = 1.2, 3.0 - 1.2  # half-rounds of the beam's radius at either end of a straight midbody
+    return np.where(np.abs(x) > straight, np.hypot(np.abs(x) - straight, y) - r, np.abs(y) - r)
+
+
+@pytest.mark.parametrize(("hull", "length", "width"), [("buoy", 2.0, 2.0), ("round", 6.0, 2.4)])
+def test_a_curved_hull_returns_points_on_its_curve(hull: str, length: float, width: float) -> None:
+    """A buoy (a cylinder) and a round-ended tender 20 m ahead: every return lies on the true curved outline, not
+    beyond it, and within the 16-gon's sagitta inside it; the outline's pentagon (the truth's footprint and the radar's
+    corners) has its vertices on the curve; the prisms' areas add up to the curved hull's."""
+    v = Vessel("v", length, width, 1.0, Trajectory.stationary((20.0, 0.0), 0.0), hull=hull)
+    scene = Scene("curved", OwnBoat(Trajectory.stationary((0.0, 0.0), 0.0)), [v])
+    hits = _ideal_model(scene).revolution_points(0.0)
+    on = hits.label == 0
+    assert on.sum() >= 25  # at 20 m only the -3 deg laser meets a 1 m freeboard: 5.7 deg of it for the buoy
+    off = _off_curve(hull, hits.xyz_world[on, 0] - 20.0, hits.xyz_world[on, 1])
+    # a polygon of 16 vertices per circle lies within r (1 - cos 11.25 deg), 2 % of the radius, inside it
+    assert off.max() <= 1e-9 and off.min() >= -0.02 * min(length, width) / 2
+    pentagon = v.outline_body()
+    np.testing.assert_allclose(_off_curve(hull, pentagon[:, 0], pentagon[:, 1]), 0.0, atol=1e-12)
+    areas = [0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]) for p in v.hull_parts_body()]
+    assert min(areas) > 0  # every part counter-clockwise, none inside out
+    exact = math.pi * length * width / 4 if hull == "buoy" else (length - width) * width + math.pi * width**2 / 4
+    assert sum(areas) == pytest.approx(exact, rel=0.03)  # a 16-gon holds 97.4 % of its circle's area

@@ -176,7 +176,7 @@ def test_bad_scene_input_is_refused_with_a_clear_error() -> None:
     with pytest.raises(ValueError, match="finite and > 0"):
         Vessel("nan", float("nan"), 2.0, 1.0, still)
     with pytest.raises(ValueError, match="hull"):
-        Vessel("raft", 3.0, 2.0, 1.0, still, hull="round")
+        Vessel("raft", 3.0, 2.0, 1.0, still, hull="oval")
     with pytest.raises(ValueError, match="freeboard"):
         Vessel("tall", 3.0, 2.0, 1.0, still, freeboard=2.0)
     with pytest.raises(ValueError, match="must be finite"):
