@@ -1,8 +1,9 @@
 """The simulated VLP-16's sender, in a process of its own.
 
-Ray casting a revolution and packing 754 packets a second is about a quarter of a core here; in the daemon's
-process it held the interpreter lock in bursts while the daemon's loop waited, so the demo's cycle measured the
-simulator as much as the tracker. A real sensor is a separate machine: so is this one.
+Ray casting a revolution and packing 754 packets a second is about a quarter of a core here. A real sensor is a
+machine of its own, so this one is a process of its own: its work never takes the daemon's interpreter lock, and
+the demo's and the end-to-end tests' daemon meets a sensor as it would on the boat (in paired demo runs the cycle
+moved within the machine's noise: README, "What the demo shows").
 """
 
 from __future__ import annotations
