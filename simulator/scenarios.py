@@ -85,7 +85,7 @@ def moorings(seed: int = 0) -> Scene:
         Vessel("tender-2", 5.0, 2.0, 0.9, still((42.0, -16.0), math.radians(170.0)), hull="round"),
         Vessel("rib-1", 8.0, 3.0, 1.2, still((60.0, 20.0), math.radians(190.0)), hull="round"),
         Vessel("workboat", 9.0, 3.5, 1.6, still((55.0, -20.0), math.radians(180.0)), hull="box", freeboard=1.0),
-        Vessel("rib-crossing", 7.0, 2.6, 1.2, Trajectory.constant_velocity((45.0, -40.0), (0.0, 3.0)), hull="round"),
+        Vessel("rib-crossing", 7.0, 2.6, 1.2, Trajectory.constant_velocity((68.0, -40.0), (0.0, 3.0)), hull="round"),
     ]
     return Scene("moorings", own, vessels, [], duration=30.0, description=moorings.__doc__ or "")
 
