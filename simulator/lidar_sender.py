@@ -15,7 +15,8 @@ import signal
 import socket
 import time
 from dataclasses import dataclass
-from typing import Any
+from multiprocessing.sharedctypes import Synchronized
+from multiprocessing.synchronize import Event
 
 from drivers.vlp16.packet import encode_data_packet, encode_position_packet
 from simulator.lidar_model import Vlp16Model
@@ -67,7 +68,9 @@ class LidarSenderProcess:
             self._proc.join(timeout=1.0)
 
 
-def play_lidar(scene: Scene, target: SenderTarget, stop: Any, paused: Any, sent: Any, parent_pid: int) -> None:
+def play_lidar(
+    scene: Scene, target: SenderTarget, stop: Event, paused: Event, sent: Synchronized, parent_pid: int
+) -> None:
     """The child's whole life: packets at the sensor's cadence on the shared clock until told to stop or orphaned."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle; it stops us through `stop`
     model = Vlp16Model(scene, scene.lidar_mount, seed=target.seed)

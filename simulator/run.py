@@ -16,8 +16,8 @@ import contextlib
 import logging
 import time
 from dataclasses import dataclass, field
+from multiprocessing.synchronize import Event
 from pathlib import Path
-from typing import Any
 
 from simulator.autopilot import SimAutopilot
 from simulator.awr1843_device import Awr1843Emulator, DevicePoints
@@ -114,7 +114,7 @@ class SimulationRun:
             self.autopilot.stop()
 
     @property
-    def lidar_paused(self) -> Any:
+    def lidar_paused(self) -> Event:
         """Set: the LiDAR's packets stop (a pulled cable); clear: they flow again."""
         assert self._lidar is not None, "the LiDAR is not simulated in this run"
         return self._lidar.paused
