@@ -111,16 +111,47 @@ def test_track_boxes_stand_where_tracks_out_puts_the_tracks(replayed: tuple[list
         for tr in row["tracks"]:
             entity = boxes[f"track/{tr['id']}"]
             assert entity.frame_id == "world"
-            centre = entity.cubes[0].pose.position
+            body = drawn_body(entity, tr["shape"])
+            centre = body.pose.position
             north, east = tr["position_ne"]
             # world ENU: x east, y north (tracks-out rounds to 1 mm)
             assert (centre.x, centre.y) == pytest.approx((east, north), abs=1e-3)
-            assert entity.cubes[0].size.x == pytest.approx(tr["length"], abs=1e-3)
-            assert entity.cubes[0].size.y == pytest.approx(tr["width"], abs=1e-3)
+            assert body.size.x == pytest.approx(tr["length"], abs=1e-3)
+            assert body.size.y == pytest.approx(tr["width"], abs=1e-3)
             assert entity.texts[0].text.startswith(f"{tr['id']} {tr['source']}")
             compared += 1
             confirmed += tr["confirmed"]
     assert compared > 100 and confirmed > 50  # the harbour's vessels were tracked: the comparison compared something
+
+
+def drawn_body(entity: Any, shape: str) -> Any:
+    """The one primitive a track entity is drawn with: an elliptic cylinder (equal scales at top and bottom) for an
+    ellipse track, a cube for any other (box, point), never both."""
+    if shape == "ellipse":
+        assert len(entity.cylinders) == 1 and not entity.cubes
+        body = entity.cylinders[0]
+        assert body.bottom_scale == body.top_scale == 1.0
+        return body
+    assert len(entity.cubes) == 1 and not entity.cylinders
+    return entity.cubes[0]
+
+
+def test_round_hulls_are_drawn_as_the_ellipses_they_were_fitted_as(tmp_path: Path) -> None:
+    """The moorings scene's buoys and round-ended boats are fitted as ellipses (tests/test_lidar_curved_hulls.py):
+    the view draws those tracks as elliptic cylinders of their length and beam, and the workboat's as a box."""
+    d = tmp_path / "moorings"
+    write_captures("moorings", d, SECONDS, seed=0, scene=get_scenario("moorings"))
+    tracks, mcap = tmp_path / "tracks.jsonl", tmp_path / "view.mcap"
+    assert main(["replay", str(d), "--fast", "--quiet", "--tracks-out", str(tracks), "--mcap", str(mcap)]) == 0
+    rows = [json.loads(line) for line in tracks.read_text().splitlines()]
+    shapes: dict[str, int] = defaultdict(int)
+    for row, (_, update) in zip(rows, read_mcap(mcap)["/tracks"], strict=True):
+        entities = {e.id: e for e in update.entities}
+        for tr in row["tracks"]:
+            body = drawn_body(entities[f"track/{tr['id']}"], tr["shape"])
+            assert (body.size.x, body.size.y) == pytest.approx((tr["length"], tr["width"]), abs=1e-3)
+            shapes[tr["shape"]] += 1
+    assert shapes["ellipse"] > 50 and shapes["box"] > 0, shapes  # both were drawn: the comparison compared something
 
 
 def test_the_72_bins_decode_to_the_distances_sent(replayed: tuple[list[dict[str, Any]], dict]) -> None:

@@ -33,6 +33,7 @@ from foxglove.messages import (
     ArrowPrimitive,
     Color,
     CubePrimitive,
+    CylinderPrimitive,
     FrameTransform,
     FrameTransforms,
     LinePrimitive,
@@ -56,7 +57,7 @@ from daemon.loop import DaemonLoop
 from daemon.view import frames
 from tracker.lidar.preprocess import REASON_NAMES
 from tracker.pipeline import PerceptionOutput
-from tracker.types import Track
+from tracker.types import ShapeKind, Track
 
 log = logging.getLogger(__name__)
 
@@ -352,18 +353,24 @@ class FoxgloveView:
                         color=Color(r=r, g=g, b=b, a=1.0),
                     )
                 )
+            pose, size = _pose(centre, frames.yaw_quaternion(yaw)), Vector3(x=length, y=width, z=height)
+            colour = Color(r=r, g=g, b=b, a=alpha)
+            # the shape the fit chose: a box, or where an ellipse fitted better (a round hull, a buoy) an elliptic
+            # cylinder of the same length and beam
+            if tr.shape is ShapeKind.ELLIPSE:
+                body = {
+                    "cylinders": [
+                        CylinderPrimitive(pose=pose, size=size, bottom_scale=1.0, top_scale=1.0, color=colour)
+                    ]
+                }
+            else:
+                body = {"cubes": [CubePrimitive(pose=pose, size=size, color=colour)]}
             entities.append(
                 SceneEntity(
                     timestamp=stamp,
                     frame_id=WORLD,
                     id=f"track/{tr.id}",
-                    cubes=[
-                        CubePrimitive(
-                            pose=_pose(centre, frames.yaw_quaternion(yaw)),
-                            size=Vector3(x=length, y=width, z=height),
-                            color=Color(r=r, g=g, b=b, a=alpha),
-                        )
-                    ],
+                    **body,
                     arrows=arrows,
                     texts=[
                         TextPrimitive(
