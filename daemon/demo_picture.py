@@ -12,6 +12,7 @@ from simulator.scene import Scene
 from simulator.truth import truth_at
 from tracker.ego import world_to_body_2d
 from tracker.obstacle_map import N_BINS
+from tracker.types import ShapeKind, Track
 
 
 def save_demo_picture(path: Path, scene: Scene, t_sim: float, output: Any, distances_cm: Any) -> None:
@@ -25,7 +26,11 @@ def save_demo_picture(path: Path, scene: Scene, t_sim: float, output: Any, dista
     fig, ax = plt.subplots(figsize=(9, 9), dpi=110)
     # Plot in the body frame with the bow up: screen x = starboard, screen y = forward.
     for v in truth.vessels:
-        poly = world_to_body_2d(np.asarray(v.footprint)[:, :2], own.position[:2], own.yaw)
+        # the hull's whole outline (a curved hull's half-rounds; the truth's footprint is a pentagon on the curve)
+        hull = scene.vessels[v.id].hull_polygon_body()
+        c, s = math.cos(v.heading), math.sin(v.heading)
+        world = v.position[:2] + np.column_stack([c * hull[:, 0] - s * hull[:, 1], s * hull[:, 0] + c * hull[:, 1]])
+        poly = world_to_body_2d(world, own.position[:2], own.yaw)
         closed = np.vstack([poly, poly[:1]])
         ax.fill(closed[:, 1], closed[:, 0], color="tab:blue", alpha=0.25)
         ax.plot(closed[:, 1], closed[:, 0], color="tab:blue", lw=1)
@@ -42,7 +47,7 @@ def save_demo_picture(path: Path, scene: Scene, t_sim: float, output: Any, dista
         for tr in output.tracks:
             if not tr.confirmed:
                 continue
-            poly = world_to_body_2d(tr.footprint(), own.position[:2], own.yaw)
+            poly = world_to_body_2d(_outline(tr), own.position[:2], own.yaw)
             closed = np.vstack([poly, poly[:1]])
             ax.plot(closed[:, 1], closed[:, 0], color="tab:orange", lw=1.2, ls="--")
             ax.annotate(f"#{tr.id}", (poly[:, 1].max(), poly[:, 0].max()), fontsize=6, color="tab:orange")
@@ -69,3 +74,13 @@ def save_demo_picture(path: Path, scene: Scene, t_sim: float, output: Any, dista
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
+
+
+def _outline(track: Track) -> np.ndarray:
+    """(K, 2) world north/east outline of a track as it was fitted: its box, or its ellipse (a round hull, a buoy)."""
+    if track.shape is not ShapeKind.ELLIPSE:
+        return track.footprint()
+    a = np.linspace(0.0, 2.0 * np.pi, 36, endpoint=False)
+    along, across = 0.5 * track.length * np.cos(a), 0.5 * track.width * np.sin(a)
+    c, s = math.cos(track.heading), math.sin(track.heading)
+    return track.position + np.column_stack([c * along - s * across, s * along + c * across])

@@ -292,23 +292,30 @@ class Vessel:
         b = self.length * self.bow_fraction
         return np.array([[-L, -W], [L - b, -W], [L, 0.0], [L - b, W], [-L, W]])
 
-    def hull_parts_body(self) -> list[np.ndarray]:
-        """The hull as convex prisms of at most 5 vertices each, (5, 2) in (forward, starboard): the outline itself
-        for box and pointed hulls; a curved hull's polygon (CURVE_POINTS on each half-round) cut into a fan of
-        pentagons that share their chords. The ray casters take the nearest entry over all parts, so the chords
-        inside the hull never show."""
-        if self.hull in ("box", "pointed"):
-            return [self.outline_body()]
+    def hull_polygon_body(self) -> np.ndarray:
+        """(K, 2) the hull's whole outline in (forward, starboard), counter-clockwise: the outline's own vertices for
+        box and pointed hulls, CURVE_POINTS on each half-round of a curved one."""
+        if self.hull == "box":
+            return self.outline_body()[:4]
+        if self.hull == "pointed":
+            return self.outline_body()
         L, W = self.length / 2, self.width / 2
         if self.hull == "buoy":
             a = np.pi + 2.0 * np.pi * np.arange(2 * CURVE_POINTS) / (2 * CURVE_POINTS)
-            poly = np.column_stack([L * np.cos(a), W * np.sin(a)])
-        else:
-            r = min(L, W)
-            a = np.linspace(-0.5 * np.pi, 0.5 * np.pi, CURVE_POINTS)  # the bow's half-round, port to starboard
-            bow = np.column_stack([L - r + r * np.cos(a), r * np.sin(a)])
-            stern = np.column_stack([-L + r - r * np.cos(a), -r * np.sin(a)])  # starboard to port
-            poly = np.concatenate([stern[-1:], bow, stern[:-1]])  # from the stern's port end, counter-clockwise
+            return np.column_stack([L * np.cos(a), W * np.sin(a)])
+        r = min(L, W)
+        a = np.linspace(-0.5 * np.pi, 0.5 * np.pi, CURVE_POINTS)  # the bow's half-round, port to starboard
+        bow = np.column_stack([L - r + r * np.cos(a), r * np.sin(a)])
+        stern = np.column_stack([-L + r - r * np.cos(a), -r * np.sin(a)])  # starboard to port
+        return np.concatenate([stern[-1:], bow, stern[:-1]])  # from the stern's port end
+
+    def hull_parts_body(self) -> list[np.ndarray]:
+        """The hull as convex prisms of at most 5 vertices each, (5, 2) in (forward, starboard): the outline itself
+        for box and pointed hulls; a curved hull's polygon cut into a fan of pentagons that share their chords. The
+        ray casters take the nearest entry over all parts, so the chords inside the hull never show."""
+        if self.hull in ("box", "pointed"):
+            return [self.outline_body()]
+        poly = self.hull_polygon_body()
         parts = []
         for i in range(1, poly.shape[0] - 1, MAX_VERTICES - 2):
             idx = [0, *range(i, min(i + MAX_VERTICES - 1, poly.shape[0]))]
