@@ -9,13 +9,13 @@ moved within the machine's noise: README, "What the demo shows").
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import multiprocessing as mp
 import os
 import signal
 import socket
 import time
 from dataclasses import dataclass
-from multiprocessing.sharedctypes import Synchronized
 from multiprocessing.synchronize import Event
 
 from drivers.vlp16.packet import encode_data_packet, encode_position_packet
@@ -42,7 +42,7 @@ class LidarSenderProcess:
         ctx = mp.get_context("spawn")  # never fork a process whose other threads hold locks
         self.paused = ctx.Event()
         self._stop = ctx.Event()
-        self._sent = ctx.Value("q", 0, lock=False)
+        self._sent = ctx.Value("q", 0, lock=False)  # a bare shared c_longlong: only the child writes it
         self._proc = ctx.Process(
             target=play_lidar,
             args=(scene, target, self._stop, self.paused, self._sent, os.getpid()),
@@ -69,7 +69,7 @@ class LidarSenderProcess:
 
 
 def play_lidar(
-    scene: Scene, target: SenderTarget, stop: Event, paused: Event, sent: Synchronized, parent_pid: int
+    scene: Scene, target: SenderTarget, stop: Event, paused: Event, sent: ctypes.c_longlong, parent_pid: int
 ) -> None:
     """The child's whole life: packets at the sensor's cadence on the shared clock until told to stop or orphaned."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle; it stops us through `stop`
