@@ -278,7 +278,7 @@ class Vessel:
     def outline_body(self) -> np.ndarray:
         """(5, 2) hull footprint in (forward, starboard), counter-clockwise in that plane, padded to 5 vertices. A
         curved hull's is a pentagon on its outline (the truth's footprint and the radar's corners): its sides lie
-        at most 0.19 x the radius of a curve inside it."""
+        inside the curve by at most 0.19 x the radius for a buoy, 0.29 x the beam's half for a round bow's quarter."""
         L, W = self.length / 2, self.width / 2
         if self.hull == "box":
             return np.array([[-L, -W], [L, -W], [L, W], [-L, W], [-L, W]])
