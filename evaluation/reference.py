@@ -108,9 +108,12 @@ class SimulatorTruth:
         self.width = np.zeros(n_v)
         self.names = [""] * n_v
         self.outline_body: list[np.ndarray] = [np.zeros((0, 2))] * n_v
+        # a round buoy has no axis: its heading is the simulator's bookkeeping, no error of a track's can be scored
+        self.axisless = np.zeros(n_v, dtype=bool)
         for row in range(len(table) - 1, -1, -1):  # the first row of each vessel wins
             j = v[row]
             self.length[j], self.width[j], self.names[j] = table["length"][row], table["width"][row], table["name"][row]
+            self.axisless[j] = table["hull"][row] == "buoy" and table["length"][row] == table["width"][row]
             # the hull in its own (forward, starboard) frame, to be placed at any interpolated pose
             rel = table.footprints[row] - self.position[k[row], j]
             self.outline_body[j] = rel @ rotation_ne(table["heading"][row])
@@ -142,7 +145,7 @@ class SimulatorTruth:
             names=[self.names[j] for j in idx],
             position=pos,
             velocity=vel,
-            heading=heading,
+            heading=np.where(self.axisless[idx], np.nan, heading),  # after the footprints, which it turned
             length=self.length[idx],
             width=self.width[idx],
             footprints=footprints,

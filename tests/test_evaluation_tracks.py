@@ -12,6 +12,7 @@ import pytest
 from daemon.autopilot_geo import LocalTangentPlane
 from evaluation import EvaluationError, evaluate_run
 from evaluation.hota import hota
+from simulator.scene import OwnBoat, Scene, Trajectory, Vessel
 from simulator.truth import T0_UNIX
 from tests.evaluation_fixtures import tick as tick_rec
 from tests.evaluation_fixtures import track, two_boats, write_returns, write_ticks, write_truth
@@ -218,3 +219,35 @@ def test_hota_agrees_with_trackeval() -> None:
     assert ours.det_a == pytest.approx(float(np.mean(ref["DetA"])), abs=1e-12)
     assert ours.ass_a == pytest.approx(float(np.mean(ref["AssA"])), abs=1e-12)
     assert ours.loc_a == pytest.approx(float(np.mean(ref["LocA"])), abs=1e-12)
+
+
+def test_a_round_buoy_has_no_heading_to_score_but_an_elliptic_one_and_a_boat_do(tmp_path: Path) -> None:
+    """A round buoy's heading is the simulator's bookkeeping, not an axis a track could get right or wrong: its
+    matched pairs score position and size, not heading. An elliptic float (length != width) and a boat keep theirs.
+    Every track here points 30 deg off its vessel's heading (north)."""
+    still = Trajectory.stationary
+    scene = Scene(
+        "buoys",
+        OwnBoat(still((0.0, 0.0), 0.0)),
+        [
+            Vessel("buoy", 2.0, 2.0, 1.0, still((10.0, 0.0), 0.0), hull="buoy"),
+            Vessel("float", 3.0, 1.5, 1.0, still((0.0, 15.0), 0.0), hull="buoy"),
+            Vessel("tender", 4.0, 2.0, 1.0, still((-12.0, 0.0), 0.0), hull="round"),
+        ],
+        [],
+    )
+    write_truth(tmp_path, scene, 1.0)
+    ticks = [
+        tick_rec(
+            round(0.1 * k, 4),
+            [
+                track(1, 10.0, 0.0, heading_deg=30.0),
+                track(2, 0.0, 15.0, heading_deg=30.0),
+                track(3, -12.0, 0.0, heading_deg=30.0),
+            ],
+        )
+        for k in range(10)
+    ]
+    t = evaluate_run(tmp_path, write_ticks(tmp_path / "tracks.jsonl", ticks)).tracks
+    assert t.matches == 30 and t.position_error_m.n == 30
+    assert t.heading_error_deg.n == 20 and t.heading_error_deg.mean == pytest.approx(30.0)
