@@ -18,10 +18,12 @@ What a scene holds (drawn uniformly within the ranges unless said otherwise; SI 
   50-200 m long at 30-100 m;
 * 7-20 vessels: moored boats (0-4 a wall, their hulls 0.3 m off the wall as on fenders); USVs 2-3 m long and
   0.5-0.7 m high coming no closer to the own boat than 20-60 m; boats 4-15 m (6-80 m); ships 30-50 m (0-2 a scene,
-  40-100 m). The closest approach is drawn log-uniformly, so near passes are as common as far ones; it is measured
+  40-100 m); and 0-3 round mooring buoys 0.8-2 m across and 0.5-1.2 m high (5-60 m). Hulls: a USV's pointed 40 %,
+  box 30 %, round 30 % (an inflatable's tubes); a boat's pointed 70 %, box 15 %, round 15 % (a RIB, a tender); a
+  ship's pointed. The closest approach is drawn log-uniformly, so near passes are as common as far ones; it is measured
   from the own boat's reference point to the hull every 0.25 s over the scene. Every vessel not moored meets the
   own boat around a drawn time as a crossing, overtaking or head-on encounter (relative to the own boat's course
-  then), or lies at anchor (a quarter of the USVs, a fifth of the boats, no ship); under way at 0.5-4 m/s (USVs),
+  then), or lies at anchor (a quarter of the USVs, a fifth of the boats, every buoy, no ship); under way at 0.5-4 m/s (USVs),
   0.5-8 m/s (boats) or 1-6 m/s (ships), overtaking 1-3 m/s faster or slower than the own boat. Some turn 20-90 deg
   before or after the encounter (35 % of the USVs and boats; 20 % of the ships, 20-45 deg);
 * the day: rain in 30 % of the scenes (2,000-15,000 drop returns a second out to 10-15 m, cutting the LiDAR's range
@@ -118,6 +120,16 @@ KINDS = {
         turn_rate=(0.05, 0.25),
         max_turn=math.radians(90),
         encounter_p=(0.45, 0.25, 0.3),
+    ),
+    "buoy": KindSpec(  # mooring buoys and floats: round, low, never under way
+        length=(0.8, 2.0),
+        closest=(5.0, 60.0),
+        speed=(0.0, 0.0),
+        p_anchored=1.0,
+        p_manoeuvre=0.0,
+        turn_rate=(0.0, 0.0),
+        max_turn=0.0,
+        encounter_p=(1.0, 0.0, 0.0),
     ),
     "ship": KindSpec(  # always under way, turning slowly
         length=(30.0, 50.0),
@@ -281,6 +293,7 @@ def _draw_geometry(rng: np.random.Generator, times: np.ndarray) -> _Geometry | N
     n_total = int(rng.integers(7, 21))
     n_ship = int(rng.choice(3, p=[0.35, 0.45, 0.2]))
     n_usv = int(rng.integers(1, 5))
+    n_buoy = int(rng.integers(0, 4))  # beside the 7-20 vessels
     wanted_moored = [int(rng.integers(0, 5)) for _ in quays]
     room = max(n_total - n_ship - n_usv - 2, 0)  # keep at least two boats under way or anchored
     moored_per_quay = []
@@ -330,7 +343,8 @@ def _draw_geometry(rng: np.random.Generator, times: np.ndarray) -> _Geometry | N
             hull = _draw_hull(rng, "boat")
             if not place(lambda q=quay, i=qi, h=hull: _draw_moored(rng, h, q, i)):
                 return None
-    kinds = ["ship"] * n_ship + ["usv"] * n_usv + ["boat"] * n_boat  # biggest first: they are hardest to fit
+    # biggest first: they are hardest to fit
+    kinds = ["ship"] * n_ship + ["usv"] * n_usv + ["boat"] * n_boat + ["buoy"] * n_buoy
     for kind in kinds:
         hull, role = _draw_hull(rng, kind), _draw_role(rng, kind)
         if not place(lambda k=kind, h=hull, r=role: _draw_traffic(rng, k, h, r, own_state, placed.on_fixed)):
@@ -431,14 +445,24 @@ def _draw_hull(rng: np.random.Generator, kind: str) -> Vessel:
     lo, hi = KINDS[kind].length
     length = lo + u[0] * (hi - lo)
     nowhere = Trajectory.stationary((0.0, 0.0))
-    if kind == "usv":  # a low, wide catamaran or dinghy-like hull, no superstructure
+    if kind == "buoy":  # a round mooring buoy or float
+        return Vessel(
+            kind,
+            trajectory=nowhere,
+            length=length,
+            width=length,
+            height=0.5 + 0.7 * u[1],
+            hull="buoy",
+            reflectivity=int(30 + 50 * u[2]),
+        )
+    if kind == "usv":  # a low, wide catamaran, dinghy-like or inflatable hull, no superstructure
         return Vessel(
             kind,
             trajectory=nowhere,
             length=length,
             width=length * (0.4 + 0.22 * u[1]),
             height=0.5 + 0.2 * u[2],
-            hull="pointed" if u[3] < 0.4 else "box",
+            hull="pointed" if u[3] < 0.4 else "box" if u[3] < 0.7 else "round",
             bow_fraction=0.15 + 0.1 * u[4],
             reflectivity=int(20 + 40 * u[5]),
         )
@@ -467,7 +491,7 @@ def _draw_hull(rng: np.random.Generator, kind: str) -> Vessel:
         width=min(length * (0.3 + 0.12 * u[1]), 4.5),
         freeboard=freeboard if cabin else None,
         height=freeboard + (0.8 + 1.7 * u[4] if cabin else 0.0),
-        hull="pointed" if u[5] < 0.7 else "box",
+        hull="pointed" if u[5] < 0.7 else "box" if u[5] < 0.85 else "round",  # round: a RIB or a tender
         bow_fraction=0.15 + 0.15 * u[6],
         cabin_length_fraction=0.25 + 0.25 * u[7],
         cabin_offset_fraction=-0.25 + 0.3 * u[8],
@@ -659,7 +683,7 @@ def describe(drawn: RandomScene) -> str:
         + ", ".join(f"{n} {r}" for r, n in roles.items())
     )
     for i, (v, d) in enumerate(zip(scene.vessels, drawn.vessels, strict=True)):
-        size = f"{v.length:.1f} x {v.width:.1f} x {v.height:.1f} m"
+        size = f"{v.length:.1f} x {v.width:.1f} x {v.height:.1f} m {v.hull}"
         if d.role == "moored":
             what = f"moored at quay{d.quay}"
         elif d.role == "anchored":

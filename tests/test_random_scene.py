@@ -143,7 +143,8 @@ def test_no_solid_comes_near_the_own_boat_or_into_another_over_200_seeds(drawn: 
 def test_vessels_have_their_kinds_sizes_speeds_and_closest_approaches(drawn: dict[int, RandomScene]) -> None:
     for seed, d in drawn.items():
         scene = d.scene
-        assert 7 <= scene.n_vessels <= 20, f"random:{seed}"
+        n_buoys = sum(info.kind == "buoy" for info in d.vessels)
+        assert 7 <= scene.n_vessels - n_buoys <= 20 and n_buoys <= 3, f"random:{seed}"
         times = np.linspace(0.0, scene.duration, 241)  # the generator's 0.25 s grid, on which "closest" is defined
         own = scene.own.trajectory.state(times).position
         states = scene.vessel_states(times)
@@ -157,8 +158,13 @@ def test_vessels_have_their_kinds_sizes_speeds_and_closest_approaches(drawn: dic
             # nearest the hull comes to the own boat's reference point, measured here on the same grid
             closest = np.min([_point_segment(own, hulls[:, i, k], hulls[:, i, (k + 1) % 5]) for k in range(5)])
             assert info.closest == pytest.approx(closest, abs=1e-9), where
+            if info.kind == "buoy":
+                assert v.hull == "buoy" and 0.8 <= v.length <= 2.0 and v.width == v.length, where
+                assert 0.5 <= v.height <= 1.2 and info.role == "anchored" and 5.0 <= closest <= 60.0, where
+                continue
             if info.kind == "ship":
                 assert 30.0 <= v.length <= 50.0 and 40.0 <= closest <= 100.0, where
+                assert v.hull == "pointed", where
                 assert v.height > v.hull_top >= 2.5, where  # a superstructure on a high hull
             elif info.kind == "usv":
                 assert 2.0 <= v.length <= 3.0 and 0.5 <= v.height <= 0.7 and not v.has_cabin, where
@@ -259,8 +265,11 @@ def test_quays_are_long_walls_alongside_the_own_boat(drawn: dict[int, RandomScen
                 assert len(a) <= 3, f"random:{seed}"  # a block per segment: a 300 m wall stays a few prisms
             else:
                 assert 50.0 <= length <= 200.0 and 30.0 <= offset <= 100.0 and len(a) == 1, f"random:{seed}"
-        # the sensor models' cost follows the prism count: a hull, a cabin, a block per wall segment
-        assert d.scene.prisms_at(0.0).label.size <= 2 * 20 + 4, f"random:{seed}"
+        # the sensor models' cost follows the prism count: a hull (six pentagons when curved), a cabin, a block per
+        # wall segment
+        parts = sum(len(v.hull_parts_body()) + v.has_cabin for v in d.scene.vessels)
+        blocks = sum(len(q.blocks()) for q in d.scene.quays)
+        assert d.scene.prisms_at(0.0).label.size == parts + blocks <= 80, f"random:{seed}"
 
 
 def test_the_200_scenes_cover_every_kind_of_harbour(drawn: dict[int, RandomScene]) -> None:
@@ -273,7 +282,13 @@ def test_the_200_scenes_cover_every_kind_of_harbour(drawn: dict[int, RandomScene
     assert sum(any(v.kind == "ship" for v in d.vessels) for d in scenes) >= 80
     assert sum(d.own_path.speed == 0.0 for d in scenes) >= 5
     assert sum(d.scene.conditions.lidar_packet_loss > 0 for d in scenes) >= 30
-    assert len({len(d.vessels) for d in scenes}) == 14  # every count from 7 to 20
+    # every count of vessels from 7 to 20, and of buoys from 0 to 3, beside them
+    assert len({sum(v.kind != "buoy" for v in d.vessels) for d in scenes}) == 14
+    assert {sum(v.kind == "buoy" for v in d.vessels) for d in scenes} == {0, 1, 2, 3}
+    hulls = [v.hull for d in scenes for v, info in zip(d.scene.vessels, d.vessels, strict=True) if info.kind != "buoy"]
+    shares = {h: hulls.count(h) / len(hulls) for h in ("pointed", "box", "round")}
+    # a USV's hull round 30 %, a boat's 15 %; boats outnumber USVs about 4 to 1 (drawn: 0.16)
+    assert 0.12 <= shares["round"] <= 0.22 and shares["pointed"] >= 0.6, shares
 
 
 # -- the same seed, the same scene ------------------------------------------------------------------------------------
@@ -333,8 +348,11 @@ def test_description_names_what_was_drawn() -> None:
     assert lines[0] == "random:4, 60 s (tuning seeds 1-100, held out 1001-1100)"
     assert lines[1].startswith(f"day: sea state {d.sea_state} ")
     assert lines[2].startswith(f"own boat: {d.own_path.speed:.1f} m/s")
-    counts = {k: sum(v.kind == k for v in d.vessels) for k in ("usv", "boat", "ship")}
-    assert f"vessels {len(d.vessels)}: {counts['usv']} usv, {counts['boat']} boat, {counts['ship']} ship" in lines[4]
+    counts = {k: sum(v.kind == k for v in d.vessels) for k in ("usv", "boat", "buoy", "ship")}
+    assert (
+        f"vessels {len(d.vessels)}: {counts['usv']} usv, {counts['boat']} boat, {counts['buoy']} buoy, "
+        f"{counts['ship']} ship" in lines[4]
+    )
     assert len(lines) == 5 + len(d.vessels)  # one line a vessel
 
 
