@@ -95,6 +95,7 @@ def run_scene(seed: int, seconds: float, modes: tuple[str, ...] = tuple(MODES)) 
                 "bins_scored": bins.get("bins_scored", 0),
                 "false_obstacle_share": bins.get("false_obstacle", 0) / max(bins.get("bins_scored", 0), 1),
                 "replay_s": replay_s,
+                "by_hull": _by_hull(scene, r["visibility"]["per_vessel"]),
             }
             # Each mode above is scored on what its own sensors returned, so fused answers for more vessels than
             # either sensor alone. "Does the second sensor help?" needs one truth for all three: every vessel
@@ -104,6 +105,37 @@ def run_scene(seed: int, seconds: float, modes: tuple[str, ...] = tuple(MODES)) 
             out[mode]["mota_all_returned"] = _num(tr["mota"])
             out[mode]["idf1_all_returned"] = _num(tr["idf1"])
     return out
+
+
+def _hull_group(vessel: Any) -> str:
+    """The group a vessel is counted in by ``by_hull``: its hull's shape, buoys apart, moored boats apart."""
+    if vessel.hull == "buoy":
+        return "buoy"
+    return f"{vessel.hull}, moored" if "-moored" in vessel.name else vessel.hull
+
+
+HULL_GROUPS = ("pointed", "box", "round", "buoy", "pointed, moored", "box, moored", "round, moored")
+
+
+def _by_hull(scene: Any, per_vessel: dict[str, dict[str, Any]]) -> dict[str, list[int]]:
+    """[vessel-ticks to be tracked, of them matched] per hull group: do curved hulls and buoys fare as prisms do?"""
+    out: dict[str, list[int]] = {}
+    for vid, row in per_vessel.items():
+        counts = out.setdefault(_hull_group(scene.vessels[int(vid)]), [0, 0])
+        counts[0] += int(row.get("to_track", 0))
+        counts[1] += int(row.get("matched", 0))
+    return out
+
+
+def by_hull_line(rows: list[dict[str, Any]], mode: str = "fused") -> str:
+    """Pooled over the scenes: the share of each hull group's vessel-ticks to be tracked that a track matched."""
+    cells = []
+    for group in HULL_GROUPS:
+        to_track = sum(r[mode]["by_hull"].get(group, [0, 0])[0] for r in rows)
+        matched = sum(r[mode]["by_hull"].get(group, [0, 0])[1] for r in rows)
+        if to_track:
+            cells.append(f"{group} {matched / to_track:.3f} ({to_track:,} ticks)")
+    return f"Vessel-ticks tracked by hull ({mode}, pooled): " + "; ".join(cells) + "."
 
 
 # (key, label, format, worse is "low" or "high")
@@ -214,6 +246,8 @@ def main() -> None:
     print(text)
     if set(modes) == set(MODES):
         print(same_truth(rows))
+    for mode in modes:
+        print(by_hull_line(rows, mode))
     print(f"{len(rows)} scenes in {time.perf_counter() - t0:.0f} s")
     if held_out:
         save("heldout", {"summary": summary, "scenes": rows}, markdown(summary, rows, args.seconds))
@@ -231,6 +265,8 @@ def markdown(summary: dict[str, Any], rows: list[dict[str, Any]], seconds: float
         table(summary),
         "",
         "Each mode above is scored on the vessels its own sensors returned. " + same_truth(rows),
+        "",
+        by_hull_line(rows) + " " + by_hull_line(rows, "lidar"),
         "",
         "Per scene (fused; LiDAR-only and radar-only MOTA beside):",
         "",
