@@ -20,12 +20,12 @@ What a scene holds (drawn uniformly within the ranges unless said otherwise; SI 
   0.5-0.7 m high coming no closer to the own boat than 20-60 m; boats 4-15 m (6-80 m); ships 30-50 m (0-2 a scene,
   40-100 m); and 0-3 round mooring buoys 0.8-2 m across and 0.5-1.2 m high (5-60 m). Hulls: a USV's pointed 40 %,
   box 30 %, round 30 % (an inflatable's tubes); a boat's pointed 70 %, box 15 %, round 15 % (a RIB, a tender); a
-  ship's pointed. The closest approach is drawn log-uniformly, so near passes are as common as far ones; it is measured
-  from the own boat's reference point to the hull every 0.25 s over the scene. Every vessel not moored meets the
-  own boat around a drawn time as a crossing, overtaking or head-on encounter (relative to the own boat's course
-  then), or lies at anchor (a quarter of the USVs, a fifth of the boats, every buoy, no ship); under way at 0.5-4 m/s (USVs),
-  0.5-8 m/s (boats) or 1-6 m/s (ships), overtaking 1-3 m/s faster or slower than the own boat. Some turn 20-90 deg
-  before or after the encounter (35 % of the USVs and boats; 20 % of the ships, 20-45 deg);
+  ship's pointed. The closest approach is drawn log-uniformly, so near passes are as common as far ones; it is
+  measured from the own boat's reference point to the hull every 0.25 s over the scene. Every vessel not moored
+  meets the own boat around a drawn time as a crossing, overtaking or head-on encounter (relative to the own boat's
+  course then), or lies at anchor (a quarter of the USVs, a fifth of the boats, every buoy, no ship); under way at
+  0.5-4 m/s (USVs), 0.5-8 m/s (boats) or 1-6 m/s (ships), overtaking 1-3 m/s faster or slower than the own boat.
+  Some turn 20-90 deg before or after the encounter (35 % of the USVs and boats; 20 % of the ships, 20-45 deg);
 * the day: rain in 30 % of the scenes (2,000-15,000 drop returns a second out to 10-15 m, cutting the LiDAR's range
   from 100 m to as little as 40 m), bow spray growing with sea state and with the square of the own speed (30-690
   returns a second), LiDAR packet loss up to 0.05 in 30 % of the scenes, a laser or a return dropping out up to
