@@ -53,21 +53,20 @@ def test_cells_in_front_of_the_face_are_one_hull_and_land_behind_it_is_none() ->
     hull = np.column_stack([np.arange(5.0, 14.0, 0.3), np.full(30, 26.5)])  # 9 m long, 3.5 m in front
     land = np.column_stack([np.arange(-20.0, 0.0, 0.5), np.full(40, 35.0)])  # behind the face, away from the sensor
     fp = np.concatenate([wall, hull, land])
-    groups, axis, normal, _ = hull_cells(fp, ORIGIN, 0.8, 1.5, 1.5, 0.5)
+    groups = hull_cells(fp, ORIGIN, 0.8, 1.5, 1.5, 0.5)
     assert len(groups) == 1
-    assert sorted(groups[0].tolist()) == list(range(len(wall), len(wall) + len(hull)))
-    assert abs(axis[0]) == pytest.approx(1.0, abs=1e-3)  # the face runs north-south
-    assert normal[1] == pytest.approx(-1.0, abs=1e-3)  # towards the sensor, west
+    cells, face = groups[0]
+    assert sorted(cells.tolist()) == list(range(len(wall), len(wall) + len(hull)))
+    assert abs(face.axis[0]) == pytest.approx(1.0, abs=1e-3)  # the face runs north-south
+    assert face.normal[1] == pytest.approx(-1.0, abs=1e-3)  # towards the sensor, west
 
 
 def test_a_perpendicular_arm_or_a_shapeless_cluster_is_no_hull() -> None:
     wall = wall_cells()
     arm = np.column_stack([np.full(40, -10.0), np.arange(18.0, 30.0, 0.3)])  # a pier towards the sensor: thin along
-    groups, *_ = hull_cells(np.concatenate([wall, arm]), ORIGIN, 0.8, 1.5, 1.5, 0.5)
-    assert groups == []
+    assert hull_cells(np.concatenate([wall, arm]), ORIGIN, 0.8, 1.5, 1.5, 0.5) == []
     blob = np.random.default_rng(2).uniform(-10.0, 10.0, (400, 2)) + np.array([0.0, 40.0])  # rough shore: no face
-    groups, *_ = hull_cells(blob, ORIGIN, 0.8, 1.5, 1.5, 0.5)
-    assert groups == []
+    assert hull_cells(blob, ORIGIN, 0.8, 1.5, 1.5, 0.5) == []
 
 
 def run_with(objects: list[SyntheticObject], confirmed_only: bool = True, **structure: float) -> list:
@@ -150,3 +149,38 @@ def test_a_boat_only_ever_seen_merged_with_its_wall_stays_structure() -> None:
     """The other side of the rule: never carved, the boat's cells are remembered wall, and the boat alone on them
     is structure (an obstacle, no track): the hull memory, not the boat's own look, made the difference above."""
     assert boat_track_after_a_merged_scan(carved_first=False) == []
+
+
+def bent_quay(bend_deg: float, boat_from_kink_m: float) -> tuple[list[SyntheticObject], SyntheticObject]:
+    """The quay face running north at 30 m east up to a kink at 20 m north, then bent ``bend_deg`` towards the land
+    (east) for 40 m; a 10 x 3.5 m boat on 0.3 m fenders along the bent end, its centre ``boat_from_kink_m`` along."""
+    h = np.radians(bend_deg)
+    u, land = np.array([np.cos(h), np.sin(h)]), np.array([-np.sin(h), np.cos(h)])
+    kink = np.array([20.0, 30.0])
+    main = SyntheticObject((-20.0, 32.5), 0.0, 80.0, 5.0, 1.5)
+    bent = SyntheticObject(tuple(kink + 20.0 * u + 2.5 * land), h, 40.0, 5.0, 1.5)
+    boat = SyntheticObject(tuple(kink + boat_from_kink_m * u - (0.3 + 1.75) * land), h, 10.0, 3.5, 2.0)
+    return [main, bent], boat
+
+
+def test_a_boat_moored_on_a_bent_end_of_the_quay_is_a_track() -> None:
+    """A boat on a quay's end bent 20 deg towards the land stands behind the main face's line (up to 4.5 m here):
+    only the face bent off the main one's end shows it in front of its wall (tuning seed 78's missed boat)."""
+    walls, boat = bent_quay(20.0, 20.0)
+    tracks = run_with([*walls, boat])
+    assert len(tracks) == 1
+    assert tracks[0].position == pytest.approx(boat.center, abs=1.0)
+    assert tracks[0].length == pytest.approx(boat.length, abs=1.0)
+
+
+def test_a_bent_quay_alone_and_land_behind_a_broken_face_give_no_hull() -> None:
+    walls, _ = bent_quay(20.0, 20.0)
+    assert run_with(walls, confirmed_only=False) == []
+    # A straight face broken by the shadow of a boat in front of it, the quay's top seen behind it: the boat is
+    # the one hull; no face bent off the broken run's ends makes one of the land.
+    wall = wall_cells()
+    broken = wall[(wall[:, 0] < 4.0) | (wall[:, 0] > 15.0)]
+    hull = np.column_stack([np.arange(5.0, 14.0, 0.3), np.full(30, 26.5)])
+    top = np.array([(n, e) for n in np.arange(-30.0, 30.0, 1.5) for e in (32.0, 34.0)])
+    groups = hull_cells(np.concatenate([broken, hull, top]), ORIGIN, 0.8, 1.5, 1.5, 0.5)
+    assert [sorted(cells.tolist()) for cells, _ in groups] == [list(range(len(broken), len(broken) + len(hull)))]
