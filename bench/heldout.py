@@ -237,7 +237,8 @@ def main() -> None:
             rows.append(r)
             cells = [
                 f"{m} MOTA {f['mota']:.3f} IDF1 {f['idf1']:.3f} FP/match {f['false_track_frames']:.1%} "
-                f"false clear {f['false_clear_bins']} false obstacle {f['false_obstacle_share']:.2%}"
+                f"false clear {f['false_clear_bins']} false obstacle {f['false_obstacle_share']:.2%} "
+                f"id switches {f['id_switches']}"
                 for m, f in ((m, r[m]) for m in modes)
             ]
             print(f"seed {r['seed']}: " + " | ".join(cells) + f" | {r['description']}", flush=True)

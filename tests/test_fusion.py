@@ -91,6 +91,51 @@ def test_a_track_that_leaves_an_object_does_not_take_the_id_of_a_live_one() -> N
     assert [(tr.id, tr.source) for tr in out] == [(1, "lidar"), (9, "radar")]
 
 
+def coasting(tid: int, north: float, east: float) -> Track:
+    """A LiDAR track reported tentative while it coasts (the boat between two beams for a revolution)."""
+    return dataclasses.replace(track(tid, north, east, "lidar", 3.0, 1.2), confirmed=False, time_since_update=0.2)
+
+
+def cycle(ids: PublishedIds, t: float, lidar: list[Track], radar: list[Track]) -> list[tuple[int, str, bool]]:
+    """One cycle as the pipeline runs it: fuse, hold coasting partners, publish."""
+    out = ids.publish(t, ids.hold_coasting_partners(fuse_track_groups(lidar, radar, 3.0), 3.0))
+    return [(tr.id, tr.source, tr.confirmed) for tr in out]
+
+
+def test_a_radar_track_keeps_the_id_while_its_lidar_partner_coasts_tentative() -> None:
+    # A 3 m boat 35 m off: LiDAR track 4 and radar track 9 fused and sent as 4; the LiDAR loses the boat for two
+    # revolutions (its track coasts, reported tentative), the radar does not. The radar track is sent as 4 meanwhile,
+    # at its own position, and the LiDAR track's tentative row is not sent beside it: one object, one id throughout.
+    ids = PublishedIds()
+    lidar, radar = track(4, 35.0, 0.0, "lidar", 3.0, 1.2), track(9, 35.4, 0.3, "radar", 2.0, 1.5)
+    assert cycle(ids, 0.0, [lidar], [radar]) == [(4, "fused", True)]
+    assert cycle(ids, 0.1, [coasting(4, 35.0, 0.0)], [radar]) == [(4, "radar", True)]
+    assert cycle(ids, 0.2, [coasting(4, 35.0, 0.0)], [radar]) == [(4, "radar", True)]
+    assert cycle(ids, 0.3, [lidar], [radar]) == [(4, "fused", True)]
+
+
+def test_a_coasting_lidar_track_is_not_folded_into_a_stranger_or_a_far_radar_track() -> None:
+    # Radar track 9 was never sent with LiDAR track 4 (another boat); radar track 10 was, but has moved 8 m away
+    # (boxes 3 m and 2 m: reach 2.5 + 3 m): both stay their own objects, and the tentative LiDAR track is sent as it was.
+    ids = PublishedIds()
+    cycle(ids, 0.0, [track(4, 35.0, 0.0, "lidar", 3.0, 1.2)], [track(10, 35.0, 0.5, "radar", 2.0, 1.5)])
+    out = cycle(
+        ids,
+        0.1,
+        [coasting(4, 35.0, 0.0)],
+        [track(9, 35.5, 0.0, "radar", 2.0, 1.5), track(10, 43.0, 0.0, "radar", 2.0, 1.5)],
+    )
+    assert out == [(4, "lidar", False), (9, "radar", True), (10, "radar", True)]
+    # A LiDAR track tentative without coasting (seen this revolution: a quay piece) is left alone too.
+    ids = PublishedIds()
+    cycle(ids, 0.0, [track(4, 35.0, 0.0, "lidar", 3.0, 1.2)], [track(10, 35.0, 0.5, "radar", 2.0, 1.5)])
+    still = dataclasses.replace(coasting(4, 35.0, 0.0), time_since_update=0.0)
+    assert cycle(ids, 0.1, [still], [track(10, 35.0, 0.5, "radar", 2.0, 1.5)]) == [
+        (4, "lidar", False),
+        (10, "radar", True),
+    ]
+
+
 def test_an_id_unseen_for_longer_than_the_memory_is_forgotten() -> None:
     # Radar track 7 fused into LiDAR track 12 and sent as 7; the radar track ends, the LiDAR's stays 7. Once 7's
     # object has been gone for forget_s, a new object that happens to hold track 12 is sent as 12.

@@ -80,6 +80,50 @@ class PublishedIds:
         self._since.clear()
         self._seen.clear()
 
+    def same_object(self, a: int, b: int) -> bool:
+        """Tracks ``a`` and ``b`` were last published as one object (both still remembered)."""
+        return a in self._alias and b in self._alias and self._alias[a] == self._alias[b]
+
+    def hold_coasting_partners(
+        self, groups: list[tuple[Track, tuple[int, ...]]], gate_m: float
+    ) -> list[tuple[Track, tuple[int, ...]]]:
+        """``groups`` with each LiDAR track that coasts reported tentative folded into the confirmed radar track it
+        was last published with, when the two still lie within ``gate_m`` (their extents, as in fuse_track_groups).
+
+        A small boat the LiDAR loses for a few revolutions (between two beams, in a dropout) has its track reported
+        tentative while it coasts with an unsettled velocity; the radar track on the same boat then stood alone and,
+        the LiDAR track's id still being live, was published under its own id; when the LiDAR saw the boat again the
+        object took the LiDAR id back: two id switches for one boat the radar never lost. Folded in, the radar track
+        is published under the object's id meanwhile, with its own kinematics and source: the LiDAR track's coasting
+        position is where the boat was. A LiDAR track tentative for anything else (structure) is left alone."""
+        radar = [
+            k for k, (tr, members) in enumerate(groups) if tr.source == "radar" and tr.confirmed and members == (tr.id,)
+        ]
+        if not radar:
+            return groups
+        absorbed: dict[int, int] = {}  # radar group index -> the LiDAR track id it takes in
+        drop: set[int] = set()
+        for k, (lt, members) in enumerate(groups):
+            if lt.source != "lidar" or lt.confirmed or lt.time_since_update <= 0.0 or members != (lt.id,):
+                continue
+            for r in radar:
+                rt = groups[r][0]
+                if r in absorbed or not self.same_object(lt.id, rt.id):
+                    continue
+                reach = 0.5 * max(lt.length, lt.width) + 0.5 * max(rt.length, rt.width) + gate_m
+                if float(np.hypot(*(np.asarray(lt.position[:2]) - np.asarray(rt.position[:2])))) <= reach:
+                    absorbed[r] = lt.id
+                    drop.add(k)
+                    break
+        if not absorbed:
+            return groups
+        out = []
+        for k, (tr, members) in enumerate(groups):
+            if k in drop:
+                continue
+            out.append((tr, (*members, absorbed[k])) if k in absorbed else (tr, members))
+        return out
+
     def publish(self, t: float, groups: list[tuple[Track, tuple[int, ...]]]) -> list[Track]:
         """The objects of one cycle, in order, each with the id it is published under."""
         for i in [i for i, seen in self._seen.items() if t - seen > self.forget_s]:

@@ -447,7 +447,10 @@ class PerceptionPipeline:
             self._memory.reset()
         if s.keep_published_ids:
             members = {id(tr): m for tr, m in groups}
-            tracks = self._published.publish(t, [(tr, members[id(tr)]) for tr in tracks])
+            held_groups = self._published.hold_coasting_partners(
+                [(tr, members[id(tr)]) for tr in tracks], s.fusion_gate_m
+            )
+            tracks = self._published.publish(t, held_groups)
         tracks = report_second_tracks_tentative(tracks, s.second_track_gap_m, s.second_track_speed_difference_mps)
         if ego_ok and own is None:
             # No pose now: the trackers wait, and their tracks, frozen where they were last seen, are not news.
