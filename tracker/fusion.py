@@ -16,6 +16,11 @@ from tracker.line_of_sight import in_shadow
 from tracker.types import Track
 
 
+def _reach(track: Track) -> float:
+    """Half the larger side of a track's box: how far round its centre fusion takes it to extend."""
+    return 0.5 * max(track.length, track.width)
+
+
 def fuse_track_groups(
     lidar: list[Track],
     radar: list[Track],
@@ -35,8 +40,8 @@ def fuse_track_groups(
     lidar_pos = np.array([t.position for t in lidar]).reshape(-1, 2)
     radar_pos = np.array([r.position for r in radar]).reshape(-1, 2)
     d = np.hypot(*(radar_pos[None, :, :] - lidar_pos[:, None, :]).transpose(2, 0, 1))  # (L, R)
-    lidar_reach = np.array([0.5 * max(t.length, t.width) for t in lidar])
-    radar_reach = np.array([0.5 * max(r.length, r.width) for r in radar])
+    lidar_reach = np.array([_reach(t) for t in lidar])
+    radar_reach = np.array([_reach(r) for r in radar])
     ok = d <= lidar_reach[:, None] + radar_reach[None, :] + gate_m
     if sensor_ne is not None and shadow_m > 0:
         ok |= in_shadow(lidar_pos, lidar_reach, radar_pos, sensor_ne, shadow_m, gate_m)
@@ -110,7 +115,7 @@ class PublishedIds:
                 rt = groups[r][0]
                 if r in absorbed or not self.same_object(lt.id, rt.id):
                     continue
-                reach = 0.5 * max(lt.length, lt.width) + 0.5 * max(rt.length, rt.width) + gate_m
+                reach = _reach(lt) + _reach(rt) + gate_m
                 if float(np.hypot(*(np.asarray(lt.position[:2]) - np.asarray(rt.position[:2])))) <= reach:
                     absorbed[r] = lt.id
                     drop.add(k)
