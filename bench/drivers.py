@@ -27,11 +27,11 @@ from bench._common import no_options, save
 from bench.cycle import ring_scene
 from drivers.awr1843.parser import RadarFrameParser, encode_frame
 from drivers.vlp16.decoder import ScanAssembler
-from drivers.vlp16.packet import PACKET_PERIOD_US, encode_data_packet
+from drivers.vlp16.packet import PACKET_PERIOD_US, PACKETS_PER_S, encode_data_packet
 from drivers.vlp16.udp_source import VelodyneUdpSource
 from simulator.lidar_model import Vlp16Model
 
-SENSOR_RATE = 1e6 / PACKET_PERIOD_US  # 753.5 packets/s
+SENSOR_RATE = PACKETS_PER_S
 
 
 def simulated_packets(seconds: float) -> list[bytes]:

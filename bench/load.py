@@ -46,7 +46,7 @@ from bench._common import RESULTS, save
 from bench._proc import Sampler, summarise, udp_socket
 from bench._udp_senders import replay_capture, send_junk
 from daemon.demo import free_udp_port, simulation_settings
-from drivers.vlp16.packet import PACKET_PERIOD_US, encode_data_packet, encode_position_packet
+from drivers.vlp16.packet import PACKETS_PER_S, encode_data_packet, encode_position_packet
 from drivers.vlp16.pcap import PcapWriter
 from simulator.capture import mounts_toml
 from simulator.lidar_model import Vlp16Model
@@ -61,7 +61,7 @@ JUNK_LEAD_S = 2.0  # the junk is heard before the first LiDAR packet
 SENDER_START_S = 5.0  # for the sender processes to start and read the capture into memory
 SECONDS = 60.0
 RANDOM_SEED = 28  # a tuning seed (1-100), drawn for 120 s: 19 vessels, two quays, heavy rain, no LiDAR packet loss
-SENSOR_RATE = 1e6 / PACKET_PERIOD_US
+SENSOR_RATE = PACKETS_PER_S
 
 
 def crowd_scene(n_lanes: int = 10, per_lane: int = 5, seed: int = 0) -> Scene:

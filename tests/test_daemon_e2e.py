@@ -25,7 +25,7 @@ from daemon import heap
 from daemon.config import Config
 from daemon.demo import config_for_simulation, free_udp_port, simulation_settings
 from daemon.runner import RunningDaemon, StartupError, start_daemon
-from drivers.vlp16.packet import PACKET_PERIOD_US
+from drivers.vlp16.packet import PACKETS_PER_S
 from simulator.autopilot import SimAutopilot
 from simulator.run import SimulationRun
 from simulator.scene import OwnBoat, Scene, Trajectory, Vessel
@@ -35,7 +35,6 @@ BEARING = math.radians(30.0)
 NEAR_FACE_M = 18.75
 # The bin holds the NEAREST of ~100 returns on the face, each with 2 cm range noise: 5-8 cm short of the face.
 NEAR_TOL_CM = 15
-VLP16_PACKETS_PER_S = 1e6 / PACKET_PERIOD_US  # 753.5
 # Below this share of the sensor's packet rate the simulated LiDAR is not keeping real time (its sender process is
 # starved of CPU): the packets reach the daemon too late to be fresh, as a real sensor's never would.
 LIDAR_REAL_TIME_SHARE = 0.9
@@ -84,7 +83,7 @@ def test_obstacle_distance_reaches_autopilot_at_10_hz_with_the_vessel_in_its_bin
         assert wait_for(lambda: len(ap.obstacle_distances()) >= 10)
         sent_before = sim.packets_sent
         time.sleep(2.0)
-        lidar_share = (sim.packets_sent - sent_before) / (2.0 * VLP16_PACKETS_PER_S)
+        lidar_share = (sim.packets_sent - sent_before) / (2.0 * PACKETS_PER_S)
         msgs = ap.obstacle_distances()
         recent = [m for m in msgs if m.host_time >= msgs[-1].host_time - 2.0]
         assert 15 <= len(recent) <= 25, len(recent)  # 10 Hz over 2 s (a loaded CI machine may slip a tick)

@@ -8,14 +8,12 @@ import time
 
 import pytest
 
-from drivers.vlp16.packet import DATA_PACKET_SIZE
+from drivers.vlp16.packet import DATA_PACKET_SIZE, PACKETS_PER_S
 from simulator.lidar_sender import LidarSenderProcess, SenderTarget
 from simulator.scene import OwnBoat, Scene, Trajectory
 
 # Real sockets and a child process in real time on a machine that may be busy: retried once.
 pytestmark = pytest.mark.flaky(reruns=1)
-
-PACKETS_PER_S = 1e6 / 1327.2  # 24 firings x 55.296 us per data packet
 
 
 def _count_for(sock: socket.socket, seconds: float) -> int:

@@ -55,6 +55,7 @@ FIRING_INTERVAL_US = 2.304  # one laser
 SEQUENCE_US = 55.296  # 16 firings + recharge
 PACKET_PERIOD_US = 1327.104  # 24 sequences, single-return modes
 PACKET_PERIOD_DUAL_US = 663.552  # 12 sequences, dual-return mode
+PACKETS_PER_S = 1e6 / PACKET_PERIOD_US  # 753.5 data packets a second, single-return modes
 MICROSECONDS_PER_HOUR = 3_600_000_000
 
 # --- lasers (spec section 3), indexed by laser id = channel mod 16 ------------------------------------
