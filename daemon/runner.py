@@ -190,7 +190,7 @@ def pipeline_for(config: Config) -> PerceptionPipeline:
         lidar_mount=config.lidar.mount.to_mount(),
         min_obstacle_height_m=config.output.min_obstacle_height_m,
         clear_inner_m=config.output.clear_inner_m or None,
-        lidar_origin_height_above_water_m=-config.boat.water_z_m,
+        lidar_origin_height_above_water_m=config.boat.water_z_m,
         radar_height_m=config.boat.water_z_m - config.radar.mount.z,
     )
     lidar, radar, preprocess = tracker_factories(config)

@@ -56,7 +56,7 @@ def lidar_tracker_table(config: Any) -> dict[str, Any]:
         "preprocess": {
             # own box in body FRD; z from 3 m above the water line down to it
             "own_box": [b.stern_m, b.bow_m, b.port_m, b.starboard_m, b.water_z_m - 3.0, b.water_z_m + 0.5],
-            "origin_height_above_water": -b.water_z_m,
+            "origin_height_above_water": b.water_z_m,  # z down: a waterline below the origin is a positive z
             "min_range": config.lidar.min_range_m,
             "max_range": config.lidar.max_range_m,
             "water": {"margin_floor": config.output.min_height_above_water_m},

@@ -137,7 +137,7 @@ class PipelineSettings:
     # would have been returned all the way from clear_inner_m (None: min_distance_m) out to max_distance_m.
     min_obstacle_height_m: float = 0.5
     clear_inner_m: float | None = None
-    lidar_origin_height_above_water_m: float = 0.0  # body origin above the waterline: -[boat] water_z_m
+    lidar_origin_height_above_water_m: float = 0.0  # body origin above the waterline: [boat] water_z_m (z down)
     radar_height_m: float = 0.9  # radar above the waterline
     # Half the AWR1843BOOST's elevation beam: a low solid nearer than (height - obstacle) / tan(this) passes under it.
     radar_half_vfov_rad: float = np.radians(15.0)
