@@ -25,7 +25,7 @@ class FixedRadarTracks:
     def shore_points(self) -> np.ndarray:
         return np.empty((0, 2))
 
-    def shore_returns_body(self) -> np.ndarray:
+    def shore_returns_world(self) -> np.ndarray:
         return np.empty((0, 2))
 
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from drivers.frames import EgoPose, LidarScan, RadarFrame
 from drivers.mount import Mount
-from tracker.ego import sample_poses, world_to_body_2d
+from tracker.ego import body_to_world_2d, sample_poses, world_to_body_2d
 from tracker.fusion import PublishedIds, fuse_track_groups, report_second_tracks_tentative
 from tracker.lidar.coverage import (
     BIN_CENTRES,
@@ -33,7 +33,14 @@ from tracker.lidar.coverage import (
 )
 from tracker.lidar.hull_gate import on_tracked_hulls
 from tracker.lidar.water import WaterEstimate, WaterSurface
-from tracker.obstacle_map import SensorCoverage, bearing_bins, build_obstacle_distances, outline_points
+from tracker.obstacle_map import (
+    SensorCoverage,
+    bearing_bins,
+    build_obstacle_distances,
+    nearest_beside_edges,
+    nearest_per_bin,
+    outline_points,
+)
 from tracker.obstacle_memory import ObstacleMemory
 from tracker.types import Track
 
@@ -83,8 +90,8 @@ class RadarTrackerRole(Protocol):
         """(k, 2) world N/E of the shore contour the tracker keeps."""
         ...
 
-    def shore_returns_body(self) -> np.ndarray:
-        """(m, 2) body fwd/stbd of the last frame's returns judged shore."""
+    def shore_returns_world(self) -> np.ndarray:
+        """(m, 2) world N/E of the last frame's returns judged shore."""
         ...
 
 
@@ -252,7 +259,9 @@ class PerceptionPipeline:
         # newest revolution's solid returns: world (north, east) with the pose at the sweep's end, or body
         # (fwd, stbd) with None when the sweep's poses were unknown
         self._lidar_solid: tuple[np.ndarray, tuple[np.ndarray, float] | None] = (np.empty((0, 2)), None)
-        self._radar_solid = np.empty((0, 2))  # newest radar frame's solid returns
+        # newest radar frame's solid returns and all its returns, placed as the LiDAR's are (_lidar_solid)
+        self._radar_solid: tuple[np.ndarray, tuple[np.ndarray, float] | None] = (np.empty((0, 2)), None)
+        self._radar_returns: tuple[np.ndarray, tuple[np.ndarray, float] | None] = (np.empty((0, 2)), None)
         self._radar_tracked = True  # the newest radar frame went through the tracker (not: no pose for it)
         self._epoch: int | None = None
         self.lidar_tracker = self.lidar_tracker_factory() if self.lidar_tracker_factory else None
@@ -330,7 +339,9 @@ class PerceptionPipeline:
                 self._lidar_solid, n_lidar = _timed(timings, "lidar", lambda: self._lidar(scan, ego, ego_ok))
         for frame in radar_frames:
             self._last_radar_t = max(self._last_radar_t, frame.stamp)
-            self._radar_solid = _timed(timings, "radar", lambda f=frame: self._radar(f, ego, ego_ok))
+            self._radar_solid, self._radar_returns = _timed(
+                timings, "radar", lambda f=frame: self._radar(f, ego, ego_ok)
+            )
             n_radar += frame.n_points
         # A tick with no new revolution (10 Hz sensor, 10 Hz loop: jitter) still reports what the newest one saw;
         # the returns are dropped with the sensor's freshness, never reused beyond it.
@@ -338,9 +349,9 @@ class PerceptionPipeline:
         radar_fresh = t - self._last_radar_t <= self.freshness_s
         own = _pose_now(ego, ego_ok, t)
         if lidar_fresh:
-            solid.append(self._lidar_solid_body(own))
+            solid.append(_at_tick(self._lidar_solid, own))
         if radar_fresh:
-            solid.append(self._radar_speaks(self._radar_solid, lidar_fresh))
+            solid.append(self._radar_speaks(_at_tick(self._radar_solid, own), lidar_fresh))
 
         # A sensor that stopped delivering takes its tracks with it: a LiDAR track frozen at its last update would
         # otherwise absorb the radar's live track of the same boat, and the boat would drop out of the array.
@@ -411,7 +422,12 @@ class PerceptionPipeline:
                 if len(shore):
                     solid.append(self._radar_speaks(world_to_body_2d(shore, own[0][:2], own[3]), lidar_fresh))
 
-        clear_to = _timed(timings, "coverage", lambda: self._clear_to(lidar_fresh, radar_fresh and self._radar_tracked))
+        radar_vouches = radar_fresh and self._radar_tracked
+        clear_to = _timed(
+            timings,
+            "coverage",
+            lambda: self._clear_to(lidar_fresh, _at_tick(self._radar_returns, own) if radar_vouches else None),
+        )
         distances = _timed(
             timings,
             "obstacle_map",
@@ -497,19 +513,25 @@ class PerceptionPipeline:
         self._skipped.append(sensor)
         return False
 
-    def _clear_to(self, lidar_fresh: bool, radar_fresh: bool) -> np.ndarray:
+    def _clear_to(self, lidar_fresh: bool, radar_returns: np.ndarray | None) -> np.ndarray:
         """(72,) m per bin out to which the live sensors vouch for "no solid": the union of the LiDAR's beam bands
         and the radar's field of view, walked outward without a gap from the inner edge; judged at three bearings
-        per bin, the worst kept."""
+        per bin, the worst kept. ``radar_returns`` (n, 2) body fwd/stbd at the tick of the radar's newest frame, or
+        None when the radar does not vouch (silent, or its frame could not be placed).
+
+        The radar vouches in a bin only out to its nearest return there (or beside the bin's edge): its returns
+        reach the array only as confirmed tracks and shore, so a hull it returned but has not yet confirmed would
+        otherwise be sent as clear water (spec: never "clear" where a solid may lie)."""
         s = self.settings
         los, his = [], []
         if lidar_fresh:
             los.append(self._lidar_bands[0])
             his.append(self._lidar_bands[1])
-        if radar_fresh:
+        if radar_returns is not None:
             lo, hi = _radar_band(s)
+            returned = np.minimum(nearest_per_bin(radar_returns), nearest_beside_edges(radar_returns, s.bin_edge_m))
             los.append(lo)
-            his.append(hi)
+            his.append(np.minimum(hi, np.repeat(returned, SUB_BEARINGS.size)[:, None]))
         if not los:
             return np.zeros(72)
         inner = s.min_distance_m if s.clear_inner_m is None else s.clear_inner_m
@@ -608,33 +630,31 @@ class PerceptionPipeline:
         # without the sweep's poses, preprocess placed the returns in the body frame (zero pose)
         return (solid, (own_pos, own_yaw) if track_points is not None else None), int(solid.shape[0])
 
-    def _lidar_solid_body(self, own: tuple[np.ndarray, float, float, float] | None) -> np.ndarray:
-        """The newest revolution's solid returns in the body frame (fwd, stbd) of the boat at the tick (``own``, its
-        pose then): the obstacle array's bearings are the heading's when it is sent, not the sweep's end, up to
-        0.1 s and a turning boat's degree earlier."""
-        points, at_sweep_end = self._lidar_solid
-        if at_sweep_end is None:
-            return points
-        pos, yaw = (own[0][:2], own[3]) if own is not None else at_sweep_end
-        return world_to_body_2d(points, pos, yaw)
-
     # ---- radar ----------------------------------------------------------------------------------------------
-    def _radar(self, frame: RadarFrame, ego: EgoSource | None, ego_ok: bool) -> np.ndarray:
+    def _radar(
+        self, frame: RadarFrame, ego: EgoSource | None, ego_ok: bool
+    ) -> tuple[tuple[np.ndarray, tuple[np.ndarray, float] | None], tuple[np.ndarray, tuple[np.ndarray, float] | None]]:
+        """The frame's solid returns and all its returns, each as world (north, east) with the frame's pose (position,
+        yaw), or as body (fwd, stbd) with None when there is no pose to place them with (_at_tick turns either into
+        the body frame at the tick: a boat turning 30 deg/s turns 3 deg between a frame and the next tick)."""
         finite = np.all(np.isfinite(frame.xyz), axis=1)
-        if self.radar_tracker is None:
-            return frame.xyz[finite][:, :2]
         pose = ego.at(frame.stamp) if ego_ok and ego is not None else None
+        returns_body = frame.xyz[finite][:, :2]
+        at = None if pose is None else (np.asarray(pose.position, float)[:2], float(pose.yaw))
+        returns = (returns_body, None) if at is None else (body_to_world_2d(returns_body, *at), at)
+        if self.radar_tracker is None:
+            return returns, returns
         if ego_ok and pose is None:
             # The pose is lost (autopilot silent): the tracker cannot place the frame, and the radar's raw returns
             # are mostly sea clutter; as obstacles they filled the bins near the boat (9 a tick instead of 0.3),
             # and the radar cannot vouch for "clear" either. Its bearings are unknown until the pose is back.
             self.skipped_no_pose += 1
             self._radar_tracked = False
-            return np.empty((0, 2))
+            return (np.empty((0, 2)), None), returns
         self._radar_tracked = True
         if not self._may_track("radar"):
             # the frame's raw returns are mostly sea clutter near the boat: the shore and tracks as they were
-            return self._radar_solid
+            return self._radar_solid, returns
         t0 = time.perf_counter()
         self._radar_tracks = self.radar_tracker.step_frame(frame, pose)
         self._cost["radar"].measured(time.perf_counter() - t0)
@@ -642,7 +662,8 @@ class PerceptionPipeline:
         # where they are shore. A raw cluster is not enough: with the AWR1843's 3-10 returns per boat, clusters of
         # 3 returns are needed for tracking, and sea clutter near the boat forms such clusters every few frames.
         # A false obstacle stops the boat, so a radar vessel must first earn a confirmed track (0.3 s).
-        return self.radar_tracker.shore_returns_body()
+        # Without a pose the tracker's world is the body frame of the frame.
+        return (self.radar_tracker.shore_returns_world(), at), returns
 
 
 def _no_bands() -> tuple[np.ndarray, np.ndarray]:
@@ -715,6 +736,21 @@ def _swept_many(tracks: list[Track], own: tuple[np.ndarray, float, float, float]
         return np.zeros(0, dtype=bool)
     body = world_to_body_2d(np.array([tr.position for tr in tracks]), own[0][:2], own[3])
     return swept[bearing_bins(body)]
+
+
+def _at_tick(
+    placed: tuple[np.ndarray, tuple[np.ndarray, float] | None], own: tuple[np.ndarray, float, float, float] | None
+) -> np.ndarray:
+    """A sensor's returns in the body frame (fwd, stbd) of the boat at the tick (``own``, its pose then), from world
+    (north, east) with the pose they were measured at, or as they are when they came without one (body). The
+    obstacle array's bearings are the heading's when it is sent, not the measurement's, up to 0.1 s (a frame
+    period; 0.5 s while a sensor drops frames) and a turning boat's degrees earlier. Without a pose at the tick,
+    the measurement's own."""
+    points, at = placed
+    if at is None:
+        return points
+    pos, yaw = (own[0][:2], own[3]) if own is not None else at
+    return world_to_body_2d(points, pos, yaw)
 
 
 def _pose_now(ego: EgoSource | None, ego_ok: bool, t: float) -> tuple[np.ndarray, float, float, float] | None:

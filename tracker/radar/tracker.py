@@ -153,9 +153,9 @@ class RadarTracker:
         """(k, 2) world N/E of the shore contour, to keep quays in the obstacle map."""
         return self.detector.static_map.shore_points()
 
-    def shore_returns_body(self) -> np.ndarray:
-        """(m, 2) body fwd/stbd of the last frame's returns in clusters judged shore (on it or behind it)."""
-        shore = [c.points_body[:, :2] for c in self.last_clusters if c.shore != SHORE_KEEP]
+    def shore_returns_world(self) -> np.ndarray:
+        """(m, 2) world N/E of the last frame's returns in clusters judged shore (on it or behind it)."""
+        shore = [c.points for c in self.last_clusters if c.shore != SHORE_KEEP]
         return np.concatenate(shore) if shore else np.empty((0, 2))
 
     def reset(self) -> None:
