@@ -78,6 +78,38 @@ class Mount:
         """Directions (unit vectors, velocities) from sensor-FRD to body FRD: rotation only."""
         return vectors @ self._rotation.T
 
+    @property
+    def level(self) -> bool:
+        """No roll or pitch: sensor azimuths and body bearings differ by the yaw alone."""
+        return self.roll == 0.0 and self.pitch == 0.0
+
+    @property
+    def mirrored(self) -> bool:
+        """Mounted upside down (the sensor's down axis points up in the body): its clockwise sweep is
+        anticlockwise seen from the boat."""
+        return bool(self._rotation[2, 2] < 0.0)
+
+    def body_bearings(self, sensor_azimuth: np.ndarray) -> np.ndarray:
+        """Body bearing (rad, clockwise from the bow) of the sensor's horizontal direction at each sensor-FRD azimuth
+        (rad, clockwise from the sensor's forward): through the whole rotation, so an upside-down sensor's azimuth
+        85 deg is the bearing -85 deg. A tilted mount's directions are projected on the body's horizontal plane."""
+        az = np.asarray(sensor_azimuth, float)
+        if self.level:
+            return az + self.yaw
+        r = self._rotation
+        c, s = np.cos(az), np.sin(az)
+        return np.arctan2(r[1, 0] * c + r[1, 1] * s, r[0, 0] * c + r[0, 1] * s)
+
+    def sensor_azimuths(self, body_bearing: np.ndarray) -> np.ndarray:
+        """Sensor-FRD azimuth (rad) that points along each body bearing (rad): body_bearings inverted (exactly for a
+        level or upside-down mount; for a tilted one, the body direction projected on the sensor's plane)."""
+        b = np.asarray(body_bearing, float)
+        if self.level:
+            return b - self.yaw
+        r = self._rotation  # sensor -> body; its transpose takes the body direction into the sensor frame
+        c, s = np.cos(b), np.sin(b)
+        return np.arctan2(r[0, 1] * c + r[1, 1] * s, r[0, 0] * c + r[1, 0] * s)
+
 
 # Fixed axis maps from manufacturers' native frames to sensor-FRD. Both are proper rotations.
 # velodyne-decoder returns ROS FLU (x forward, y left, z up): FRD = (x, -y, -z).

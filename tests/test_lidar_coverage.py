@@ -82,10 +82,28 @@ def test_a_lost_packet_leaves_its_bins_unswept() -> None:
     step = math.radians(360.0 / 75.4)  # 600 rpm: a packet sweeps 4.77 deg
     starts = np.arange(76) * step
     sweeps = np.stack([starts, np.full(76, step)], axis=1)
-    assert swept_bins(sweeps, 0.0).all()
+    assert swept_bins(sweeps, Mount()).all()
     lost = np.delete(sweeps, 10, axis=0)  # the packet from 47.7 to 52.5 deg
-    swept = swept_bins(lost, 0.0)
+    swept = swept_bins(lost, Mount())
     assert np.flatnonzero(~swept).tolist() == [10]  # bin 10 spans 47.5-52.5 deg
+
+
+def test_an_upside_down_lidar_sweeps_and_fires_the_other_way_round() -> None:
+    # Hung under an arch (roll 180 deg), the sensor's azimuth 50 deg points 50 deg to port: the lost packet's bin
+    # is bin 62 (-50 deg), and the beams judged toward a bearing fire along it. Before, both used the sensor's
+    # azimuth as the bearing (bin 10, and beams toward -b).
+    mount = Mount.from_degrees(z=-1.6, roll=180.0)
+    step = math.radians(360.0 / 75.4)
+    sweeps = np.stack([np.arange(76) * step, np.full(76, step)], axis=1)
+    assert np.flatnonzero(~swept_bins(np.delete(sweeps, 10, axis=0), mount)).tolist() == [62]
+    bearings = np.radians([0.0, 30.0, -85.0, 170.0])
+    _, origin_up = beam_elevations_level(bearings, np.zeros(4), np.zeros(4), mount)
+    np.testing.assert_allclose(origin_up, 1.6, atol=1e-12)
+    from tracker.lidar.coverage import _beam_directions_body
+
+    d = _beam_directions_body(np.ascontiguousarray(bearings).tobytes(), mount)
+    fired = np.arctan2(d[..., 1], d[..., 0])
+    np.testing.assert_allclose(np.angle(np.exp(1j * (fired - bearings[:, None]))), 0.0, atol=1e-9)
 
 
 def _one_revolution(walls, pitch_deg: float = 0.0, rain: tuple[int, float, int] | None = None):

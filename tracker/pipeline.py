@@ -697,7 +697,7 @@ def beams_of(
         pitch_bin = np.nan_to_num(np.bincount(point_bin, weights=pitch, minlength=72) / count)
     live = count > 0
     if scan.packet_sweeps is not None:
-        live &= swept_bins(scan.packet_sweeps, s.lidar_mount.yaw)
+        live &= swept_bins(scan.packet_sweeps, s.lidar_mount)
     return BeamGeometry.at_bins(roll_bin, pitch_bin, s.lidar_mount), live, point_bin
 
 

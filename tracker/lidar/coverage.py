@@ -55,9 +55,9 @@ def _beam_directions_body(bearings_key: bytes, mount: Mount) -> np.ndarray:
     """(B, 16, 3) body-frame direction of each beam fired toward each body bearing (``bearings_key``: the float64
     bearings' bytes): the same every revolution for the same bearings, so computed once."""
     b = np.frombuffer(bearings_key, dtype=float)
-    # The sensor azimuth that points along body bearing b: through the mount's yaw (its roll and pitch tilt the
-    # beams, which the full rotation below carries; the azimuth shift they add is a fraction of a degree).
-    az = b - mount.yaw  # sensor-FRD azimuth, clockwise
+    # The sensor azimuth that points along body bearing b (an upside-down sensor sweeps the other way round; a
+    # tilted one's roll and pitch tilt the beams, which the full rotation below carries).
+    az = mount.sensor_azimuths(b)  # sensor-FRD azimuth, clockwise
     cos_e, sin_e = np.cos(LASER_ELEVATION_RAD), np.sin(LASER_ELEVATION_RAD)
     # sensor FLU direction of a firing at FRD azimuth az: (cos e cos az, -cos e sin az, sin e)
     d_flu = np.stack(
@@ -153,12 +153,14 @@ class BeamGeometry:
         return elevation, self.origin_up + origin_height_above_water - water.offset
 
 
-def swept_bins(packet_sweeps: np.ndarray, mount_yaw: float, min_share: float = 0.95) -> np.ndarray:
+def swept_bins(packet_sweeps: np.ndarray, mount: Mount, min_share: float = 0.95) -> np.ndarray:
     """(72,) bool: bins whose bearings the received packets swept (at least ``min_share`` of each). A lost packet
-    leaves 4.8 deg unmeasured. Sensor azimuths are clockwise from the sensor's forward; body bearing = azimuth +
-    the mount's yaw."""
+    leaves 4.8 deg unmeasured. ``packet_sweeps`` (n, 2): each packet's first sensor azimuth and the azimuth it swept
+    (rad, clockwise from the sensor's forward); the mount turns them into body bearings (Mount.body_bearings: an
+    upside-down sensor's sweep runs anticlockwise, so it starts at its last azimuth seen from the boat)."""
     cells = 3600  # 0.1 deg
-    start = np.floor(np.mod(packet_sweeps[:, 0] + mount_yaw, 2 * np.pi) * (cells / (2 * np.pi))).astype(np.int64)
+    first = packet_sweeps[:, 0] + packet_sweeps[:, 1] if mount.mirrored else packet_sweeps[:, 0]
+    start = np.floor(np.mod(mount.body_bearings(first), 2 * np.pi) * (cells / (2 * np.pi))).astype(np.int64)
     length = np.ceil(np.clip(packet_sweeps[:, 1], 0.0, 2 * np.pi) * (cells / (2 * np.pi))).astype(np.int64)
     # +1 where a packet's sweep starts, -1 where it ends: counts, so exact in floats whatever the order of sums
     ends = np.minimum(start + length, 2 * cells)
