@@ -4,10 +4,13 @@ companion, a telemetry gap), so the pose history reaches only the first part of 
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 
+from daemon.config import Config
+from daemon.runner import pipeline_for
 from drivers.mount import Mount
 from tests.sea_geometry import SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
 from tracker.obstacle_map import UNKNOWN, bearing_bins
@@ -109,3 +112,28 @@ def test_with_the_pose_lost_the_radar_puts_no_raw_return_in_the_bins_and_its_tra
     assert np.all(out.distances_cm == UNKNOWN)  # no raw return as an obstacle
     assert not out.pose_known  # so the daemon's loop withholds the array (tests/test_change_notices.py)
     assert out.tracks and not any(tr.confirmed for tr in out.tracks)
+
+
+def test_with_the_pose_lost_over_a_calm_sea_the_lidar_vouches_for_nothing() -> None:
+    """Found in review: with the attitude unknown, the beams were placed for a level boat. Heeled 5 deg to
+    starboard, the starboard beams meet the water sooner than that; with clear sent out to 11 m from 4.2 m (beyond
+    the lowest beam's gap), the level bands vouched all 72 bearings. Over a calm sea (no water returns, so no
+    surface fit to stand in for the attitude) nothing may be vouched until a pose is back."""
+    config = Config()
+    config.lidar.mount.z = MOUNT.z
+    config.radar.enabled = False
+    config.output.clear_inner_m, config.output.max_distance_m = 4.2, 11.0
+    ring = np.radians(np.arange(0.0, 361.0, 7.5))
+    corners = np.column_stack([30.0 * np.cos(ring), 30.0 * np.sin(ring)])
+    walls = tuple((tuple(a), tuple(b), 2.0) for a, b in itertools.pairwise(corners.tolist()))
+
+    def heeled(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.full(np.shape(t), math.radians(5.0)), np.zeros(np.shape(t))
+
+    ret = revolution_over_water(MOUNT, heeled, yaw=YAW, walls=walls, water_returns=False)
+    assert set(bearing_bins(ret.xyz_body[:, :2]).tolist()) == set(range(72))  # every bearing returned: live
+    known = pipeline_for(config).step(0.1, scan_of(ret, 0.1), [], SteadyEgo(heeled, YAW))
+    assert np.count_nonzero(known.clear_to_m > 0) >= 30  # with its attitude the LiDAR does vouch, on the high side
+    lost = pipeline_for(config).step(0.1, scan_of(ret, 0.1), [], LateEgo(until=-1.0))
+    assert lost.clear_to_m.max() == 0.0
+    assert np.all(lost.distances_cm != 1101)  # no bin sent as clear

@@ -614,6 +614,11 @@ class PerceptionPipeline:
             own_pos, own_yaw = np.asarray(pos, float).reshape(-1, 3)[-1, :2], float(np.ravel(yaw)[-1])
         solid = np.concatenate([pre.points_world[:, :2], pre.feet_world[:, :2]])
         self._lidar_bands = lidar_bands(beams, live, pre.water, self.settings)
+        if not known.all() and pre.water.t != scan.stamp:
+            # The attitude is unknown and no water surface was measured this revolution to stand in for it: a boat
+            # heeled 5 deg has its beams meet the water nearer than a level one's on the low side, so the level
+            # bands would vouch ranges no beam covered. Nothing is vouched for until a pose or a fit is back.
+            self._lidar_bands = _no_bands()
         if self.lidar_tracker is not None and track_points is not None and self._may_track("lidar"):
             t0 = time.perf_counter()
             self._lidar_tracks = self.lidar_tracker.step(
