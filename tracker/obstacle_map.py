@@ -46,9 +46,12 @@ def bearing_bins(points_fwd_stbd: np.ndarray) -> np.ndarray:
     return _bins_of(np.arctan2(points_fwd_stbd[:, 1], points_fwd_stbd[:, 0])).astype(np.int64)
 
 
-def nearest_per_bin(points_fwd_stbd: np.ndarray) -> np.ndarray:
-    """(72,) nearest horizontal range in metres per bin (inf where no point)."""
-    return _BinnedPoints(points_fwd_stbd).nearest()
+def nearest_per_bin(points_fwd_stbd: np.ndarray, edge_m: float = 0.0) -> np.ndarray:
+    """(72,) nearest horizontal range in metres per bin (inf where no point); with ``edge_m``, counting also the
+    points of its two neighbours that lie within ``edge_m`` of its edge, across the line of sight."""
+    binned = _BinnedPoints(points_fwd_stbd)
+    nearest = binned.nearest()
+    return np.minimum(nearest, binned.beside(edge_m, np.ones(N_BINS, dtype=bool))) if edge_m > 0.0 else nearest
 
 
 def nearest_beside_edges(points_fwd_stbd: np.ndarray, edge_m: float) -> np.ndarray:

@@ -37,7 +37,6 @@ from tracker.obstacle_map import (
     SensorCoverage,
     bearing_bins,
     build_obstacle_distances,
-    nearest_beside_edges,
     nearest_per_bin,
     outline_points,
 )
@@ -62,6 +61,11 @@ class EgoSource(Protocol):
     def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]: ...
 
     def at(self, t: float) -> EgoPose | None: ...
+
+
+# A sensor's returns as world (north, east) with the pose (position, yaw) they were measured at, or as body
+# (fwd, stbd) with None when there was no pose to place them with; _at_tick puts either in the tick's body frame.
+Placed = tuple[np.ndarray, tuple[np.ndarray, float] | None]
 
 
 class LidarTrackerRole(Protocol):
@@ -256,12 +260,11 @@ class PerceptionPipeline:
         self._last_radar_t = -np.inf
         self._lidar_coverage = SensorCoverage(0.0, 2 * np.pi, self.settings.lidar_max_range_m)
         self._lidar_bands = _no_bands()  # newest revolution's beam bands per bearing (lo, hi)
-        # newest revolution's solid returns: world (north, east) with the pose at the sweep's end, or body
-        # (fwd, stbd) with None when the sweep's poses were unknown
-        self._lidar_solid: tuple[np.ndarray, tuple[np.ndarray, float] | None] = (np.empty((0, 2)), None)
-        # newest radar frame's solid returns and all its returns, placed as the LiDAR's are (_lidar_solid)
-        self._radar_solid: tuple[np.ndarray, tuple[np.ndarray, float] | None] = (np.empty((0, 2)), None)
-        self._radar_returns: tuple[np.ndarray, tuple[np.ndarray, float] | None] = (np.empty((0, 2)), None)
+        # the newest revolution's solid returns (placed with the pose at the sweep's end), the newest radar frame's
+        # solid returns and all its returns (with the frame's pose)
+        self._lidar_solid: Placed = (np.empty((0, 2)), None)
+        self._radar_solid: Placed = (np.empty((0, 2)), None)
+        self._radar_returns: Placed = (np.empty((0, 2)), None)
         self._radar_tracked = True  # the newest radar frame went through the tracker (not: no pose for it)
         self._epoch: int | None = None
         self.lidar_tracker = self.lidar_tracker_factory() if self.lidar_tracker_factory else None
@@ -529,7 +532,7 @@ class PerceptionPipeline:
             his.append(self._lidar_bands[1])
         if radar_returns is not None:
             lo, hi = _radar_band(s)
-            returned = np.minimum(nearest_per_bin(radar_returns), nearest_beside_edges(radar_returns, s.bin_edge_m))
+            returned = nearest_per_bin(radar_returns, s.bin_edge_m)
             los.append(lo)
             his.append(np.minimum(hi, np.repeat(returned, SUB_BEARINGS.size)[:, None]))
         if not los:
@@ -539,9 +542,7 @@ class PerceptionPipeline:
         return reach.reshape(72, SUB_BEARINGS.size).min(axis=1)
 
     # ---- LiDAR ----------------------------------------------------------------------------------------------
-    def _lidar(
-        self, scan: LidarScan, ego: EgoSource | None, ego_ok: bool
-    ) -> tuple[tuple[np.ndarray, tuple[np.ndarray, float] | None], int]:
+    def _lidar(self, scan: LidarScan, ego: EgoSource | None, ego_ok: bool) -> tuple[Placed, int]:
         from tracker.lidar.preprocess import preprocess
 
         if ego_ok:
@@ -613,12 +614,11 @@ class PerceptionPipeline:
         if own is None:  # the pose at the sweep's end is unknown though each return's was: the sweep's last pose
             own_pos, own_yaw = np.asarray(pos, float).reshape(-1, 3)[-1, :2], float(np.ravel(yaw)[-1])
         solid = np.concatenate([pre.points_world[:, :2], pre.feet_world[:, :2]])
-        self._lidar_bands = lidar_bands(beams, live, pre.water, self.settings)
-        if not known.all() and pre.water.t != scan.stamp:
-            # The attitude is unknown and no water surface was measured this revolution to stand in for it: a boat
-            # heeled 5 deg has its beams meet the water nearer than a level one's on the low side, so the level
-            # bands would vouch ranges no beam covered. Nothing is vouched for until a pose or a fit is back.
-            self._lidar_bands = _no_bands()
+        # With the attitude unknown and no water surface measured this revolution to stand in for it, nothing is
+        # vouched for until a pose or a fit is back: a boat heeled 5 deg has its beams meet the water nearer than a
+        # level one's on the low side, so the level bands would vouch ranges no beam covered.
+        guessed_level = not known.all() and pre.water.t != scan.stamp
+        self._lidar_bands = _no_bands() if guessed_level else lidar_bands(beams, live, pre.water, self.settings)
         if self.lidar_tracker is not None and track_points is not None and self._may_track("lidar"):
             t0 = time.perf_counter()
             self._lidar_tracks = self.lidar_tracker.step(
@@ -636,9 +636,7 @@ class PerceptionPipeline:
         return (solid, (own_pos, own_yaw) if track_points is not None else None), int(solid.shape[0])
 
     # ---- radar ----------------------------------------------------------------------------------------------
-    def _radar(
-        self, frame: RadarFrame, ego: EgoSource | None, ego_ok: bool
-    ) -> tuple[tuple[np.ndarray, tuple[np.ndarray, float] | None], tuple[np.ndarray, tuple[np.ndarray, float] | None]]:
+    def _radar(self, frame: RadarFrame, ego: EgoSource | None, ego_ok: bool) -> tuple[Placed, Placed]:
         """The frame's solid returns and all its returns, each as world (north, east) with the frame's pose (position,
         yaw), or as body (fwd, stbd) with None when there is no pose to place them with (_at_tick turns either into
         the body frame at the tick: a boat turning 30 deg/s turns 3 deg between a frame and the next tick)."""
@@ -743,9 +741,7 @@ def _swept_many(tracks: list[Track], own: tuple[np.ndarray, float, float, float]
     return swept[bearing_bins(body)]
 
 
-def _at_tick(
-    placed: tuple[np.ndarray, tuple[np.ndarray, float] | None], own: tuple[np.ndarray, float, float, float] | None
-) -> np.ndarray:
+def _at_tick(placed: Placed, own: tuple[np.ndarray, float, float, float] | None) -> np.ndarray:
     """A sensor's returns in the body frame (fwd, stbd) of the boat at the tick (``own``, its pose then), from world
     (north, east) with the pose they were measured at, or as they are when they came without one (body). The
     obstacle array's bearings are the heading's when it is sent, not the measurement's, up to 0.1 s (a frame
