@@ -345,7 +345,7 @@ class ScanAssembler:
         h = packet.header
         rel_first = (h.first_azimuth_cdeg - self._cut_cdeg) % AZIMUTH_UNITS
         span = (h.last_azimuth_cdeg - h.first_azimuth_cdeg) % AZIMUTH_UNITS
-        steps = BLOCKS_PER_PACKET // 2 - 1 if h.dual else BLOCKS_PER_PACKET - 1
+        steps = _block_steps(h.dual)
         # The packet's last firings sit up to one block step past the last block's azimuth.
         straddles = rel_first + span + span / steps >= AZIMUTH_UNITS
         wrapped_before = False
@@ -450,10 +450,11 @@ class ScanAssembler:
         """Sensor azimuths this scan's firings swept: (start, extent), radians clockwise from sensor forward.
 
         Block azimuths bound the sweep; a straddling packet cut at ``cut_angle`` contributes up to the cut only,
-        and the last block's firings reach about one block step further.
+        and the last block's firings reach about one azimuth step further.
         """
         first, last = packets[0].header, packets[-1].header
-        step = ((last.last_azimuth_cdeg - last.first_azimuth_cdeg) % AZIMUTH_UNITS) / 11.0  # per block
+        steps = _block_steps(last.dual)
+        step = ((last.last_azimuth_cdeg - last.first_azimuth_cdeg) % AZIMUTH_UNITS) / steps
         start = first.first_azimuth_cdeg
         end = last.last_azimuth_cdeg + step
         if self._cut_cdeg is not None:
@@ -462,7 +463,8 @@ class ScanAssembler:
             if rev.tail is not None:
                 end = self._cut_cdeg
         extent = (end - start) % AZIMUTH_UNITS
-        if extent == 0 or (rev.head is not None and rev.tail is not None) or len(packets) * 12 * step >= AZIMUTH_UNITS:
+        full_turn = len(packets) * (steps + 1) * step >= AZIMUTH_UNITS
+        if extent == 0 or (rev.head is not None and rev.tail is not None) or full_turn:
             extent = AZIMUTH_UNITS
         return math.radians(start / 100.0), math.radians(min(extent, AZIMUTH_UNITS) / 100.0)
 
@@ -528,10 +530,17 @@ class ScanAssembler:
         return scan
 
 
+def _block_steps(dual: bool) -> int:
+    """Azimuth steps between a packet's first and last block: 11 in single-return mode; 5 in dual, where
+    blocks come in pairs (strongest and last return) sharing one azimuth."""
+    return BLOCKS_PER_PACKET // 2 - 1 if dual else BLOCKS_PER_PACKET - 1
+
+
 def _packet_sweeps(packets: list[_Packet]) -> np.ndarray:
-    """(P, 2) sensor azimuth start and extent (rad) of each packet's firings: block 0 to block 11 plus one block
-    step (the last block's second sequence reaches about that far)."""
+    """(P, 2) sensor azimuth start and extent (rad) of each packet's firings: first to last block azimuth plus
+    one azimuth step (the last block's second sequence reaches about that far)."""
     first = np.array([p.header.first_azimuth_cdeg for p in packets], dtype=np.float64)
     last = np.array([p.header.last_azimuth_cdeg for p in packets], dtype=np.float64)
+    steps = np.array([_block_steps(p.header.dual) for p in packets], dtype=np.float64)
     span = np.mod(last - first, AZIMUTH_UNITS)
-    return np.radians(np.stack([first, span * (12.0 / 11.0)], axis=1) / 100.0)
+    return np.radians(np.stack([first, span * (steps + 1.0) / steps], axis=1) / 100.0)
