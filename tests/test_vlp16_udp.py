@@ -134,6 +134,31 @@ def test_burst_of_two_revolutions_at_twice_the_sensor_rate_loses_nothing(sender)
     assert source.stats.packets == 151 and source.stats.missing == 0
 
 
+def test_a_multicast_group_is_joined_and_only_its_packets_are_taken(sender) -> None:  # type: ignore[no-untyped-def]
+    # Newer firmware can send to a multicast group; bound to the group without joining it, the socket got nothing.
+    group = "239.255.77.16"
+    source = VelodyneUdpSource(host=group, port=0, position_port=None, poll_s=0.02)
+    source.open()
+    port = source.bound_port
+    reader = Reader(source)
+    try:
+        out = sender("127.0.0.1")
+        out.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_IF, socket.inet_aton("127.0.0.1"))
+        out.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_LOOP, 1)
+        s = sweep(80, start_azimuth_cdeg=18100)  # one revolution (packets 0-74) and the start of the next
+        for n, payload in enumerate(s.payloads):
+            out.sendto(payload, (group, port))
+            if n == 40:
+                out.sendto(payload, ("127.0.0.1", port))  # unicast to the same port: not the group, not taken
+            if n % 20 == 19:
+                time.sleep(0.01)  # paced, so the loopback queue never overflows on a busy machine
+        assert wait_until(lambda: source.stats.packets >= 80 and len(reader.scans) >= 1)
+    finally:
+        reader.close()
+    assert source.stats.packets == 80 and source.stats.missing == 0
+    assert reader.scans[0].packets == 75 and reader.scans[0].n_points == int((membership(s) == 1).sum())
+
+
 def test_data_port_in_use_is_a_clear_error_naming_the_port() -> None:
     blocker = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     blocker.bind(("127.0.0.1", 0))

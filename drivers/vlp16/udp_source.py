@@ -8,16 +8,19 @@ cable is logged (naming the port and the expected sender) at most once per ``sil
 source keeps listening, because cables come back.
 
 Bind to 0.0.0.0 for a sensor on its factory settings: it broadcasts to 255.255.255.255, and Linux does not
-deliver broadcasts to a socket bound to a unicast address.
+deliver broadcasts to a socket bound to a unicast address. A multicast group (newer firmware can send to one)
+is bound and joined on every interface, since which one the sensor is cabled to is not known here.
 """
 
 from __future__ import annotations
 
 import errno
+import ipaddress
 import logging
 import math
 import selectors
 import socket
+import struct
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -61,8 +64,44 @@ def _bind_udp(host: str, port: int, what: str) -> socket.socket:
         else:
             msg = f"VLP-16 {what} port: cannot bind UDP {host}:{port}: {exc.strerror}"
         raise LidarPortError(exc.errno, msg) from exc
+    if _is_multicast(host):
+        try:
+            _join_group_everywhere(sock, host)
+        except OSError as exc:
+            sock.close()
+            raise LidarPortError(
+                exc.errno, f"VLP-16 {what} port: cannot join multicast group {host} on any interface: {exc.strerror}"
+            ) from exc
     sock.setblocking(False)
     return sock
+
+
+def _is_multicast(host: str) -> bool:
+    try:
+        return ipaddress.ip_address(host).is_multicast
+    except ValueError:  # a host name: resolved by bind, never a group
+        return False
+
+
+def _join_group_everywhere(sock: socket.socket, group: str) -> None:
+    """Join ``group`` on every interface that accepts it (struct ip_mreqn by interface index, Linux).
+
+    Bound to the group address, the socket still receives only that group; joining on one interface only
+    (the kernel's pick by route) misses a sensor cabled to another, and on a host without a default route
+    picks none at all.
+    """
+    joined = 0
+    last_error: OSError | None = None
+    for index, _name in socket.if_nameindex():
+        request = struct.pack("=4s4si", socket.inet_aton(group), socket.inet_aton("0.0.0.0"), index)
+        try:
+            sock.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, request)
+            joined += 1
+        except OSError as exc:  # an interface that is down or cannot multicast
+            last_error = exc
+    if joined == 0:
+        raise last_error or OSError(errno.ENODEV, "no network interface")
+    log.info("UDP multicast group %s joined on %d interfaces", group, joined)
 
 
 def _grow_receive_buffer(sock: socket.socket, wanted: int, port: int) -> int:
