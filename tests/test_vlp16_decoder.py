@@ -377,16 +377,19 @@ def test_model_names() -> None:
         normalise_model("VLP-99")
 
 
-def test_device_clock_jump_restarts_the_revolution() -> None:
+@pytest.mark.parametrize("jump_us", [5_000_000, -300_000, -60_000, -3_000_000], ids=["+5s", "-0.3s", "-60ms", "-3s"])
+def test_device_clock_jump_restarts_the_revolution(jump_us: int) -> None:
+    # A clock stepping back under a second (PPS taking hold) was taken for reordering: packets dropped until the
+    # clock caught up, then scans stamped that far in the past while the 2 s offset window held the old minimum.
     before = sweep(10)
-    after = sweep(10, start_us=1_000_000 + 5_000_000)  # sensor clock 5 s ahead, same host cadence
+    after = sweep(10, start_us=1_000_000 + round(10 * PERIOD_US) + jump_us)  # same host cadence throughout
     a = ScanAssembler(cut_angle=None)
     scans = run(a, before, flush=False)
     offset = before.host_times[-1] + PERIOD_US * 1e-6 - after.host_times[0]
     for host, payload in zip(after.host_times, after.payloads, strict=True):
         scans += a.push(host + offset, payload)
     scans += a.flush()
-    assert a.stats.clock_resets == 1 and a.stats.missing == 0
+    assert a.stats.clock_resets == 1 and a.stats.missing == 0 and a.stats.out_of_order == 0
     assert [sc.n_points for sc in scans] == [len(before.device_time), len(after.device_time)]
     # After the jump the host offset is re-learnt: host times continue where they were.
     np.testing.assert_allclose(scans[1].t.min(), after.device_time.min() + LATENCY_S + offset, atol=1e-6)

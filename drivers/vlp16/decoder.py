@@ -60,6 +60,10 @@ HOUR_S = MICROSECONDS_PER_HOUR * 1e-6
 MISSING_GAP_PERIODS = 1.5
 # Device-clock jumps this large (either way) are a clock reset (reboot, PPS lock), not packet loss.
 CLOCK_JUMP_S = 1.0
+# A packet older than its predecessor by more than this is a clock stepping back, not reordering: a LAN
+# reorders by a packet or two (1-3 ms). Dropping packets until the clock caught up again lost up to a second
+# of data, and the offset window then stamped scans that far in the past for its 2 s.
+REORDER_WINDOW_S = 0.05
 # A drop in azimuth (relative to the cut) bigger than this between packets is a pass over the cut.
 _WRAP_DROP_CDEG = 9000
 # Offset of a packet's last firing slot from its stamp (block 11 sequence B laser 15; dual: block 10/11).
@@ -278,11 +282,11 @@ class ScanAssembler:
         device_time = self.clock.resolve(header.timestamp_us, host_time, host_time if wall_time is None else wall_time)
         if self._prev is not None:
             dt = device_time - self._prev.device_time
-            if dt <= 0 and dt > -CLOCK_JUMP_S:
+            if dt <= 0 and dt > -REORDER_WINDOW_S:
                 self.stats.out_of_order += 1
                 self.stats.last_problem = "device timestamp not increasing"
                 return out
-            if abs(dt) >= CLOCK_JUMP_S:
+            if dt >= CLOCK_JUMP_S or dt <= -REORDER_WINDOW_S:
                 self.stats.clock_resets += 1
                 log.warning("LiDAR device clock jumped by %.3f s; restarting revolution and clock offset", dt)
                 out.extend(self._flush(reason="clock jump"))
