@@ -145,6 +145,7 @@ class Awr1843Emulator:
         first_frame_number: int = 1,
         failing_lines: Mapping[str, int] | None = None,
         boot_garbage: bytes = b"",
+        garbled_lines: int = 0,
         faults: StreamFaults | None = None,
         default_period_s: float = 0.1,
         version: tuple[int, int, int, int] = (3, 6, 0, 0),
@@ -153,11 +154,13 @@ class Awr1843Emulator:
         sensor_start_delay_s: float = 0.0,
     ) -> None:
         """``failing_lines`` maps an exact line text or a command name to the error code it gets.
-        ``boot_garbage`` is glued in front of the first line the host sends (as after power-up)."""
+        ``boot_garbage`` is glued in front of the first line the host sends (as after power-up);
+        ``garbled_lines`` more non-empty lines after it arrive with ``?`` in front (a noisy line)."""
         self.frame_source = frame_source or default_frame_source
         self.first_frame_number = first_frame_number
         self.failing_lines = dict(failing_lines or {})
         self.boot_garbage = boot_garbage
+        self.garbled_lines = garbled_lines
         self.faults = faults or StreamFaults()
         self.default_period_s = default_period_s
         self.version = version
@@ -313,6 +316,9 @@ class Awr1843Emulator:
                 raw = self.boot_garbage + raw
                 self._write_cli(fd, self.boot_garbage)
             self._first_contact = False
+            if self.garbled_lines > 0 and raw.strip():
+                self.garbled_lines -= 1
+                raw = b"?" + raw
         text = raw.decode("ascii", errors="replace").strip()
         self.received_lines.append(text)
         reply = self._execute(text)

@@ -83,6 +83,16 @@ def test_garbled_first_command_is_sent_again() -> None:
         assert emu.received_lines == ["?`?sensorStop", "", "sensorStop"]
 
 
+def test_a_command_garbled_twice_is_an_error_that_can_mend() -> None:
+    # Marked as mendable, the daemon keeps retrying the radar instead of running without it until a restart.
+    with Awr1843Emulator(garbled_lines=2) as emu, CliSession(emu.cli_path) as cli:
+        with pytest.raises(RadarConfigError, match="garbled twice") as err:
+            cli.command("sensorStop")
+        assert err.value.silent
+        assert emu.received_lines == ["?sensorStop", "", "?sensorStop"]
+        assert cli.command("sensorStop").status == "ignored"  # the line is clean again: it answers
+
+
 def test_silent_port_gives_no_prompt_error(tmp_path: Path) -> None:
     master, slave = os.openpty()  # a port where nobody answers (data port, or board in flashing mode)
     try:

@@ -430,6 +430,17 @@ def test_radar_cli_error_runs_lidar_only_when_not_required() -> None:
             assert abs(int(d[6]) - NEAR_FACE_M * 100) <= NEAR_TOL_CM
 
 
+def radar_only_config(cli_path: str, data_path: str) -> Config:
+    """The radar alone, not required (so a start-up failure leaves the daemon running), on the shipped profile."""
+    config = Config()
+    config.lidar.enabled = False
+    config.radar.required = False
+    config.radar.cli = f"serial://{cli_path}?baud=115200"
+    config.radar.data = f"serial://{data_path}?baud=921600"
+    config.radar.profile = str(Path(__file__).resolve().parent.parent / "daemon" / "profiles" / "awr1843_50m.cfg")
+    return config
+
+
 def test_a_radar_not_there_at_start_is_retried_when_not_required(tmp_path: Path) -> None:
     """At boot the AWR1843's USB ports may enumerate after the daemon starts: with radar.required = false the radar
     is kept and retried in the background (not left off for good), and streams once its ports appear."""
@@ -437,12 +448,7 @@ def test_a_radar_not_there_at_start_is_retried_when_not_required(tmp_path: Path)
     from simulator.awr1843_device import Awr1843Emulator
 
     by_id = tmp_path / "by-id"
-    config = Config()
-    config.lidar.enabled = False
-    config.radar.required = False
-    config.radar.cli = f"serial://{by_id / 'awr1843-cli'}?baud=115200"
-    config.radar.data = f"serial://{by_id / 'awr1843-data'}?baud=921600"
-    config.radar.profile = str(Path(__file__).resolve().parent.parent / "daemon" / "profiles" / "awr1843_50m.cfg")
+    config = radar_only_config(str(by_id / "awr1843-cli"), str(by_id / "awr1843-data"))
     sources = open_sources(config, fast=False)
     assert sources.radar is not None
     assert any(note.startswith("radar not ready at start, running without it and retrying") for note in sources.notes)
@@ -462,6 +468,33 @@ def test_a_radar_not_there_at_start_is_retried_when_not_required(tmp_path: Path)
         reader.join(timeout=10.0)
     assert not reader.is_alive()
     assert sources.radar.stats.configured == 1
+
+
+def test_a_radar_that_hears_its_first_command_garbled_twice_is_retried() -> None:
+    """A noisy CLI line at start is not a refused cfg: the radar is kept and retried, and streams once the line is
+    clean (before, it stayed off until the daemon was restarted)."""
+    from daemon.runner import open_sources
+    from simulator.awr1843_device import Awr1843Emulator
+
+    with Awr1843Emulator(garbled_lines=2) as emu:
+        config = radar_only_config(emu.cli_path, emu.data_path)
+        sources = open_sources(config, fast=False)
+        assert sources.radar is not None
+        (note,) = sources.notes
+        assert note.startswith("radar not ready at start, running without it and retrying") and "garbled" in note
+        stop = threading.Event()
+        frames: list[object] = []
+        reader = threading.Thread(
+            target=lambda: frames.extend(f for f in sources.radar.frames(stop) if not stop.is_set())
+        )
+        reader.start()
+        try:
+            assert wait_for(lambda: len(frames) >= 2, timeout=15.0)
+        finally:
+            stop.set()
+            reader.join(timeout=10.0)
+        assert not reader.is_alive()
+        assert sources.radar.stats.configured == 1
 
 
 def test_a_rolling_boat_in_a_rough_sea_reports_only_the_box() -> None:

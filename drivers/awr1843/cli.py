@@ -142,10 +142,19 @@ class CliSession:
                 m = _NOT_RECOGNIZED.search(reply_line)
                 if m is None:
                     continue
-                if m.group(1).strip() != name and attempt == 1:
-                    # the device heard something else than we sent: garbled first contact, resend once
-                    log.warning("AWR1843 CLI: %r arrived garbled as %r, resending", line, m.group(1))
-                    break
+                if m.group(1).strip() != name:
+                    if attempt == 1:
+                        # the device heard something else than we sent: garbled first contact, resend once
+                        log.warning("AWR1843 CLI: %r arrived garbled as %r, resending", line, m.group(1))
+                        break
+                    # Garbled twice is the line, not the cfg: say it can mend, so the daemon keeps retrying.
+                    raise RadarConfigError(
+                        "the device heard the command garbled twice (noisy line or wrong baud rate)",
+                        line_number,
+                        line,
+                        " | ".join(lines),
+                        silent=True,
+                    )
                 raise RadarConfigError("command not recognized by the device", line_number, line, " | ".join(lines))
             else:
                 return self._classify(line, lines, line_number)

@@ -28,8 +28,8 @@ class RadarConfigError(RuntimeError):
         self.line_number = line_number
         self.line = line
         self.reply = reply
-        # The device gave no prompt (not powered, still booting, another port): that can mend itself; a line it
-        # answered with an error or did not know will not.
+        # The device gave no prompt (not powered, still booting, another port) or heard our line garbled: that can
+        # mend itself; a line it answered with an error or did not know will not.
         self.silent = silent
         parts = [message]
         if line:
