@@ -12,7 +12,11 @@ World frame (local NED, see design.md):
   only become the world after ``global_grace`` seconds without any LOCAL_POSITION_NED, because at start-up the
   two streams begin in no particular order and an early switch would change the world at once.
 A switch of source, or an autopilot reboot while on LOCAL_POSITION_NED (new EKF origin), changes the world
-frame: ``world_epoch`` counts up and the history is cleared, so consumers know to drop world-frame state.
+frame: ``world_epoch`` counts up and the history is cleared, so consumers know to drop world-frame state. So does
+an estimator reset: a position that lands more than ``POSITION_RESET_M`` from where the last one's velocity carried
+it (ArduPilot's EKF resetting to GPS after a glitch, a GPS fix jumping), or a heading more than ``YAW_RESET_RAD``
+from where the yaw rate turned it (a yaw reset). Tracks kept in the old frame would sit metres or degrees off the
+returns placed in the new one, and coasting tracks would be sent at the wrong bearings.
 
 All times are host monotonic seconds, already mapped from the autopilot clock by the caller.
 """
@@ -33,6 +37,12 @@ log = logging.getLogger(__name__)
 
 LOCAL = "local_ned"
 GLOBAL = "global"
+# A boat's own position is reckoned between messages to centimetres (<= 1 s apart, a boat accelerating < 1 m/s^2);
+# a GPS fix's noise is under a metre. Beyond 2 m it is a reset, and the fusion gates (1-2 m) would not hold anyway.
+POSITION_RESET_M = 2.0
+# ATTITUDE comes at 50 Hz: a heading 10 deg off its rate's prediction is no turn a boat makes.
+YAW_RESET_RAD = math.radians(10.0)
+RESET_CHECK_MAX_GAP_S = 1.0  # beyond this the last message is no base for a prediction
 
 
 class PoseAssembler:
@@ -54,19 +64,22 @@ class PoseAssembler:
         self._plane: LocalTangentPlane | None = None  # projection of GLOBAL_POSITION_INT (first fix)
         self._last_fix: tuple[float, float, float, float] | None = None  # (t, lat, lon, alt) of the newest fix
         self._last_local: tuple[float, np.ndarray, np.ndarray] | None = None
+        self._last_yaw: tuple[float, float, float] | None = None  # (t, yaw, Euler yaw rate) of the last attitude
+        self.estimator_resets = 0
 
     # ------------------------------------------------------------------ inputs
     def on_attitude(
         self, t: float, roll: float, pitch: float, yaw: float, p: float, q: float, r: float
     ) -> EgoPose | None:
         """One pose at the attitude's instant ``t``; None without a recent position."""
+        # ATTITUDE carries body rates; the history extrapolates Euler angles, so it needs their rates (a rolling
+        # boat's roll held still for the 0.3 s the history may extrapolate tilts the water by metres at range)
+        roll_rate, pitch_rate, yaw_rate = body_rates_to_euler(roll, pitch, p, q, r)
+        self._check_yaw_reset(t, yaw, yaw_rate)
         if self._pos is None or abs(t - self._pos[0]) > self.position_timeout:
             self.skipped_no_position += 1
             return None
         t_pos, pos, vel = self._pos
-        # ATTITUDE carries body rates; the history extrapolates Euler angles, so it needs their rates (a rolling
-        # boat's roll held still for the 0.3 s the history may extrapolate tilts the water by metres at range)
-        roll_rate, pitch_rate, yaw_rate = body_rates_to_euler(roll, pitch, p, q, r)
         pose = EgoPose(
             t=t,
             position=pos + vel * (t - t_pos),
@@ -95,6 +108,8 @@ class PoseAssembler:
             else:
                 log.info("world frame: LOCAL_POSITION_NED (autopilot EKF origin)")
             self.position_source = LOCAL
+        else:
+            self._check_position_reset(t, pos, vel)
         self._pos = (t, pos, vel)
         with self._lock:
             self._last_local = (t, pos, vel)
@@ -122,7 +137,9 @@ class PoseAssembler:
         if plane is None:
             return
         vel = np.asarray(velocity, dtype=float).reshape(3)
-        self._pos = (t, plane.to_ned(lat_deg, lon_deg, alt_m), vel)
+        pos = plane.to_ned(lat_deg, lon_deg, alt_m)
+        self._check_position_reset(t, pos, vel)
+        self._pos = (t, pos, vel)
 
     def on_autopilot_reboot(self) -> None:
         """The autopilot restarted: its EKF origin may move, and pre-reboot positions are no base for reckoning."""
@@ -144,6 +161,30 @@ class PoseAssembler:
             self._plane = None
         self.position_source = None
         self._new_world(why)
+
+    def _check_position_reset(self, t: float, pos: np.ndarray, vel: np.ndarray) -> None:
+        if self._pos is None:
+            return
+        t_prev, pos_prev, vel_prev = self._pos
+        dt = t - t_prev
+        if not 0.0 < dt <= RESET_CHECK_MAX_GAP_S:
+            return
+        jump = float(np.linalg.norm(pos - (pos_prev + 0.5 * (vel_prev + vel) * dt)))  # exact for steady acceleration
+        if jump > POSITION_RESET_M:
+            self.estimator_resets += 1
+            self._new_world(f"autopilot position jumped {jump:.1f} m in {dt:.2f} s (estimator reset or GPS glitch)")
+
+    def _check_yaw_reset(self, t: float, yaw: float, yaw_rate: float) -> None:
+        if not (math.isfinite(yaw) and math.isfinite(yaw_rate)):
+            return
+        last, self._last_yaw = self._last_yaw, (t, yaw, yaw_rate)
+        if last is None or not 0.0 < t - last[0] <= RESET_CHECK_MAX_GAP_S:
+            return
+        predicted = last[1] + 0.5 * (last[2] + yaw_rate) * (t - last[0])
+        off = math.remainder(yaw - predicted, math.tau)
+        if abs(off) > YAW_RESET_RAD:
+            self.estimator_resets += 1
+            self._new_world(f"autopilot heading jumped {math.degrees(off):+.0f} deg (estimator yaw reset)")
 
     def _new_world(self, why: str) -> None:
         self.world_epoch += 1

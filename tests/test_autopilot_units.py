@@ -194,6 +194,39 @@ def test_pose_assembler_global_after_grace_and_geodetic_anchor() -> None:
     np.testing.assert_allclose(plane.to_ned(lat, lon, 3.0), [2.0, 0.0, 0.0], atol=1e-6)
 
 
+def test_pose_assembler_starts_a_new_world_on_an_estimator_reset_but_not_on_a_hard_turn() -> None:
+    """Tracks kept in the world frame across an EKF position or yaw reset would sit metres or degrees off the returns
+    placed after it; a boat accelerating and turning hard is no reset."""
+    h = PoseHistory()
+    a = PoseAssembler(h)
+    # 12 s: accelerating 1 m/s^2 north from 2 m/s, turning at up to 1 rad/s with 2 rad/s^2 swings; positions at
+    # 10 Hz (velocity from the same motion), attitude at 50 Hz
+    for i in range(600):
+        t = 0.02 * i
+        yaw = 0.5 * math.sin(2.0 * t)
+        if i % 5 == 0:
+            a.on_local_position(t, np.array([2.0 * t + 0.5 * t * t, 0.0, 0.0]), np.array([2.0 + t, 0.0, 0.0]))
+        assert a.on_attitude(t, 0.0, 0.0, yaw, 0.0, 0.0, math.cos(2.0 * t)) is not None
+    assert a.world_epoch == 0 and a.estimator_resets == 0
+    # the EKF resets its position 3 m east (GPS glitch recovered)
+    a.on_local_position(12.0, np.array([96.0, 3.0, 0.0]), np.array([14.0, 0.0, 0.0]))
+    assert a.world_epoch == 1 and a.estimator_resets == 1 and len(h) == 0
+    a.on_local_position(12.1, np.array([97.4, 3.0, 0.0]), np.array([14.0, 0.0, 0.0]))  # continues from there
+    assert a.world_epoch == 1
+    # a yaw reset: 15 deg at once, on top of where the turn was going
+    yaw = 0.5 * math.sin(2.0 * 12.12)
+    a.on_attitude(12.12, 0.0, 0.0, yaw, 0.0, 0.0, math.cos(2.0 * 12.12))
+    assert a.world_epoch == 1
+    assert a.on_attitude(12.14, 0.0, 0.0, yaw + math.radians(15.0), 0.0, 0.0, 0.0) is not None
+    assert a.world_epoch == 2 and a.estimator_resets == 2 and len(h) == 1  # the new world's first pose
+    # across +-pi at 1 rad/s: a turn, not a reset
+    b = PoseAssembler(PoseHistory())
+    b.on_local_position(0.0, np.zeros(3), np.zeros(3))
+    b.on_attitude(0.00, 0.0, 0.0, math.pi - 0.01, 0.0, 0.0, 1.0)
+    b.on_attitude(0.02, 0.0, 0.0, -math.pi + 0.01, 0.0, 0.0, 1.0)
+    assert b.world_epoch == 0 and b.estimator_resets == 0
+
+
 def _od(distances: np.ndarray, inc_f: float = 5.0, inc: int = 0, offset: float = 0.0) -> ReceivedObstacleDistance:
     return ReceivedObstacleDistance(0.0, 1, 196, False, 0, 0, distances, inc, 50, 10000, inc_f, offset, 12)
 
