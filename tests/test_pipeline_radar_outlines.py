@@ -212,3 +212,37 @@ def test_a_piece_is_an_obstacle_only_where_the_radar_speaks_for_the_lidar() -> N
     d, tracks = run([radar_track(40.0, 0.0), hull_piece(24.0, 0.0, host=1)], lidar=True)
     assert [tr.id for tr in tracks] == [1]
     assert d[0] == 3900
+
+
+def boat_only_the_lidar_tracks(north: float, radar_returns: list[tuple[float, float]]) -> np.ndarray:
+    """A 4 x 2 m boat ``north`` m dead ahead, a confirmed LiDAR track, while its revolution holds only water returns
+    and the radar's frame holds ``radar_returns`` (fwd, stbd) but no track (a sparse hull): the bins sent."""
+    lidar_track = Track(7, 0.0, np.array([north, 0.0]), np.zeros(2), 0.0, 0.0, 4.0, 2.0, 1.0, confirmed=True)
+    p = PerceptionPipeline(
+        MOUNTED,
+        lidar_tracker_factory=lambda: FixedLidarTracks([lidar_track]),
+        radar_tracker_factory=lambda: FixedRadarTracks([]),
+    )
+    xyz = np.array([[f, s, -0.5] for f, s in radar_returns]).reshape(-1, 3)
+    n = len(xyz)
+    radar = RadarFrame(0.95, 1, xyz, np.zeros(n), np.full(n, 20.0), np.full(n, 5.0))
+    return p.step(1.0, water_scan(0.95), [radar], None).distances_cm
+
+
+def test_a_lidar_track_in_the_beams_gap_that_the_radar_returned_is_an_obstacle() -> None:
+    """40 m off lies between the -3 and -1 deg beams: the LiDAR cannot return the hull there, and the radar returned
+    it once this frame (too few returns for a radar track). The LiDAR track's outline in that bin (its near end at
+    38 m) stands for it; before, the bin went out unknown with a hull in it."""
+    assert boat_only_the_lidar_tracks(40.0, [(40.6, 0.3)])[0] == 3800
+
+
+def test_without_a_radar_return_by_it_a_lidar_track_in_the_gap_adds_nothing() -> None:
+    """The LiDAR track may be stale there (a quay piece taken for a vessel, a lost track): nothing seconds it, or the
+    radar's return lies beyond its box and 0.5 m (6 m further out), so the bin stays unknown."""
+    assert boat_only_the_lidar_tracks(40.0, [])[0] == UNKNOWN
+    assert boat_only_the_lidar_tracks(40.0, [(46.0, 0.0)])[0] == UNKNOWN
+
+
+def test_where_the_lidars_beams_vouch_a_radar_return_does_not_second_its_track() -> None:
+    """24 m off the -3 deg beam vouches for a 0.5 m solid and returned none: its silence wins over the radar."""
+    assert boat_only_the_lidar_tracks(24.0, [(24.5, 0.0)])[0] == UNKNOWN

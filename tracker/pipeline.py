@@ -31,7 +31,7 @@ from tracker.lidar.coverage import (
     reach_from,
     swept_bins,
 )
-from tracker.lidar.hull_gate import on_tracked_hulls
+from tracker.lidar.hull_gate import on_tracked_hulls, tracked_hull_of
 from tracker.lidar.water import WaterEstimate, WaterSurface
 from tracker.obstacle_map import (
     SensorCoverage,
@@ -187,6 +187,17 @@ class PipelineSettings:
     # positives 5,221 -> 5,083, 13 scenes better and 2 worse (-0.001 at most), bins and id switches unchanged.
     second_track_gap_m: float = 2.0
     second_track_speed_difference_mps: float = 1.0
+    # A confirmed LiDAR track the radar did not track, sitting where the LiDAR's beams cannot vouch for its range
+    # (a low hull in the gap between the lowest beams, 30-63 m), is an obstacle, its outline, in the bins where the
+    # radar's newest frame returned something inside its box grown by this (m): the radar seconds what the LiDAR can
+    # no longer see. A sparse hull (1-3 radar returns a frame) forms no radar track, so the fusion above never pairs
+    # them, and those bins went out unknown with a hull in them. Negative turns it off. Ours; tuning seeds 45-52
+    # (fused) against off: false-clear bins 181 -> 92, false-obstacle bins 522 -> 575 (a circle round the box
+    # instead: 91 and 621; the whole outline: 79 and 1,030; the radar's returns instead of the outline: 86 and
+    # 2,833). Held out (random:1001-1050, fused) against off: false-clear bins 771 -> 568 (15.4 -> 11.4 a scene, 33
+    # scenes better, none worse), false-obstacle bins 0.207 -> 0.259 % (worst scene 1.03 -> 1.47 %, sea state 3),
+    # tracking identical.
+    radar_corroboration_gate_m: float = 0.5
 
 
 @dataclass
@@ -420,6 +431,11 @@ class PerceptionPipeline:
             )
             if both is not None and radar_fresh:
                 solid.append(self._radar_speaks(both, lidar_fresh))
+            if radar_fresh and self._radar_tracked and s.radar_corroboration_gate_m >= 0:
+                alone = [tr for tr in lidar_confirmed if tr.source == "lidar" and id(tr) not in unswept]
+                seconded = self._radar_corroborated(alone, own, lidar_fresh)
+                if len(seconded):
+                    solid.append(seconded)
             if self.radar_tracker is not None and radar_fresh:
                 shore = self.radar_tracker.shore_points()
                 if len(shore):
@@ -506,6 +522,32 @@ class PerceptionPipeline:
 
     def _radar_speaks(self, points_fwd_stbd: np.ndarray, lidar_fresh: bool) -> np.ndarray:
         return points_fwd_stbd[self._radar_speaks_at(points_fwd_stbd, lidar_fresh)]
+
+    def _radar_corroborated(
+        self, tracks: list[Track], own: tuple[np.ndarray, float, float, float], lidar_fresh: bool
+    ) -> np.ndarray:
+        """(n, 2) body: the outlines of the ``tracks`` in the bins where the radar's newest frame returned something
+        inside their box grown by radar_corroboration_gate_m, and only where the LiDAR's beams do not vouch (there,
+        its silence wins). The per-track work is for the few tracks the radar seconds."""
+        if not tracks:
+            return np.empty((0, 2))
+        returns = _at_tick(self._radar_returns, own)
+        returns = returns[self._radar_speaks_at(returns, lidar_fresh)]
+        if not len(returns):
+            return returns
+        owner = tracked_hull_of(
+            body_to_world_2d(returns, own[0][:2], own[3]), tracks, self.settings.radar_corroboration_gate_m
+        )
+        out = []
+        for k in np.unique(owner[owner >= 0]):
+            outline = _outlines_in_body([tracks[k]], own)
+            if outline is None:
+                continue
+            bins = np.zeros(72, dtype=bool)
+            bins[bearing_bins(returns[owner == k])] = True
+            outline = outline[bins[bearing_bins(outline)]]
+            out.append(outline[self._radar_speaks_at(outline, lidar_fresh)])
+        return np.concatenate(out) if out else np.empty((0, 2))
 
     def _may_track(self, sensor: str) -> bool:
         """Whether the ``sensor``'s tracker fits before the deadline this cycle; counts a skip when it does not."""
