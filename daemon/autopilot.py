@@ -235,15 +235,14 @@ class AutopilotLink:
         return self._assembler.world_to_geodetic(ned)
 
     def unix_time_usec(self) -> int:
-        """Unix time in µs for ``time_usec`` fields: the host clock if it is sane, else the autopilot's
-        GPS time (SYSTEM_TIME) carried forward on the host monotonic clock, else 0 ("unknown")."""
-        wall = self.wall_clock()
-        if host_clock_sane(wall):
-            return int(wall * 1e6)
+        """Unix time in µs for ``time_usec`` fields: the autopilot's GPS time (SYSTEM_TIME) carried forward on the
+        host monotonic clock, else the host clock if it is sane, else 0 ("unknown"). GPS time first: a Pi without
+        an RTC or network boots on the clock it saved at shutdown (fake-hwclock), plausible and hours wrong."""
         anchor = self._unix_anchor
         if anchor is not None:
             return int(anchor[0] + (self.clock() - anchor[1]) * 1e6)
-        return 0
+        wall = self.wall_clock()
+        return int(wall * 1e6) if host_clock_sane(wall) else 0
 
     # ------------------------------------------------------------------ sending
     def set_system_status(self, status: int) -> None:

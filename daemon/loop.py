@@ -51,7 +51,7 @@ class ObstaclePublisher(Protocol):
     """The autopilot side as the loop sees it (daemon.autopilot.AutopilotLink provides it)."""
 
     def send_obstacle_distance(
-        self, distances_cm: np.ndarray, min_cm: int, max_cm: int, sensor_type: int, time_usec: int
+        self, distances_cm: np.ndarray, min_cm: int, max_cm: int, sensor_type: int, time_usec: int | None
     ) -> None: ...
 
     def send_statustext(self, severity: int, text: str) -> None: ...
@@ -95,7 +95,6 @@ class DaemonLoop:
         notifier: SystemdNotifier | None = None,
         tracks_out: IO[str] | None = None,
         clock: Callable[[], float] = time.monotonic,
-        wall_clock: Callable[[], float] = time.time,
     ) -> None:
         self.pipeline = pipeline
         self.inputs = inputs
@@ -105,7 +104,6 @@ class DaemonLoop:
         self.notifier = notifier or SystemdNotifier("")
         self.tracks_out = tracks_out
         self.clock = clock
-        self.wall_clock = wall_clock
         self.stats = CycleStats(period_s=1.0 / settings.rate_hz)
         self.sent = 0
         self.withheld = 0
@@ -192,7 +190,7 @@ class DaemonLoop:
                     max(round(self.s.min_distance_m * 100), 1),
                     round(self.s.max_distance_m * 100),
                     MAV_DISTANCE_SENSOR_LASER,
-                    self._time_usec(),
+                    None,  # the link's Unix time: the autopilot's GPS time where it has one, never a guess
                 )
             self.sent += 1
             self._maybe_send_ais(out)
@@ -385,11 +383,6 @@ class DaemonLoop:
     def _set_status(self, status: int) -> None:
         if self.publisher is not None:
             self.publisher.set_system_status(status)
-
-    def _time_usec(self) -> int:
-        now = self.wall_clock()
-        # A companion clock stuck near 1970 (no RTC, no GPS yet) must not be sent as a Unix time: 0 means "unknown".
-        return int(now * 1e6) if now > 1.6e9 else 0
 
     # ---- health ----------------------------------------------------------------------------------------------
     def health_line(self, t: float) -> str:

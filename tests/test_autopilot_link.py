@@ -327,19 +327,27 @@ def test_autopilot_timesync_requests_are_answered_with_host_time() -> None:
         sim.stop()
 
 
-def test_unix_time_from_autopilot_when_host_clock_unset() -> None:
+@pytest.mark.parametrize(
+    "host_unix_s",
+    [
+        86_400.0,  # a Jetson booted in 1970: no RTC, no network
+        1_750_000_000.0 - 3 * 3600.0,  # a Pi booted on the clock fake-hwclock saved 3 h before: plausible, wrong
+    ],
+)
+def test_unix_time_is_the_autopilots_gps_time_once_known(host_unix_s: float) -> None:
     port = free_udp_port()
     m0 = time.monotonic()
     gps_unix = 1_750_000_000.0
     sim = SimAutopilot(
         f"udpin:127.0.0.1:{port}", circle, heartbeat_hz=5.0, wall_clock=lambda: gps_unix + time.monotonic() - m0
     )
-    link = AutopilotLink(f"udpout:127.0.0.1:{port}", wall_clock=lambda: 86_400.0)  # a Jetson booted in 1970
+    link = AutopilotLink(f"udpout:127.0.0.1:{port}", wall_clock=lambda: host_unix_s)
+    before = 0 if host_unix_s < 1e9 else int(host_unix_s * 1e6)
     sim.start()
     link.start()
     try:
-        assert link.unix_time_usec() == 0  # nothing known yet: "unknown", never a guess
-        assert wait_until(lambda: link.unix_time_usec() != 0, 5.0)
+        assert link.unix_time_usec() == before  # nothing from the autopilot yet: a sane host clock, else "unknown"
+        assert wait_until(lambda: link.unix_time_usec() != before, 5.0)
         expected = (gps_unix + time.monotonic() - m0) * 1e6
         assert abs(link.unix_time_usec() - expected) < 50_000
         d = np.full(72, 10001, dtype=np.uint16)
