@@ -186,6 +186,7 @@ def pipeline_for(config: Config) -> PerceptionPipeline:
         lidar_max_range_m=config.lidar.max_range_m,
         radar_fov_rad=math.radians(config.radar.fov_deg),
         radar_yaw_rad=math.radians(config.radar.mount.yaw),
+        radar_pitch_rad=math.radians(config.radar.mount.pitch),
         radar_max_range_m=config.radar.max_range_m,
         lidar_mount=config.lidar.mount.to_mount(),
         min_obstacle_height_m=config.output.min_obstacle_height_m,

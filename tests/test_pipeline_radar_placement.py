@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from daemon.config import load_config
 from daemon.ego import HistoryEgo
@@ -67,3 +68,43 @@ def test_the_radar_vouches_only_out_to_what_it_returned() -> None:
         assert out.distances_cm[6] == clear and out.distances_cm[66] == clear
         # Outside its field of view (abeam) nothing vouches: unknown.
         assert out.distances_cm[18] == UNKNOWN
+
+
+def tilted_ego(roll_deg: float, pitch_deg: float) -> HistoryEgo:
+    """The autopilot's poses at 50 Hz: at the origin facing north, heeled and trimmed as given."""
+    history = PoseHistory()
+    for t in np.arange(0.0, 4.0, 0.02):
+        history.add(EgoPose(float(t), np.zeros(3), np.zeros(3), math.radians(roll_deg), math.radians(pitch_deg), 0.0))
+    return HistoryEgo(history)
+
+
+@pytest.mark.parametrize(
+    ("roll_deg", "pitch_deg", "unknown_bins", "clear_bins"),
+    [
+        # level: the beam's lower edge, 15 deg down, meets a 0.5 m solid's top 0.5 / tan 15 = 1.9 m out, inside 2 m
+        (0.0, 0.0, [], [0, 6, 11, 66]),
+        # bow up 10 deg: ahead the edge is 5 deg down and meets it 5.7 m out, so 2-5.7 m ahead was never seen
+        (0.0, 10.0, [0], []),
+        # heeled 10 deg to starboard: 30 deg to port the edge is 10 deg down (2.8 m), to starboard 20 deg (1.4 m)
+        (10.0, 0.0, [66], [0, 6]),
+        # heeled 20 deg: 57 deg to starboard the beam's upper edge is 1.7 deg down and meets the water 34 m out,
+        # short of the 40 m that "clear" claims
+        (20.0, 0.0, [11, 66], [0]),
+    ],
+)
+def test_the_radar_vouches_from_where_its_tilted_beam_meets_a_low_solid(
+    roll_deg: float, pitch_deg: float, unknown_bins: list[int], clear_bins: list[int]
+) -> None:
+    # The README's PX4 setting (clear from 2 m), the radar 1 m above the water, the LiDAR silent, the radar returning
+    # one point far abeam outside its field of view: it vouches in its 120 deg field of view from where its beam
+    # reaches a 0.5 m solid's top. Before, the level boat's 1.9 m held at any heel or trim.
+    overrides = {"output.max_distance_m": 40.0, "output.clear_inner_m": 2.0, "radar.mount.z": -1.0}
+    config = load_config(None, overrides)
+    pipeline = pipeline_for(config)
+    ego = tilted_ego(roll_deg, pitch_deg)
+    clear = int(config.output.max_distance_m * 100) + 1
+    outside = np.array([[0.0, -45.0, -0.5]])  # dead abeam to port, out of the field of view
+    for k, t in enumerate(np.arange(1.0, 2.0, 0.1)):
+        out = pipeline.step(float(t), None, [radar_frame(float(t), k + 1, outside)], ego)
+    assert [int(out.distances_cm[j]) for j in unknown_bins] == [UNKNOWN] * len(unknown_bins)
+    assert [int(out.distances_cm[j]) for j in clear_bins] == [clear] * len(clear_bins)

@@ -106,6 +106,7 @@ class PipelineSettings:
     lidar_max_range_m: float = 100.0
     radar_fov_rad: float = np.radians(120.0)
     radar_yaw_rad: float = 0.0
+    radar_pitch_rad: float = 0.0  # the radar's boresight above the deck plane (mount pitch, up positive)
     radar_max_range_m: float = 50.0
     fusion_gate_m: float = 3.0
     # A confirmed radar track straight behind a confirmed LiDAR track, as seen from the boat, within its half-size
@@ -277,6 +278,7 @@ class PerceptionPipeline:
         self._radar_solid: Placed = (np.empty((0, 2)), None)
         self._radar_returns: Placed = (np.empty((0, 2)), None)
         self._radar_tracked = True  # the newest radar frame went through the tracker (not: no pose for it)
+        self._radar_attitude = (0.0, 0.0)  # roll, pitch (rad) of the boat at the newest placed radar frame
         self._epoch: int | None = None
         self.lidar_tracker = self.lidar_tracker_factory() if self.lidar_tracker_factory else None
         self.radar_tracker = self.radar_tracker_factory() if self.radar_tracker_factory else None
@@ -573,7 +575,7 @@ class PerceptionPipeline:
             los.append(self._lidar_bands[0])
             his.append(self._lidar_bands[1])
         if radar_returns is not None:
-            lo, hi = _radar_band(s)
+            lo, hi = _radar_band(s, *self._radar_attitude)
             returned = nearest_per_bin(radar_returns, s.bin_edge_m)
             los.append(lo)
             his.append(np.minimum(hi, np.repeat(returned, SUB_BEARINGS.size)[:, None]))
@@ -684,6 +686,8 @@ class PerceptionPipeline:
         the body frame at the tick: a boat turning 30 deg/s turns 3 deg between a frame and the next tick)."""
         finite = np.all(np.isfinite(frame.xyz), axis=1)
         pose = ego.at(frame.stamp) if ego_ok and ego is not None else None
+        if pose is not None and np.isfinite([pose.roll, pose.pitch]).all():
+            self._radar_attitude = (float(pose.roll), float(pose.pitch))
         returns_body = frame.xyz[finite][:, :2]
         at = None if pose is None else (np.asarray(pose.position, float)[:2], float(pose.yaw))
         returns = (returns_body, None) if at is None else (body_to_world_2d(returns_body, *at), at)
@@ -746,14 +750,26 @@ def beams_of(
     return BeamGeometry.at_bins(roll_bin, pitch_bin, s.lidar_mount), live, point_bin
 
 
-def _radar_band(s: PipelineSettings) -> tuple[np.ndarray, np.ndarray]:
+def _radar_band(s: PipelineSettings, roll: float = 0.0, pitch: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """(216, 1) the radar's covered ranges per judged bearing: from where its elevation beam reaches a low solid's
-    top out to its range, inside its horizontal field of view."""
+    top out to its range, inside its horizontal field of view. ``roll``, ``pitch``: the boat's attitude (rad, FRD
+    Euler) at the frame: a bow lifted 5 deg lifts the beam's lower edge as much ahead, and a low solid near the bow
+    passes under it; heeled past the beam's half-width, the beam on the low side ends in the water."""
     bearings = bin_bearings()
-    inside = np.abs(np.angle(np.exp(1j * (bearings - s.radar_yaw_rad)))) <= s.radar_fov_rad / 2
-    near = max(s.radar_height_m - s.min_obstacle_height_m, 0.0) / np.tan(s.radar_half_vfov_rad)
+    off_boresight = np.angle(np.exp(1j * (bearings - s.radar_yaw_rad)))
+    inside = np.abs(off_boresight) <= s.radar_fov_rad / 2
+    # elevation of the beam's centre plane on each bearing (world up): the body-horizontal direction (cos b, sin b, 0)
+    # turned by roll and pitch has its up component sin(pitch) cos b - cos(pitch) sin(roll) sin b
+    up = np.sin(pitch) * np.cos(bearings) - np.cos(pitch) * np.sin(roll) * np.sin(bearings)
+    elevation = np.arcsin(np.clip(up, -1.0, 1.0)) + s.radar_pitch_rad * np.cos(off_boresight)
+    depression = s.radar_half_vfov_rad - elevation  # of the beam's lower edge below the horizon
+    drop = max(s.radar_height_m - s.min_obstacle_height_m, 0.0)
+    near = np.where(depression > 1e-6, drop / np.tan(np.maximum(depression, 1e-6)), np.inf) if drop > 0 else 0.0
+    # a beam whose upper edge points below the horizon (heeled past its half-width) ends in the water
+    sinks = -(elevation + s.radar_half_vfov_rad)
+    far = np.where(sinks > 1e-6, max(s.radar_height_m, 0.0) / np.tan(np.maximum(sinks, 1e-6)), np.inf)
     lo = np.where(inside, near, np.inf)[:, None]
-    hi = np.where(inside, s.radar_max_range_m, -np.inf)[:, None]
+    hi = np.where(inside, np.minimum(s.radar_max_range_m, far), -np.inf)[:, None]
     return lo, hi
 
 
