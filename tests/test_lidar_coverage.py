@@ -10,7 +10,14 @@ import pytest
 
 from drivers.mount import Mount
 from tests.sea_geometry import RAIN, SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
-from tracker.lidar.coverage import band_intervals, beam_elevations_level, reach_from, swept_bins
+from tracker.lidar.coverage import (
+    band_intervals,
+    bands_turned,
+    beam_elevations_level,
+    bin_bearings,
+    reach_from,
+    swept_bins,
+)
 from tracker.obstacle_map import UNKNOWN
 
 MOUNT = Mount(z=-1.6)
@@ -176,3 +183,23 @@ def test_a_low_wall_met_by_one_beam_at_grazing_incidence_is_an_obstacle_though_i
     d = out.distances_cm
     assert abs(int(d[1]) - nearest * 100) <= 5, (int(d[1]), nearest)
     assert np.all(d[np.r_[0, 2:72]] > 10000)  # clear or unknown elsewhere: nothing else returned
+
+
+def test_bands_turned_with_the_boat_carry_no_coverage_into_a_bearing_that_had_none() -> None:
+    # Measured: 10-40 m vouched on the bearings 0..30 deg (bins 0-6 less bin 0's -2 deg), nothing elsewhere. The boat
+    # has since turned 3 deg to starboard: its bearing b looked along b + 3 deg, so -3..27 deg is vouched now. A
+    # bearing between two judged ones takes what both vouched for: 27 deg (30 - 3, judged) keeps 10-40 m, 28 deg
+    # (31 deg between 30 and 32, the latter not vouched) has nothing.
+    deg = np.degrees(np.mod(bin_bearings() + np.pi, 2 * np.pi) - np.pi)
+    inside = (deg >= -1e-9) & (deg <= 30 + 1e-9)
+    lo = np.where(inside, 10.0, np.inf)[:, None]
+    hi = np.where(inside, 40.0, -np.inf)[:, None]
+    turned_lo, turned_hi = bands_turned(lo, hi, math.radians(3.0))
+    now = {round(float(d)): (float(a), float(b)) for d, a, b in zip(deg, turned_lo[:, 0], turned_hi[:, 0], strict=True)}
+    assert now[27] == (10.0, 40.0) and now[0] == (10.0, 40.0)
+    assert now[28] == (np.inf, -np.inf) and now[-2] == (10.0, 40.0)
+    assert now[-3] == (10.0, 40.0)  # it looked along 0 deg
+    assert now[30] == (np.inf, -np.inf) and now[-5] == (np.inf, -np.inf)
+    # not turned: as measured, to the bit
+    same_lo, same_hi = bands_turned(lo, hi, 0.0)
+    assert np.array_equal(same_lo, lo) and np.array_equal(same_hi, hi)

@@ -108,3 +108,19 @@ def test_the_radar_vouches_from_where_its_tilted_beam_meets_a_low_solid(
         out = pipeline.step(float(t), None, [radar_frame(float(t), k + 1, outside)], ego)
     assert [int(out.distances_cm[j]) for j in unknown_bins] == [UNKNOWN] * len(unknown_bins)
     assert [int(out.distances_cm[j]) for j in clear_bins] == [clear] * len(clear_bins)
+
+
+def test_the_radar_field_of_view_follows_the_heading_at_the_tick() -> None:
+    # Its returns turn with the boat between a frame and the tick (above); so must the field of view it vouches in.
+    # A frame at t = 1 s sees +-60 deg about the bow; the boat turns 30 deg/s to starboard, so at the tick 0.3 s
+    # later (no new frame, the radar still fresh) that field lies at -69..+51 deg: bin 11 (53-57 deg) has left it
+    # and bin 59 (-67..-63 deg) has come into it. Before, the field stayed at +-60 deg about the new heading.
+    config = load_config(None, {"output.max_distance_m": 40.0, "output.clear_inner_m": 2.0})
+    pipeline = pipeline_for(config)
+    ego = turning_ego(math.radians(30.0))
+    clear = int(config.output.max_distance_m * 100) + 1
+    outside = np.array([[0.0, -45.0, -0.5]])  # dead abeam to port, out of the field of view
+    first = pipeline.step(1.0, None, [radar_frame(1.0, 1, outside)], ego)
+    assert (int(first.distances_cm[11]), int(first.distances_cm[59])) == (clear, UNKNOWN)
+    later = pipeline.step(1.3, None, [], ego)
+    assert (int(later.distances_cm[11]), int(later.distances_cm[59])) == (UNKNOWN, clear)

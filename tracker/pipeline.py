@@ -27,6 +27,7 @@ from tracker.lidar.coverage import (
     SUB_BEARINGS,
     BeamGeometry,
     band_intervals,
+    bands_turned,
     bin_bearings,
     reach_from,
     swept_bins,
@@ -272,6 +273,8 @@ class PerceptionPipeline:
         self._last_radar_t = -np.inf
         self._lidar_coverage = SensorCoverage(0.0, 2 * np.pi, self.settings.lidar_max_range_m)
         self._lidar_bands = _no_bands()  # newest revolution's beam bands per bearing (lo, hi)
+        # the pose (world position, yaw) whose body frame the bands are in; None: the body frame whatever the pose
+        self._lidar_bands_at: tuple[np.ndarray, float] | None = None
         # the newest revolution's solid returns (placed with the pose at the sweep's end), the newest radar frame's
         # solid returns and all its returns (with the frame's pose)
         self._lidar_solid: Placed = (np.empty((0, 2)), None)
@@ -447,7 +450,7 @@ class PerceptionPipeline:
         clear_to = _timed(
             timings,
             "coverage",
-            lambda: self._clear_to(lidar_fresh, _at_tick(self._radar_returns, own) if radar_vouches else None),
+            lambda: self._clear_to(lidar_fresh, _at_tick(self._radar_returns, own) if radar_vouches else None, own),
         )
         distances = _timed(
             timings,
@@ -560,11 +563,17 @@ class PerceptionPipeline:
         self._skipped.append(sensor)
         return False
 
-    def _clear_to(self, lidar_fresh: bool, radar_returns: np.ndarray | None) -> np.ndarray:
+    def _clear_to(
+        self,
+        lidar_fresh: bool,
+        radar_returns: np.ndarray | None,
+        own: tuple[np.ndarray, float, float, float] | None,
+    ) -> np.ndarray:
         """(72,) m per bin out to which the live sensors vouch for "no solid": the union of the LiDAR's beam bands
         and the radar's field of view, walked outward without a gap from the inner edge; judged at three bearings
         per bin, the worst kept. ``radar_returns`` (n, 2) body fwd/stbd at the tick of the radar's newest frame, or
-        None when the radar does not vouch (silent, or its frame could not be placed).
+        None when the radar does not vouch (silent, or its frame could not be placed). ``own``: the pose at the tick,
+        to whose heading each sensor's bands are turned from its measurement's (None: they stay as measured).
 
         The radar vouches in a bin only out to its nearest return there (or beside the bin's edge): its returns
         reach the array only as confirmed tracks and shore, so a hull it returned but has not yet confirmed would
@@ -572,11 +581,13 @@ class PerceptionPipeline:
         s = self.settings
         los, his = [], []
         if lidar_fresh:
-            los.append(self._lidar_bands[0])
-            his.append(self._lidar_bands[1])
+            lo, hi = bands_turned(*self._lidar_bands, _turned_since(self._lidar_bands_at, own))
+            los.append(lo)
+            his.append(hi)
         if radar_returns is not None:
-            lo, hi = _radar_band(s, *self._radar_attitude)
-            returned = nearest_per_bin(radar_returns, s.bin_edge_m)
+            turned = _turned_since(self._radar_returns[1], own)
+            lo, hi = bands_turned(*_radar_band(s, *self._radar_attitude), turned)
+            returned = nearest_per_bin(radar_returns, s.bin_edge_m)  # already in the tick's body frame
             los.append(lo)
             his.append(np.minimum(hi, np.repeat(returned, SUB_BEARINGS.size)[:, None]))
         if not los:
@@ -663,6 +674,7 @@ class PerceptionPipeline:
         # level one's on the low side, so the level bands would vouch ranges no beam covered.
         guessed_level = not known.all() and pre.water.t != scan.stamp
         self._lidar_bands = _no_bands() if guessed_level else lidar_bands(beams, live, pre.water, self.settings)
+        self._lidar_bands_at = (own_pos, own_yaw) if track_points is not None else None
         if self.lidar_tracker is not None and track_points is not None and self._may_track("lidar"):
             t0 = time.perf_counter()
             self._lidar_tracks = self.lidar_tracker.step(
@@ -810,6 +822,17 @@ def _at_tick(placed: Placed, own: tuple[np.ndarray, float, float, float] | None)
         return points
     pos, yaw = (own[0][:2], own[3]) if own is not None else at
     return world_to_body_2d(points, pos, yaw)
+
+
+def _turned_since(at: tuple[np.ndarray, float] | None, own: tuple[np.ndarray, float, float, float] | None) -> float:
+    """How far (rad, clockwise) the boat turned from a measurement's pose ``at`` (world position, yaw) to the tick's
+    ``own``; 0 where either is unknown (the measurement then stays in its own body frame, as _at_tick leaves it).
+    The distance moved is left alone: 0.5 m in a frame at 5 m/s, inside the array's range tolerance, and eroding
+    the covered stretch by it would take every "clear" out to a sensor's full range off a moving boat."""
+    if at is None or own is None:
+        return 0.0
+    turned = float(np.angle(np.exp(1j * (own[3] - at[1]))))
+    return turned if np.isfinite(turned) else 0.0
 
 
 def _pose_now(ego: EgoSource | None, ego_ok: bool, t: float) -> tuple[np.ndarray, float, float, float] | None:

@@ -120,6 +120,25 @@ N_BINS = 72
 BIN_CENTRES = slice(int(np.flatnonzero(SUB_BEARINGS == 0.0)[0]), None, SUB_BEARINGS.size)
 
 
+def bands_turned(lo: np.ndarray, hi: np.ndarray, turned_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """A sensor's covered intervals per judged bearing (216, K), measured in the body frame of its measurement, as
+    the body frame of a boat that has turned ``turned_rad`` (clockwise) since sees them: its bearing b looked along
+    b + turned at the measurement. Between two judged bearings it takes what both vouch for (each column's
+    intervals intersected), so a turn never carries a neighbour's coverage into a bearing that had none. A boat
+    turning 30 deg/s turns 3 deg in a frame period."""
+    if turned_rad == 0.0:
+        return lo, hi
+    judged = np.mod(bin_bearings(), 2 * np.pi)
+    order = np.argsort(judged, kind="stable")
+    ring = judged[order]
+    query = np.mod(judged + turned_rad, 2 * np.pi)
+    right = np.searchsorted(ring, query) % ring.size
+    on = np.abs(np.angle(np.exp(1j * (ring[right] - query)))) < 1e-9
+    left = np.where(on, right, (right - 1) % ring.size)
+    a, b = order[left], order[right]
+    return np.maximum(lo[a], lo[b]), np.minimum(hi[a], hi[b])
+
+
 def bin_bearings() -> np.ndarray:
     """(72 * 3,) body bearings, rad: three per 5-degree bin, the bin's centre and 2 deg either side."""
     return np.radians((np.arange(N_BINS)[:, None] * 5.0 + SUB_BEARINGS[None, :]).ravel())
