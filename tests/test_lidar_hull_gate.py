@@ -46,3 +46,22 @@ def test_a_tentative_track_or_one_without_a_size_vouches_for_nothing() -> None:
     assert on_tracked_hulls(points, [_track(40.0, 0.0, 90.0, 10.0, 3.0, False)], 0.5).tolist() == [False]
     assert on_tracked_hulls(points, [_track(40.0, 0.0, 90.0, math.nan, 3.0, True)], 0.5).tolist() == [False]
     assert on_tracked_hulls(np.zeros((0, 2)), [_track(40.0, 0.0, 90.0, 10.0, 3.0, True)], 0.5).shape == (0,)
+
+
+def test_a_coasting_track_reaches_back_to_where_it_was_last_measured() -> None:
+    # A 1.5 x 1.5 m buoy whose returns sank into the sea margin: its track, unseen for 2 s, carried 0.55 m/s of
+    # velocity error north and its prediction lies 1.1 m beyond the buoy. A return on the buoy's far side from the
+    # prediction (1.1 + 0.75 = 1.85 m south of it) lies outside the box grown 0.5 m (1.25 m), inside it grown by the
+    # 1.1 m drifted as well (2.35 m); capped at 0.5 m of drift it is outside again (1.75 m).
+    buoy = _track(16.0 + 1.1, 0.0, 0.0, 1.5, 1.5, True)
+    buoy.velocity = np.array([0.55, 0.0])
+    buoy.time_since_update = 2.0
+    far_side = np.array([[16.0 - 0.75, 0.0], [16.0 - 1.5, 0.0]])  # the buoy's south edge; 0.75 m beyond it
+    assert on_tracked_hulls(far_side, [buoy], 0.5).tolist() == [False, False]
+    assert on_tracked_hulls(far_side, [buoy], 0.5, coast_drift_cap_m=3.0).tolist() == [True, False]
+    assert on_tracked_hulls(far_side, [buoy], 0.5, coast_drift_cap_m=0.5).tolist() == [False, False]
+    # measured this frame, or its speed unknown: no drift to reach back over
+    buoy.time_since_update = 0.0
+    assert on_tracked_hulls(far_side, [buoy], 0.5, coast_drift_cap_m=3.0).tolist() == [False, False]
+    buoy.time_since_update, buoy.velocity = 2.0, np.full(2, math.nan)
+    assert on_tracked_hulls(far_side, [buoy], 0.5, coast_drift_cap_m=3.0).tolist() == [False, False]

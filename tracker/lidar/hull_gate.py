@@ -16,10 +16,15 @@ import numpy as np
 from tracker.types import Track
 
 
-def on_tracked_hulls(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float) -> np.ndarray:
-    """(L,) bool: the point lies inside some confirmed track's footprint box grown by ``grow_m`` on every side."""
+def on_tracked_hulls(
+    points_ne: np.ndarray, tracks: Sequence[Track], grow_m: float, coast_drift_cap_m: float = 0.0
+) -> np.ndarray:
+    """(L,) bool: the point lies inside some confirmed track's footprint box grown by ``grow_m`` on every side, and
+    for a coasting track by the distance its prediction moved since its last measurement (speed x time unseen, at
+    most ``coast_drift_cap_m``): a hull that sank into the sea margin stops feeding its track, whose prediction then
+    drifts off it by whatever velocity error it carried."""
     pts = np.asarray(points_ne, dtype=float).reshape(-1, 2)
-    point, _, _ = _pairs_inside(pts, tracks, grow_m)
+    point, _, _ = _pairs_inside(pts, tracks, grow_m, coast_drift_cap_m)
     inside = np.zeros(pts.shape[0], dtype=bool)
     inside[point] = True
     return inside
@@ -41,7 +46,9 @@ def tracked_hull_of(points_ne: np.ndarray, tracks: Sequence[Track], grow_m: floa
     return out
 
 
-def _pairs_inside(pts: np.ndarray, tracks: Sequence[Track], grow_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _pairs_inside(
+    pts: np.ndarray, tracks: Sequence[Track], grow_m: float, coast_drift_cap_m: float = 0.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every (point, track) pair with point l of ``pts`` (L, 2) inside the grown box of confirmed track t (t indexes
     ``tracks``), as (K,) arrays of l and t sorted by l then t, and each pair's squared distance to the track's
     centre; a track without a finite size or heading counts as none.
@@ -55,8 +62,9 @@ def _pairs_inside(pts: np.ndarray, tracks: Sequence[Track], grow_m: float) -> tu
     hull = [tracks[i] for i in which]
     centre = np.array([t.position[:2] for t in hull])  # (T, 2)
     heading = np.array([t.heading for t in hull])
-    half_len = np.array([t.length for t in hull]) / 2 + grow_m
-    half_wid = np.array([t.width for t in hull]) / 2 + grow_m
+    grow = grow_m + np.minimum([_coast_drift(t) for t in hull], max(coast_drift_cap_m, 0.0))
+    half_len = np.array([t.length for t in hull]) / 2 + grow
+    half_wid = np.array([t.width for t in hull]) / 2 + grow
     reach = np.hypot(half_len, half_wid) * (1.0 + 1e-9) + 1e-9  # a little over: never closer than the box test
     # (L, T) per coordinate: an (L, T, 2) difference array cost as much as all the rest
     dn = pts[:, 0, None] - centre[None, :, 0]
@@ -74,3 +82,10 @@ def _pairs_inside(pts: np.ndarray, tracks: Sequence[Track], grow_m: float) -> tu
 def _finite_box(track: Track) -> bool:
     """The track has a finite position, heading and size (scalar checks: a few tracks, no arrays needed)."""
     return all(math.isfinite(v) for v in (*track.position, track.heading, track.length, track.width))
+
+
+def _coast_drift(track: Track) -> float:
+    """How far the track's prediction moved since its last measurement (m); 0 when its speed is unknown."""
+    if not track.speed_valid or not math.isfinite(track.time_since_update):
+        return 0.0
+    return float(np.hypot(*track.velocity[:2])) * max(track.time_since_update, 0.0)
