@@ -304,6 +304,7 @@ class PerceptionPipeline:
         self._deadline: float | None = None
         self._skipped: list[str] = []
         self.tracking_skipped = {"lidar": 0, "radar": 0}
+        self.world_resets = 0  # trackers made anew (world frame changed, or a failed cycle): the old ones are garbage
         # The live view (daemon/view) sets this: keep each tick's inputs and the LiDAR's per-point reasons. Off, the
         # cycle does nothing more than the boat needs.
         self.keep_view_detail = False
@@ -317,6 +318,7 @@ class PerceptionPipeline:
 
     def _reset_world(self) -> None:
         """The world frame changed: tracks and maps in the old frame are meaningless in the new one."""
+        self.world_resets += 1
         if self.lidar_tracker_factory:
             self.lidar_tracker = self.lidar_tracker_factory()
         if self.radar_tracker_factory:
