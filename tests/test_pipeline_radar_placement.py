@@ -110,6 +110,27 @@ def test_the_radar_vouches_from_where_its_tilted_beam_meets_a_low_solid(
     assert [int(out.distances_cm[j]) for j in clear_bins] == [clear] * len(clear_bins)
 
 
+@pytest.mark.parametrize(
+    ("roll_deg", "pitch_deg", "unknown_bins", "clear_bins"), [(0.0, 0.0, [], [0, 66]), (0.0, 18.0, [0], [])]
+)
+def test_a_radar_at_a_low_solids_height_sees_none_once_its_beam_points_up(
+    roll_deg: float, pitch_deg: float, unknown_bins: list[int], clear_bins: list[int]
+) -> None:
+    # The shipped geometry: the radar 0.5 m above the water, a low solid's top at its very height. Level, the beam's
+    # lower edge (15 deg down) meets that top from the hull out; bow up 18 deg, that edge points 3 deg up ahead and
+    # passes over every such solid there. Before, the level boat's coverage held at any trim.
+    config = load_config(None, {"output.max_distance_m": 40.0, "output.clear_inner_m": 2.0})
+    pipeline = pipeline_for(config)
+    assert pipeline.settings.radar_height_m == pytest.approx(pipeline.settings.min_obstacle_height_m)
+    ego = tilted_ego(roll_deg, pitch_deg)
+    clear = int(config.output.max_distance_m * 100) + 1
+    outside = np.array([[0.0, -45.0, -0.5]])
+    for k, t in enumerate(np.arange(1.0, 2.0, 0.1)):
+        out = pipeline.step(float(t), None, [radar_frame(float(t), k + 1, outside)], ego)
+    assert [int(out.distances_cm[j]) for j in unknown_bins] == [UNKNOWN] * len(unknown_bins)
+    assert [int(out.distances_cm[j]) for j in clear_bins] == [clear] * len(clear_bins)
+
+
 def test_the_radar_field_of_view_follows_the_heading_at_the_tick() -> None:
     # Its returns turn with the boat between a frame and the tick (above); so must the field of view it vouches in.
     # A frame at t = 1 s sees +-60 deg about the bow; the boat turns 30 deg/s to starboard, so at the tick 0.3 s
@@ -124,3 +145,25 @@ def test_the_radar_field_of_view_follows_the_heading_at_the_tick() -> None:
     assert (int(first.distances_cm[11]), int(first.distances_cm[59])) == (clear, UNKNOWN)
     later = pipeline.step(1.3, None, [], ego)
     assert (int(later.distances_cm[11]), int(later.distances_cm[59])) == (UNKNOWN, clear)
+
+
+def test_a_new_world_frame_leaves_the_field_of_view_where_the_radar_looked() -> None:
+    # A frame at heading 180 deg, then the autopilot's world frame changes (its poses cleared) before the next frame:
+    # the frame's field of view stays about the bow of the body frame it was measured in. Before, it was turned by
+    # the heading between the old world's pose (180 deg) and the pose-less tick's (0): "clear" astern, where the
+    # radar does not look.
+    config = load_config(None, {"output.max_distance_m": 40.0, "output.clear_inner_m": 2.0})
+    pipeline = pipeline_for(config)
+    clear = int(config.output.max_distance_m * 100) + 1
+    history, epoch = PoseHistory(), [0]
+    ego = HistoryEgo(history, lambda: epoch[0])
+    for t in np.arange(0.0, 1.05, 0.02):
+        history.add(EgoPose(float(t), np.zeros(3), np.zeros(3), 0.0, 0.0, math.pi))
+    outside = np.array([[0.0, -45.0, -0.5]])  # dead abeam to port, out of the field of view
+    ahead = [*range(0, 12), *range(61, 72)]
+    first = pipeline.step(1.0, None, [radar_frame(1.0, 1, outside)], ego)
+    assert np.flatnonzero(first.distances_cm == clear).tolist() == ahead
+    history.clear()
+    epoch[0] += 1
+    later = pipeline.step(1.1, None, [], ego)
+    assert np.flatnonzero(later.distances_cm == clear).tolist() == ahead

@@ -326,9 +326,12 @@ class PerceptionPipeline:
         self._lidar_tracks, self._radar_tracks = [], []
         self._published.reset()
         self._memory.reset()
-        points, at_sweep_end = self._lidar_solid
-        if at_sweep_end is not None:  # kept in the body frame of the sweep's end, both in the old world frame
-            self._lidar_solid = (world_to_body_2d(points, *at_sweep_end), None)
+        # What the sensors measured stays, moved into the body frame it was measured in: poses of the old world
+        # frame mean nothing in the new one (nor may the coverage be turned by the heading difference between them).
+        self._lidar_solid = _into_own_body(self._lidar_solid)
+        self._radar_solid = _into_own_body(self._radar_solid)
+        self._radar_returns = _into_own_body(self._radar_returns)
+        self._lidar_bands_at = None
 
     def step(
         self,
@@ -785,11 +788,18 @@ def _radar_band(s: PipelineSettings, roll: float = 0.0, pitch: float = 0.0) -> t
     up = np.sin(pitch) * np.cos(bearings) - np.cos(pitch) * np.sin(roll) * np.sin(bearings)
     elevation = np.arcsin(np.clip(up, -1.0, 1.0)) + s.radar_pitch_rad * np.cos(off_boresight)
     depression = s.radar_half_vfov_rad - elevation  # of the beam's lower edge below the horizon
-    drop = max(s.radar_height_m - s.min_obstacle_height_m, 0.0)
-    near = np.where(depression > 1e-6, drop / np.tan(np.maximum(depression, 1e-6)), np.inf) if drop > 0 else 0.0
+    drop = s.radar_height_m - s.min_obstacle_height_m  # from the radar down to a low solid's top
+    if drop > 0:  # the top lies below the radar: the lower edge reaches it from some range on, if it points down
+        near = np.where(depression > 1e-6, drop / np.tan(np.maximum(depression, 1e-6)), np.inf)
+        rises = np.full(depression.shape, np.inf)
+    else:  # the top is at or above the radar: seen from the hull out, unless the lower edge points up, then only
+        # out to where that edge passes over it (nowhere, with the radar at the top's very height)
+        near = np.zeros(depression.shape)
+        rises = np.where(depression < -1e-6, -drop / np.tan(np.maximum(-depression, 1e-6)), np.inf)
     # a beam whose upper edge points below the horizon (heeled past its half-width) ends in the water
     sinks = -(elevation + s.radar_half_vfov_rad)
     far = np.where(sinks > 1e-6, max(s.radar_height_m, 0.0) / np.tan(np.maximum(sinks, 1e-6)), np.inf)
+    far = np.minimum(far, rises)
     lo = np.where(inside, near, np.inf)[:, None]
     hi = np.where(inside, np.minimum(s.radar_max_range_m, far), -np.inf)[:, None]
     return lo, hi
@@ -832,6 +842,12 @@ def _at_tick(placed: Placed, own: tuple[np.ndarray, float, float, float] | None)
         return points
     pos, yaw = (own[0][:2], own[3]) if own is not None else at
     return world_to_body_2d(points, pos, yaw)
+
+
+def _into_own_body(placed: Placed) -> Placed:
+    """Returns placed in the world frame with the pose they were measured at, as the body frame of that pose."""
+    points, at = placed
+    return placed if at is None else (world_to_body_2d(points, *at), None)
 
 
 def _turned_since(at: tuple[np.ndarray, float] | None, own: tuple[np.ndarray, float, float, float] | None) -> float:
