@@ -94,7 +94,16 @@ def _candidates(fields: dict[str, Any], hints: dict[str, Any]) -> list[str]:
     return out
 
 
-def _build(cls: type[T], table: dict[str, Any], prefix: str, problems: list[str]) -> T:
+def _field_default(f: dataclasses.Field[Any]) -> Any:
+    if f.default_factory is not dataclasses.MISSING:
+        return f.default_factory()
+    return None if f.default is dataclasses.MISSING else f.default
+
+
+def _build(cls: type[T], table: dict[str, Any], prefix: str, problems: list[str], base: T | None = None) -> T:
+    """``cls`` from ``table``; the keys the table leaves out keep ``base``'s values (the enclosing table's default
+    for this one: the radar's mount sits 0.5 m forward and up, not at the origin as a bare mount does), else the
+    class's own defaults."""
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}  # type: ignore[arg-type]
     kwargs: dict[str, Any] = {}
@@ -112,12 +121,19 @@ def _build(cls: type[T], table: dict[str, Any], prefix: str, problems: list[str]
                 hint = f" (did you mean '{close[0]}'?)" if close else f" (known keys: {', '.join(sorted(fields))})"
             problems.append(f"{full}: unknown key{hint}")
             continue
-        kwargs[key] = _coerce(value, hints[key], full, problems)
+        if dataclasses.is_dataclass(hints[key]) and isinstance(value, dict):
+            default = getattr(base, key) if base is not None else _field_default(fields[key])
+            kwargs[key] = _build(
+                hints[key], value, full, problems, default if isinstance(default, hints[key]) else None
+            )
+        else:
+            kwargs[key] = _coerce(value, hints[key], full, problems)
+    given = {k: v for k, v in kwargs.items() if v is not None}
     try:
-        obj = cls(**{k: v for k, v in kwargs.items() if v is not None})
+        obj = dataclasses.replace(base, **given) if base is not None else cls(**given)  # type: ignore[type-var]
     except (TypeError, ValueError) as exc:
         problems.append(f"{prefix or 'config'}: {exc}")
-        return cls()  # type: ignore[call-arg]
+        return base if base is not None else cls()  # type: ignore[call-arg]
     check = getattr(obj, "validate", None)
     if check is not None:
         try:

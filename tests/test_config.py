@@ -344,3 +344,17 @@ def test_the_cycle_budget_must_leave_the_tick_room(tmp_path: Path) -> None:
     assert err.value.problems == ["output.cycle_budget_ms: 50.0 must be within [0, the tick period) (0 = never skip)"]
     path.write_text("[output]\nrate_hz = 20.0\ncycle_budget_ms = 40.0\n")
     assert load_config(path).output.cycle_budget_ms == 40.0
+
+
+def test_a_mount_table_that_sets_one_angle_keeps_the_shipped_offsets(tmp_path: Path) -> None:
+    # A crew levelling the radar writes only its pitch: the radar must stay 0.5 m forward and 0.5 m up (its shipped
+    # place, from which its height above the water and its coverage follow), not move to the body origin as a bare
+    # mount table's defaults would put it. Before, [radar.mount] pitch = 5 alone put it at x = z = 0.
+    path = tmp_path / "usv-tracker.toml"
+    path.write_text("[radar.mount]\npitch = 5.0\n\n[lidar.mount]\nyaw = 10.0\n", encoding="utf-8")
+    config = load_config(path)
+    radar, lidar = config.radar.mount, config.lidar.mount
+    assert (radar.x, radar.y, radar.z, radar.pitch) == (0.5, 0.0, -0.5, 5.0)
+    assert (lidar.x, lidar.z, lidar.yaw) == (0.0, -1.0, 10.0)
+    overridden = load_config(None, {"radar.mount.yaw": -30.0}).radar.mount
+    assert (overridden.x, overridden.z, overridden.yaw) == (0.5, -0.5, -30.0)
