@@ -439,3 +439,20 @@ def test_a_frame_ending_like_a_magic_word_waits_for_bytes_or_for_the_line_to_go_
     assert parser.feed(frame, 1.0) == []
     nxt = encode_frame(8, np.array([[1.0, 5.0, 0.0]]), [0.5], 20.0, 30.0)
     assert [f.frame_number for f in parser.feed(nxt, 1.1) + parser.idle(1.12)] == [7, 8]
+
+
+def test_a_view_of_the_buffer_held_elsewhere_does_not_stop_the_stream() -> None:
+    # A bytearray that something still views (a traceback's frame of the decoder, a debugger walking objects) can
+    # neither grow nor shrink: the reader failed with "BufferError: Existing exports of data" and the radar stopped.
+    # The parser must go on with a copy, every frame intact.
+    blobs = [encode_frame(k, np.array([[1.0, 10.0 + k, 0.0]]), np.array([0.1]), 20.0, 50.0) for k in (1, 2, 3)]
+    parser = RadarFrameParser()
+    got = [f.frame_number for f in parser.feed(blobs[0] + blobs[1][:40], 0.0)]
+    held = memoryview(parser._buf)  # the holder the parser cannot see
+    got += [f.frame_number for f in parser.feed(blobs[1][40:] + blobs[2][:10], 0.1)]
+    held2 = memoryview(parser._buf)
+    got += [f.frame_number for f in parser.feed(blobs[2][10:], 0.2)]
+    assert got == [1, 2, 3]
+    assert parser.stats.frames_ok == 3 and parser.stats.bytes_skipped == 0
+    held.release()
+    held2.release()

@@ -215,7 +215,10 @@ class RadarFrameParser:
     def feed(self, data: bytes | bytearray | memoryview, host_time: float) -> list[RadarFrame]:
         """Add bytes read at ``host_time``; return the frames they completed, oldest first."""
         if data:
-            self._buf += data
+            try:
+                self._buf += data
+            except BufferError:  # a view of the buffer is held somewhere: grow a copy, leave the old one to it
+                self._buf = self._buf + data
             self.stats.bytes_received += len(data)
         frames = self._drain(host_time, final=False)
         self._compact()
@@ -347,7 +350,12 @@ class RadarFrameParser:
 
     def _compact(self) -> None:
         if self._pos:
-            del self._buf[: self._pos]
+            try:
+                del self._buf[: self._pos]
+            except BufferError:
+                # A view of the buffer outlived its frame (a traceback, a debugger walking objects): a bytearray
+                # with exports cannot shrink, and raising here would stop the radar's reader until a restart.
+                self._buf = self._buf[self._pos :]
             self._pos = 0
 
     def _count_frame_number(self, number: int) -> None:
