@@ -278,9 +278,8 @@ class PerceptionPipeline:
         self._last_lidar_t = -np.inf
         self._last_radar_t = -np.inf
         self._lidar_coverage = SensorCoverage(0.0, 2 * np.pi, self.settings.lidar_max_range_m)
-        self._lidar_bands = _no_bands()  # newest revolution's beam bands per bearing (lo, hi)
-        # the pose (world position, yaw) whose body frame the bands are in; None: the body frame whatever the pose
-        self._lidar_bands_at: tuple[np.ndarray, float] | None = None
+        # newest revolution's beam bands per bearing (lo, hi), in the body frame of its solid returns' pose
+        self._lidar_bands = _no_bands()
         # the newest revolution's solid returns (placed with the pose at the sweep's end), the newest radar frame's
         # solid returns and all its returns (with the frame's pose)
         self._lidar_solid: Placed = (np.empty((0, 2)), None)
@@ -331,7 +330,6 @@ class PerceptionPipeline:
         self._lidar_solid = _into_own_body(self._lidar_solid)
         self._radar_solid = _into_own_body(self._radar_solid)
         self._radar_returns = _into_own_body(self._radar_returns)
-        self._lidar_bands_at = None
 
     def step(
         self,
@@ -592,7 +590,7 @@ class PerceptionPipeline:
         s = self.settings
         los, his = [], []
         if lidar_fresh:
-            lo, hi = bands_turned(*self._lidar_bands, _turned_since(self._lidar_bands_at, own))
+            lo, hi = bands_turned(*self._lidar_bands, _turned_since(self._lidar_solid[1], own))
             los.append(lo)
             his.append(hi)
         if radar_returns is not None:
@@ -685,7 +683,6 @@ class PerceptionPipeline:
         # level one's on the low side, so the level bands would vouch ranges no beam covered.
         guessed_level = not known.all() and pre.water.t != scan.stamp
         self._lidar_bands = _no_bands() if guessed_level else lidar_bands(beams, live, pre.water, self.settings)
-        self._lidar_bands_at = (own_pos, own_yaw) if track_points is not None else None
         if self.lidar_tracker is not None and track_points is not None and self._may_track("lidar"):
             t0 = time.perf_counter()
             self._lidar_tracks = self.lidar_tracker.step(

@@ -128,20 +128,23 @@ def bands_turned(lo: np.ndarray, hi: np.ndarray, turned_rad: float) -> tuple[np.
     turning 30 deg/s turns 3 deg in a frame period."""
     if turned_rad == 0.0:
         return lo, hi
-    judged = np.mod(bin_bearings(), 2 * np.pi)
-    order = np.argsort(judged, kind="stable")
-    ring = judged[order]
-    query = np.mod(judged + turned_rad, 2 * np.pi)
-    right = np.searchsorted(ring, query) % ring.size
-    on = np.abs(np.angle(np.exp(1j * (ring[right] - query)))) < 1e-9
-    left = np.where(on, right, (right - 1) % ring.size)
-    a, b = order[left], order[right]
+    query = np.mod(_JUDGED + turned_rad, 2 * np.pi)
+    right = np.searchsorted(_RING, query) % _RING.size
+    on = np.abs(np.angle(np.exp(1j * (_RING[right] - query)))) < 1e-9
+    left = np.where(on, right, (right - 1) % _RING.size)
+    a, b = _RING_ORDER[left], _RING_ORDER[right]
     return np.maximum(lo[a], lo[b]), np.minimum(hi[a], hi[b])
 
 
 def bin_bearings() -> np.ndarray:
     """(72 * 3,) body bearings, rad: three per 5-degree bin, the bin's centre and 2 deg either side."""
     return np.radians((np.arange(N_BINS)[:, None] * 5.0 + SUB_BEARINGS[None, :]).ravel())
+
+
+# The judged bearings in [0, 2 pi), and their order round the circle (bands_turned looks up between neighbours).
+_JUDGED = np.mod(bin_bearings(), 2 * np.pi)
+_RING_ORDER = np.argsort(_JUDGED, kind="stable")
+_RING = _JUDGED[_RING_ORDER]
 
 
 @dataclass(frozen=True)
