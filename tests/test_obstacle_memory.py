@@ -11,7 +11,7 @@ import pytest
 from drivers.frames import LidarScan
 from drivers.mount import Mount
 from tests.sea_geometry import SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
-from tracker.obstacle_map import UNKNOWN, nearest_per_bin, nearest_point_per_bin, to_distances_cm
+from tracker.obstacle_map import UNKNOWN, nearest_and_edge_points_per_bin, nearest_per_bin, to_distances_cm
 from tracker.obstacle_memory import ObstacleMemory
 from tracker.pipeline import PerceptionOutput, PerceptionPipeline
 from tracker.types import Track
@@ -43,15 +43,50 @@ def fill(
     return memory.fill_unknown(t, t, distances, solid, (np.array(own_ne), 0.0), tracks or [], HOLD_S, 0.5, MAX_M)
 
 
-def test_nearest_point_per_bin_keeps_each_bins_nearest() -> None:
-    pts = np.array([[20.0, 0.0], [10.0, 0.1], [0.0, 5.0], [0.0, 7.0], [np.nan, 1.0]])
-    near = nearest_point_per_bin(pts)
-    np.testing.assert_allclose(near[0], [10.0, 0.1])
-    np.testing.assert_allclose(near[18], [0.0, 5.0])  # due starboard
-    assert np.isnan(np.delete(near, [0, 18], axis=0)).all()
+def at_bearings(deg_and_range: list[tuple[float, float]]) -> np.ndarray:
+    """Body (forward, starboard) points at (bearing deg clockwise from the bow, range m)."""
+    a = np.radians([d for d, _ in deg_and_range])
+    r = np.array([m for _, m in deg_and_range])
+    return np.stack([r * np.cos(a), r * np.sin(a)], axis=1)
+
+
+def test_nearest_and_edge_points_per_bin_keep_each_wanted_bins_nearest_and_its_bearing_extremes() -> None:
+    """Bin 18 (87.5-92.5 deg) holds four points: its nearest (92.4 deg) is also its greatest bearing, 88.0 deg its
+    least; bin 0 holds one (all three are it), bin 36 astern two across the -180/180 seam (its least bearing is
+    -178 deg's neighbour 179 deg, not the seam's far side); bin 54 is not wanted; a NaN point is dropped."""
+    pts = np.concatenate(
+        [
+            at_bearings([(91.0, 44.9), (92.4, 44.0), (88.0, 45.5), (90.0, 46.0), (0.0, 10.0)]),
+            at_bearings([(179.0, 30.0), (-178.0, 31.0), (-90.0, 5.0)]),
+            [[np.nan, 1.0]],
+        ]
+    )
+    wanted = np.zeros(72, dtype=bool)
+    wanted[[0, 18, 36]] = True
+    got = nearest_and_edge_points_per_bin(pts, wanted)
+    bearing = np.degrees(np.arctan2(got[:, 1], got[:, 0]))
+    # nearest per bin first, then the least bearings, then the greatest, each in bin order
+    np.testing.assert_allclose(bearing, [0.0, 92.4, 179.0, 0.0, 88.0, 179.0, 0.0, 92.4, -178.0], atol=1e-9)
+    np.testing.assert_allclose(np.hypot(got[:, 0], got[:, 1]), [10, 44, 30, 10, 45.5, 30, 10, 44, 31], atol=1e-9)
+    assert nearest_and_edge_points_per_bin(pts, np.zeros(72, dtype=bool)).shape == (0, 2)
     ranges = nearest_per_bin(pts)
-    assert ranges[0] == pytest.approx(math.hypot(10.0, 0.1)) and ranges[18] == pytest.approx(5.0)
-    assert np.isinf(np.delete(ranges, [0, 18])).all()
+    assert ranges[0] == pytest.approx(10.0) and ranges[18] == pytest.approx(44.0)
+
+
+def test_a_hull_ending_near_a_bins_edge_still_fills_that_bin_after_the_boat_moved() -> None:
+    """A hull's returns in bin 18 run from 91.0 to 92.4 deg, its nearest (44.0 m) at 92.4 deg. The boat then comes
+    0.5 m ahead and the bin would be unknown: the nearest point now lies at 93.1 deg, in bin 19, but the hull still
+    reaches 89.6 deg (its 91.0 deg return, 44.9 m): bin 18 shows 44.9 m (it went out unknown while only the nearest
+    point was held)."""
+    m = ObstacleMemory()
+    hull = at_bearings([(91.0, 44.9), (91.7, 44.5), (92.4, 44.0)])
+    first = fill(m, 0.0, sent({18: 44.0}), hull)
+    assert first[18] == 4400
+    now = fill(m, 0.1, sent(), own_ne=(0.5, 0.0))
+    moved = hull - [0.5, 0.0]  # the body frame 0.5 m ahead, same heading
+    assert now[18] == round(np.hypot(*moved[0]) * 100)  # 44.9 m less 0.0087 m: 4489 cm
+    assert now[19] == round(np.hypot(*moved[2]) * 100)  # the nearest point, moved there: 4402 cm
+    assert (np.delete(now, [18, 19]) == UNKNOWN).all()
 
 
 def test_an_unknown_bin_shows_the_solid_measured_within_the_hold_where_the_boat_now_sees_it() -> None:

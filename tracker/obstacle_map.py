@@ -101,15 +101,39 @@ class _BinnedPoints:
         return out
 
 
-def nearest_point_per_bin(points_fwd_stbd: np.ndarray) -> np.ndarray:
-    """(72, 2) the nearest (forward, starboard) point in each bin, NaN where the bin has none."""
-    out = np.full((N_BINS, 2), np.nan)
+def nearest_and_edge_points_per_bin(points_fwd_stbd: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+    """(K, 2) for each ``wanted`` (72,) bin that holds a point: its nearest point and its two points nearest its
+    edges (least and greatest bearing within it), forward/starboard; the three may be one point. What a bin showed,
+    without the thousands of returns behind it: its range and how far across the bin its solid reached."""
     p = np.asarray(points_fwd_stbd, dtype=float).reshape(-1, 2)
     fwd, stbd, r2, index = _finite(p, with_index=True)
-    if r2.size:
-        bins, first, _least = _least_per_bin(_bins_of(np.arctan2(stbd, fwd)), r2, with_index=True)
-        out[bins] = p[index[first]]
-    return out
+    angle = np.arctan2(stbd, fwd)
+    b = _bins_of(angle)
+    take = wanted[b]
+    if not take.any():
+        return np.empty((0, 2))
+    b, r2, index = b[take], r2[take], index[take]
+    # bearing within the bin, from its centre: continuous across the -pi/pi seam of the bin astern
+    off = np.remainder(angle[take] - b * BIN_WIDTH_RAD + np.pi, 2 * np.pi) - np.pi
+    order = np.argsort(b, kind="stable")  # a radix sort of 16-bit bins, as _least_per_bin
+    sorted_bins = b[order]
+    starts = np.flatnonzero(np.r_[True, sorted_bins[1:] != sorted_bins[:-1]])
+    counts = np.diff(np.r_[starts, sorted_bins.size])
+
+    def first_at(values: np.ndarray, per_run: np.ndarray) -> np.ndarray:
+        """Each run's first place (in ``order``) holding its run's value ``per_run``."""
+        at = np.flatnonzero(values == np.repeat(per_run, counts))
+        return at[np.r_[True, sorted_bins[at[1:]] != sorted_bins[at[:-1]]]]
+
+    r2_sorted, off_sorted = r2[order], off[order]
+    picked = np.concatenate(
+        [
+            first_at(r2_sorted, np.minimum.reduceat(r2_sorted, starts)),
+            first_at(off_sorted, np.minimum.reduceat(off_sorted, starts)),
+            first_at(off_sorted, np.maximum.reduceat(off_sorted, starts)),
+        ]
+    )
+    return p[index[order[picked]]]
 
 
 def _finite(points_fwd_stbd: np.ndarray, with_index: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

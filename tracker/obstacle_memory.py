@@ -29,7 +29,7 @@ import numpy as np
 
 from tracker.ego import body_to_world_2d, world_to_body_2d
 from tracker.lidar.hull_gate import tracked_hull_of
-from tracker.obstacle_map import N_BINS, UNKNOWN, nearest_per_bin, nearest_point_per_bin, to_distances_cm
+from tracker.obstacle_map import N_BINS, UNKNOWN, nearest_and_edge_points_per_bin, nearest_per_bin, to_distances_cm
 from tracker.types import Track
 
 # A solid within this (m) of a confirmed track's footprint is that hull's and moves with it: the returns of a hull
@@ -93,8 +93,10 @@ class ObstacleMemory:
                 self.last_filled = fill
         measured = distances_cm <= round(max_distance_m * 100)
         if measured.any() and measured_at > self._newest:
-            # an obstacle bin's value came from solid_body: its nearest point there is the one measured
-            pts = nearest_point_per_bin(solid_body)[measured]
+            # an obstacle bin's value came from solid_body: its nearest point there is the one measured, and its
+            # points nearest the bin's edges say how far across the bin the solid reached (a hull ending 0.2 deg
+            # inside a bin, held by its nearest point alone, left the bin once the boat had moved a metre)
+            pts = nearest_and_edge_points_per_bin(solid_body, measured)
             if pts.shape[0]:
                 world = body_to_world_2d(pts, own_ne, own_yaw)
                 hull = tracked_hull_of(world, tracks, HULL_GROW_M)
