@@ -72,7 +72,7 @@ class _BinnedPoints:
         """(72,) nearest range per bin, m; inf where none."""
         out = np.full(N_BINS, np.inf)
         if self.r2.size:
-            bins, _first, least = _least_per_bin(self.bin, self.r2, with_index=False)
+            bins, least = _least_per_bin(self.bin, self.r2)
             out[bins] = np.sqrt(least)
         return out
 
@@ -96,7 +96,7 @@ class _BinnedPoints:
             bt = b[test]
             neighbour = np.concatenate([(bt[up] + 1) % N_BINS, (bt[down] - 1) % N_BINS]).astype(np.int16)
             r2 = self.r2[test]
-            bins, _first, least = _least_per_bin(neighbour, np.concatenate([r2[up], r2[down]]), with_index=False)
+            bins, least = _least_per_bin(neighbour, np.concatenate([r2[up], r2[down]]))
             out[bins] = np.sqrt(least)
         return out
 
@@ -115,25 +115,16 @@ def nearest_and_edge_points_per_bin(points_fwd_stbd: np.ndarray, wanted: np.ndar
     b, r2, index = b[take], r2[take], index[take]
     # bearing within the bin, from its centre: continuous across the -pi/pi seam of the bin astern
     off = np.remainder(angle[take] - b * BIN_WIDTH_RAD + np.pi, 2 * np.pi) - np.pi
-    order = np.argsort(b, kind="stable")  # a radix sort of 16-bit bins, as _least_per_bin
-    sorted_bins = b[order]
-    starts = np.flatnonzero(np.r_[True, sorted_bins[1:] != sorted_bins[:-1]])
-    counts = np.diff(np.r_[starts, sorted_bins.size])
-
-    def first_at(values: np.ndarray, per_run: np.ndarray) -> np.ndarray:
-        """Each run's first place (in ``order``) holding its run's value ``per_run``."""
-        at = np.flatnonzero(values == np.repeat(per_run, counts))
-        return at[np.r_[True, sorted_bins[at[1:]] != sorted_bins[at[:-1]]]]
-
-    r2_sorted, off_sorted = r2[order], off[order]
+    runs = _BinRuns(b)
+    r2_sorted, off_sorted = r2[runs.order], off[runs.order]
     picked = np.concatenate(
         [
-            first_at(r2_sorted, np.minimum.reduceat(r2_sorted, starts)),
-            first_at(off_sorted, np.minimum.reduceat(off_sorted, starts)),
-            first_at(off_sorted, np.maximum.reduceat(off_sorted, starts)),
+            runs.first_at(r2_sorted, np.minimum.reduceat(r2_sorted, runs.starts)),
+            runs.first_at(off_sorted, np.minimum.reduceat(off_sorted, runs.starts)),
+            runs.first_at(off_sorted, np.maximum.reduceat(off_sorted, runs.starts)),
         ]
     )
-    return p[index[order[picked]]]
+    return p[index[runs.order[picked]]]
 
 
 def _finite(points_fwd_stbd: np.ndarray, with_index: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -155,24 +146,26 @@ def _bins_of(angle: np.ndarray) -> np.ndarray:
     return np.where(b < 0, b + np.int16(N_BINS), b)  # a masked in-place add cost twice as much
 
 
-def _least_per_bin(b: np.ndarray, r2: np.ndarray, with_index: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The bins holding a point, the index of each one's nearest point (empty unless ``with_index``: finding it
-    costs half again) and its squared horizontal range."""
-    # Minimum per bin by a stable sort of 16-bit bin numbers (a radix sort) and reduceat: 4x faster than
-    # np.minimum.at on a revolution's 29k returns.
-    order = np.argsort(b, kind="stable")
-    sorted_bins = b[order]
-    starts = np.flatnonzero(np.r_[True, sorted_bins[1:] != sorted_bins[:-1]])
-    sorted_r2 = r2[order]
-    least = np.minimum.reduceat(sorted_r2, starts)
-    bins = sorted_bins[starts].astype(np.int64)
-    if not with_index:
-        return bins, np.empty(0, np.int64), least
-    # the nearest's place in each bin's run: the first that equals the run's minimum
-    counts = np.diff(np.r_[starts, sorted_r2.size])
-    at_least = np.flatnonzero(sorted_r2 == np.repeat(least, counts))
-    first = at_least[np.r_[True, sorted_bins[at_least[1:]] != sorted_bins[at_least[:-1]]]]
-    return bins, order[first], least
+class _BinRuns:
+    """Points grouped by bin: a stable sort of their 16-bit bin numbers (a radix sort), then reduceat over each bin's
+    run, 4x faster than np.minimum.at on a revolution's 29k returns."""
+
+    def __init__(self, b: np.ndarray) -> None:
+        self.order = np.argsort(b, kind="stable")
+        self.sorted_bins = b[self.order]
+        self.starts = np.flatnonzero(np.r_[True, self.sorted_bins[1:] != self.sorted_bins[:-1]])
+
+    def first_at(self, sorted_values: np.ndarray, per_run: np.ndarray) -> np.ndarray:
+        """Each run's first place (in the sorted order) holding its run's value ``per_run`` (its minimum, say)."""
+        at = np.flatnonzero(sorted_values == np.repeat(per_run, np.diff(np.r_[self.starts, sorted_values.size])))
+        return at[np.r_[True, self.sorted_bins[at[1:]] != self.sorted_bins[at[:-1]]]]
+
+
+def _least_per_bin(b: np.ndarray, r2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The bins holding a point and the least squared horizontal range in each."""
+    runs = _BinRuns(b)
+    least = np.minimum.reduceat(r2[runs.order], runs.starts)
+    return runs.sorted_bins[runs.starts].astype(np.int64), least
 
 
 def outline_points(corners_fwd_stbd: np.ndarray, spacing: float = 0.25) -> np.ndarray:
