@@ -1,0 +1,93 @@
+"""Radar returns that persist at one place in the world: a solid the radar sees too sparsely to track (a small hull
+in the LiDAR's blind gap) is an obstacle; clutter that wanders, returns close in, and a place the LiDAR's beams
+vouch for are not."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drivers.frames import RadarFrame
+from tests.test_pipeline_radar_outlines import MOUNTED, FixedRadarTracks, water_scan
+from tracker.obstacle_map import UNKNOWN
+from tracker.persistent_returns import PersistenceRule, PersistentReturns
+from tracker.pipeline import PerceptionPipeline
+
+
+def persistent_after(frames: list[np.ndarray], rule: PersistenceRule | None = None) -> list[np.ndarray]:
+    """Each frame's persistence mask, frames (n, 2) world north/east fed in order from a sensor at the origin."""
+    history = PersistentReturns(rule or PersistenceRule())
+    return [history.add(f, np.hypot(f[:, 0], f[:, 1])) for f in frames]
+
+
+def test_a_return_repeated_within_a_metre_in_four_of_five_frames_persists() -> None:
+    rng = np.random.default_rng(3)
+    buoy = np.array([40.0, 5.0])
+    frames = [buoy + rng.uniform(-0.4, 0.4, size=(1, 2)) for _ in range(6)]
+    masks = persistent_after(frames)
+    # the first four frames have fewer than 4 frames before them; from the fifth on, all 4+ earlier frames hold it
+    assert [bool(m[0]) for m in masks] == [False, False, False, False, True, True]
+
+
+def test_one_missed_frame_of_five_is_forgiven_two_are_not() -> None:
+    buoy = np.array([[40.0, 5.0]])
+    none = np.empty((0, 2))
+    assert persistent_after([buoy, none, buoy, buoy, buoy, buoy])[-1].tolist() == [True]  # 4 of the 5 before
+    assert persistent_after([buoy, none, buoy, none, buoy, buoy])[-1].tolist() == [False]  # 3 of the 5 before
+
+
+def test_a_return_that_moves_a_metre_in_four_frames_does_not_persist() -> None:
+    # frames at 10 Hz: at 2 m/s (0.2 m a frame) the return lies within 1 m of 4 of the 5 frames before it (0.2 to
+    # 0.8 m; the fifth at 1.0 m is not within); at 3 m/s within 1 m of only 3 of them: its track must hold it
+    slow = [np.array([[40.0 + 0.2 * k, 0.0]]) for k in range(6)]
+    fast = [np.array([[40.0 + 0.3 * k, 0.0]]) for k in range(6)]
+    assert persistent_after(slow)[-1].tolist() == [True]
+    assert persistent_after(fast)[-1].tolist() == [False]
+
+
+def test_wandering_clutter_does_not_persist() -> None:
+    """Five clutter returns a frame scattered over the 60 x 60 m beyond 30 m, 200 frames: none persists."""
+    rng = np.random.default_rng(11)
+    frames = [np.column_stack([rng.uniform(30, 90, 5), rng.uniform(-30, 30, 5)]) for _ in range(200)]
+    assert sum(int(m.sum()) for m in persistent_after(frames)) == 0
+
+
+def test_a_return_nearer_than_beyond_m_never_persists() -> None:
+    near = [np.array([[20.0, 0.0]])] * 6
+    assert not any(m.any() for m in persistent_after(near))
+    assert persistent_after(near, PersistenceRule(beyond_m=15.0))[-1].tolist() == [True]
+    assert persistent_after([np.array([[29.0, 0.0]])] * 6)[-1].tolist() == [False]
+
+
+def radar_frame(t: float, points_fwd_stbd: np.ndarray) -> RadarFrame:
+    n = len(points_fwd_stbd)
+    xyz = np.column_stack([points_fwd_stbd, np.zeros(n)])
+    return RadarFrame(t, int(t * 10), xyz, np.zeros(n), np.zeros(n), np.zeros(n))
+
+
+def bin0_each_tick(point_fwd: float, lidar: bool, ticks: int = 6) -> list[int]:
+    """Bin 0 (dead ahead) over ``ticks`` ticks, one radar frame a tick with one return ``point_fwd`` m ahead and
+    no radar track, the LiDAR's revolutions returning only water (every bin measured, nothing solid)."""
+    p = PerceptionPipeline(MOUNTED, radar_tracker_factory=lambda: FixedRadarTracks([]))
+    out = []
+    for k in range(ticks):
+        t = 1.0 + 0.1 * k
+        scan = water_scan(t - 0.05) if lidar else None
+        d = p.step(t, scan, [radar_frame(t - 0.05, np.array([[point_fwd, 0.0]]))], None)
+        out.append(int(d.distances_cm[0]))
+    return out
+
+
+def test_a_persistent_return_in_the_lidars_blind_gap_becomes_an_obstacle_on_the_fifth_frame() -> None:
+    """A buoy 40 m ahead lies between the -3 and -1 deg beams of a VLP-16 1.6 m up: the radar alone can see it."""
+    assert bin0_each_tick(40.0, lidar=True) == [UNKNOWN] * 4 + [4000, 4000]
+
+
+def test_a_persistent_return_where_the_lidars_beams_vouch_stays_out() -> None:
+    """At 70 m the -1 deg beam would have returned a 0.5 m solid and returned nothing: the radar's return there is
+    a ghost, persistent or not."""
+    assert bin0_each_tick(70.0, lidar=True) == [UNKNOWN] * 6
+
+
+def test_with_the_lidar_blind_a_persistent_return_is_an_obstacle_anywhere_beyond_30_m() -> None:
+    assert bin0_each_tick(40.0, lidar=False) == [UNKNOWN] * 4 + [4000, 4000]
+    assert bin0_each_tick(20.0, lidar=False) == [UNKNOWN] * 6  # nearer, clutter persists too: not this rule's
