@@ -4,6 +4,7 @@ own motion and by its track's velocity, and never overrides a measurement, a vou
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -136,6 +137,35 @@ def test_a_solid_on_a_tracked_hull_moves_with_the_track() -> None:
     now = fill(m, 0.2, sent())
     assert now[0] == UNKNOWN
     assert now[1] == pytest.approx(round(math.hypot(20.0, 1.0) * 100), abs=1)
+
+
+def held_on(track: Track | None, tracks_later: list[Track], hull_hold_s: float = 1.0) -> list[int]:
+    """Bin 0 at 0.4, 0.8, 0.95 and 1.05 s after a solid 20 m ahead measured at 0 on ``track``'s hull (None: on
+    none), the tracks at those ticks ``tracks_later``."""
+    m = ObstacleMemory()
+    first = [] if track is None else [track]
+    m.fill_unknown(
+        0.0, 0.0, sent({0: 20.0}), np.array([[20.0, 0.0]]), (np.zeros(2), 0.0), first, HOLD_S, 0.5, MAX_M, hull_hold_s
+    )
+    return [
+        int(
+            m.fill_unknown(
+                t, 0.0, sent(), np.empty((0, 2)), (np.zeros(2), 0.0), tracks_later, HOLD_S, 0.5, MAX_M, hull_hold_s
+            )[0]
+        )
+        for t in (0.4, 0.8, 0.95, 1.05)
+    ]
+
+
+def test_a_solid_on_a_confirmed_tracks_hull_is_held_up_to_the_hull_hold() -> None:
+    """A solid on a buoy's confirmed track was a hull, not spray: it is held 1 s, not 0.5 s; a solid on no track or
+    on a tentative track's hull is gone after 0.5 s."""
+    buoy = Track(4, 0.0, np.array([20.5, 0.0]), np.zeros(2), 0.0, 0.0, 1.0, 1.0, 1.0, confirmed=True)
+    assert held_on(buoy, [buoy]) == [2000, 2000, 2000, UNKNOWN]
+    assert held_on(None, [buoy]) == [2000, UNKNOWN, UNKNOWN, UNKNOWN]
+    assert held_on(replace(buoy, confirmed=False), [buoy]) == [2000, UNKNOWN, UNKNOWN, UNKNOWN]
+    assert held_on(buoy, []) == [2000, 2000, 2000, UNKNOWN]  # the track's end does not end the hull
+    assert held_on(buoy, [buoy], hull_hold_s=0.5) == [2000, UNKNOWN, UNKNOWN, UNKNOWN]
 
 
 MOUNT = Mount(z=-1.6)
