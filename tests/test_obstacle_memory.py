@@ -158,14 +158,16 @@ def held_on(track: Track | None, tracks_later: list[Track], hull_hold_s: float =
 
 
 def test_a_solid_on_a_confirmed_tracks_hull_is_held_up_to_the_hull_hold() -> None:
-    """A solid on a buoy's confirmed track was a hull, not spray: it is held 1 s, not 0.5 s; a solid on no track or
-    on a tentative track's hull is gone after 0.5 s."""
+    """A solid on a buoy's confirmed LiDAR track was a hull, not spray: it is held 1 s, not 0.5 s; a solid on no
+    track, on a tentative track's hull or on a radar-only track's (clutter too often) is gone after 0.5 s."""
     buoy = Track(4, 0.0, np.array([20.5, 0.0]), np.zeros(2), 0.0, 0.0, 1.0, 1.0, 1.0, confirmed=True)
     assert held_on(buoy, [buoy]) == [2000, 2000, 2000, UNKNOWN]
     assert held_on(None, [buoy]) == [2000, UNKNOWN, UNKNOWN, UNKNOWN]
     assert held_on(replace(buoy, confirmed=False), [buoy]) == [2000, UNKNOWN, UNKNOWN, UNKNOWN]
     assert held_on(buoy, []) == [2000, 2000, 2000, UNKNOWN]  # the track's end does not end the hull
     assert held_on(buoy, [buoy], hull_hold_s=0.5) == [2000, UNKNOWN, UNKNOWN, UNKNOWN]
+    assert held_on(replace(buoy, source="fused"), []) == [2000, 2000, 2000, UNKNOWN]
+    assert held_on(replace(buoy, source="radar"), []) == [2000, UNKNOWN, UNKNOWN, UNKNOWN]
 
 
 MOUNT = Mount(z=-1.6)
