@@ -10,8 +10,8 @@ be "unknown" now, moved on by the velocity of the confirmed track whose hull it 
 3 m/s is a metre further on after 0.3 s; held where it was, its stern's bins showed open water). It never overrides
 an obstacle measured now (the nearer truth) or a bin sent "clear" (the beams vouched for the whole bin out to
 max_distance: the solid left), and a held value is never held again, so a solid the sensors stop returning is gone
-``hold_s`` after the data that last showed it; one that lay on a LiDAR-held confirmed track's hull, ``hull_hold_s`` after (a
-hull, not spray, and a low hull drops out of the sweeps for longer than half a second).
+``hold_s`` after the data that last showed it; one that lay on a LiDAR-held confirmed track's hull, ``hull_hold_s``
+after (a hull, not spray, and a low hull drops out of the sweeps for longer than half a second).
 
 What it does not judge: a bin the beams vouch for only part of the way is "unknown", and a held solid inside the
 vouched part fills it although the beams would have returned it (dropping such points, tried on tuning seeds, cost

@@ -5,8 +5,8 @@ VLP-16 1.6 m up), and there it returns 2-5 points a frame on a small USV or a bu
 cluster of 3 to form often enough to confirm a track, so those bins went out "unknown" with a hull in them. Sea
 clutter and multipath ghosts also return a few points a frame, but they wander: the same place (within a metre, in
 the world frame, so the boat's own motion does not move it) in 4 of the last 5 frames is what a solid does and
-clutter seldom does. A hull moving faster than about 2.5 m/s (1 m in 0.4 s at 10 frames a second) does not persist; its
-track holds it.
+clutter seldom does. A hull moving faster than about 2.5 m/s (1 m in 0.4 s at 10 frames a second) does not
+persist; its track holds it.
 
 Frames: points world (north, east), m.
 """
