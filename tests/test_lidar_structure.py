@@ -190,3 +190,38 @@ def test_two_pieces_on_one_line_are_no_wall_yet() -> None:
     """Two pieces always lie on one line: they say nothing of a wall (run_min_pieces 3)."""
     tracker = LidarTracker(LidarTrackerConfig())
     assert len(tracker.detect(np.concatenate([wall(-35.0, -20.0), wall(20.0, 32.0)]), 0.0, OWN)) == 2
+
+
+@pytest.mark.parametrize("deck_depth_m, deck_is_vessel", [(10.0, False), (0.0, True)])
+def test_a_quays_deck_behind_its_remembered_face_is_structure(deck_depth_m: float, deck_is_vessel: bool) -> None:
+    """The boat pitches down and its beams pass over the quay's edge to meet the deck 1-7 m behind the face: a
+    7 x 6 m patch of returns at the wall's top, never under the remembered face's cells. Seen over the face it
+    remembers, no higher than that face's lid, it is structure. A boat 4 m in front of the face, and a cabin 3 m
+    behind it standing 1.6 m above the quay (a boat in the basin beyond a pier), stay vessels."""
+    tracker = LidarTracker(LidarTrackerConfig(structure=StructureConfig(deck_depth_m=deck_depth_m)))
+    assert tracker.detect(wall(-40.0, 40.0), 0.0, OWN) == []  # 80 m of face, 1.8 m high: remembered
+    deck = quay_top(5.0, 12.0, east_from=17.0, depth=6.0)
+    in_front = boat(-10.0, 12.0)
+    cabin = np.concatenate(
+        [np.column_stack([np.arange(-25.0, -22.0, 0.1), np.full(30, 19.0), np.full(30, z)]) for z in (-3.4, -3.9)]
+    )
+    dets = tracker.detect(np.concatenate([deck, in_front, cabin]), 5.0, OWN)
+    assert sum(1 for d in dets if abs(d.center[0] - 8.5) < 2.0 and abs(d.center[1] - 20.0) < 2.0) == int(deck_is_vessel)
+    assert sum(1 for d in dets if abs(d.center[0] + 10.0) < 1.0 and abs(d.center[1] - 12.0) < 1.0) == 1
+    assert sum(1 for d in dets if abs(d.center[0] + 23.5) < 1.0 and abs(d.center[1] - 19.0) < 1.0) == 1
+    assert len(dets) == 2 + int(deck_is_vessel)
+
+
+def test_lid_in_front_looks_back_along_the_line_of_sight_only_as_deep_as_asked() -> None:
+    """From the own boat at the origin, a face remembered along east 16 m with its lid 2.5 m up: a point 3 m behind
+    it meets it; one 12 m behind does not within 10 m; one in front of it, or beside the face's end, never."""
+    mem = StructureMemory(StructureConfig(memory_s=60.0))
+    mem.follow(OWN)
+    face = np.column_stack([np.arange(-20.0, 20.0, 0.2), np.full(200, 16.0)])
+    mem.remember(0.0, face, np.full(len(face), -2.5))
+    points = np.array([[5.0, 19.0], [5.0, 28.0], [5.0, 13.0], [30.0, 22.0]])
+    lid = mem.lid_in_front(1.0, points, OWN, 10.0)
+    assert lid[0] == -2.5
+    assert np.isinf(lid[1:]).all()
+    assert mem.lid_in_front(1.0, points[1:2], OWN, 15.0)[0] == -2.5
+    assert np.isinf(mem.lid_in_front(61.0, points, OWN, 10.0)).all()  # forgotten after memory_s

@@ -463,6 +463,12 @@ class StructureConfig:
     half_size_m: float = 150.0  # m; half the side of the grid, which follows the own boat
     range_m: float = 100.0  # m kept on the grid around the own boat: the VLP-16's range
     min_fraction: float = 0.5  # share of a cluster's footprint on remembered cells that makes it structure
+    # A cluster is structure too when at least min_fraction of its footprint lies on remembered cells or behind
+    # them: its line of sight from the own boat crossed remembered structure within deck_depth_m in front of it,
+    # the cluster standing no higher than that structure's lid (taller_*; LidarTracker._on_deck). A quay's deck
+    # and the land behind its face, met by beams that pass over its edge as the boat pitches, lie behind the
+    # wall's cells and were never under them. 0 turns it off.
+    deck_depth_m: float = 10.0
     # A confirmed track this long, slower than static_max_speed_mps for static_min_age_s, is structure too (a quay
     # stretch with its land; tracker.LidarTracker._static_structure). Until such a track has shown a speed above
     # static_max_speed_mps it is reported tentative, not a vessel (held out, fused: MOTA 0.876 -> 0.880, false
@@ -566,6 +572,7 @@ class StructureConfig:
         positive(
             self,
             "memory_s",
+            "deck_depth_m",
             "static_min_length_m",
             "static_max_speed_mps",
             "static_min_age_s",

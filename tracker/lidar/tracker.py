@@ -47,6 +47,9 @@ from tracker.lifecycle import IdSource, Lifecycle, TrackLife, TrackStatus
 from tracker.line_of_sight import in_shadow
 from tracker.types import Detection, ShapeKind, Track
 
+# Footprint cells of a cluster the deck rule looks along, at most (LidarTracker._on_deck).
+_DECK_CELLS = 32
+
 log = logging.getLogger(__name__)
 
 
@@ -203,6 +206,7 @@ class LidarTracker:
             on_structure = small[big[small]]
             if on_structure.size and cfg.taller_margin_m >= 0:
                 big[on_structure] = ~self._above(result, on_structure, self._lids_under(t, result, on_structure))
+            big[self._on_deck(result, small[~big[small]], t, own)] = True
         rest = np.flatnonzero(~big & ~carved)
         if rest.size:
             on_line, line_lids = self.structure.continues(t, [result.footprints[k] for k in rest])
@@ -227,6 +231,30 @@ class LidarTracker:
                 big[walls] = True
                 self._remember_structure(t, result, walls, own)
         return big
+
+    def _on_deck(self, result: ClusterResult, ks: np.ndarray, t: float, own: np.ndarray) -> np.ndarray:
+        """The clusters of ``ks`` on a remembered quay's deck or the land behind its face: at least
+        ``min_fraction`` of the footprint on remembered cells or behind them, its line of sight from the own boat
+        having crossed remembered structure within ``deck_depth_m`` in front of it, and standing no higher than
+        that structure's lid (``_above``). As the boat pitches, beams that pass over a quay's edge meet its deck,
+        a few metres behind the face the memory holds; a hull moored in front of the face is not behind it."""
+        cfg = self.config.structure
+        if cfg.deck_depth_m <= 0 or ks.size == 0:
+            return ks[:0]
+        # Up to _DECK_CELLS cells a cluster, evenly spread: the share is what counts, and each cell's line of sight
+        # is a few dozen lookups.
+        picks = [result.footprints[k][:: -(-len(result.footprints[k]) // _DECK_CELLS)] for k in ks]
+        sizes = np.array([len(p) for p in picks])
+        starts = np.cumsum(sizes) - sizes
+        cells = np.concatenate(picks)
+        lid_front = self.structure.lid_in_front(t, cells, own, cfg.deck_depth_m)
+        on = self.structure.known(t, cells) | np.isfinite(lid_front)
+        found = np.add.reduceat(on.astype(float), starts) >= cfg.min_fraction * sizes
+        decks = ks[found]
+        if decks.size == 0 or cfg.taller_margin_m < 0:
+            return decks
+        lids = np.minimum(self._lids_under(t, result, decks), np.minimum.reduceat(lid_front, starts)[found])
+        return decks[~self._above(result, decks, lids)]
 
     def _remember_structure(
         self, t: float, result: ClusterResult, ks: np.ndarray, own: np.ndarray, known_lids: np.ndarray | None = None
