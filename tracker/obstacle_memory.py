@@ -24,7 +24,7 @@ Frames: bins and points body (forward, starboard) at the tick; memory world (nor
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -66,6 +66,7 @@ class ObstacleMemory:
         min_distance_m: float,
         max_distance_m: float,
         hull_hold_s: float | None = None,
+        on_structure: Callable[[np.ndarray], np.ndarray] | None = None,
     ) -> np.ndarray:
         """This tick's array (tick time ``t``) with its unknown bins filled from what was measured in the last
         ``hold_s`` seconds, and this tick's obstacles (``solid_body``'s nearest per obstacle bin) remembered as
@@ -78,7 +79,8 @@ class ObstacleMemory:
         spray or a wave crest, and a hull does not vanish within a second. Not on a radar-only track's: radar alone,
         tuning seeds 45-52, that cost 1,768 false-obstacle bins (2,736 -> 4,504) for 1,705 false clears, and fused
         it moved nothing. Whether the track still lives was tried as a condition too: fused, false-clear bins 36 ->
-        41 for the same false obstacles."""
+        41 for the same false obstacles. ``on_structure`` ((n, 2) world points -> (n,) bool), where given, names
+        solids on remembered structure (a quay), held ``hull_hold_s`` too: they do not move either."""
         own_ne, own_yaw = own
         self.last_filled = np.zeros(N_BINS, dtype=bool)
         if hold_s <= 0:
@@ -120,6 +122,8 @@ class ObstacleMemory:
                     vel[on] = np.where(np.isfinite(v), v, 0.0)
                     # a hull the LiDAR tracks; a radar-only track is clutter too often (see hull_hold_s)
                     on_hull[on] = [tracks[i].confirmed and tracks[i].source != "radar" for i in hull[on]]
+                if on_structure is not None:
+                    on_hull |= ~on & on_structure(world)
                 self._held.append((measured_at, world, vel, on_hull))
                 self._newest = measured_at
         return out

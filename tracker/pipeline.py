@@ -46,6 +46,9 @@ from tracker.persistent_returns import PersistenceRule, PersistentReturns
 from tracker.types import Track
 
 log = logging.getLogger(__name__)
+# m: a held solid this near remembered structure lies on it (the structure memory's cell; PipelineSettings
+# .obstacle_hold_structure).
+_ON_STRUCTURE_M = 0.5
 
 
 class EgoSource(Protocol):
@@ -186,6 +189,9 @@ class PipelineSettings:
     # 32 / 698, 2 s 31 / 790; on radar-only tracks' hulls as well (radar alone) 100,294 / 2,736 -> 98,589 / 4,504.
     # Held out (random:1001-1050) against 0.5 s: fused false-clear bins 359 -> 267, false-obstacle 0.273 -> 0.293 %.
     obstacle_hull_hold_s: float = 1.0
+    # A solid on structure the LiDAR remembers (a quay; tracker.lidar.structure) is held obstacle_hull_hold_s too: a
+    # quay does not move, and a far one met at grazing incidence by one beam comes and goes between revolutions.
+    obstacle_hold_structure: bool = True
     # A bin that would go out unknown (no solid in it, not vouched clear) shows the range of a returned solid in a
     # neighbouring bin lying within this (m, across the line of sight) of their shared edge (obstacle_map.py). A
     # return's bearing at the tick is uncertain by what moved since it was fired: a revolution is up to 0.2 s old
@@ -516,6 +522,7 @@ class PerceptionPipeline:
                     s.min_distance_m,
                     s.max_distance_m,
                     s.obstacle_hull_hold_s,
+                    self._structure_lookup(t),
                 ),
             )
             held = self._memory.last_filled
@@ -549,6 +556,14 @@ class PerceptionPipeline:
             tracking_skipped=tuple(dict.fromkeys(self._skipped)),
             pose_known=not (ego_ok and own is None),
         )
+
+    def _structure_lookup(self, t: float) -> Callable[[np.ndarray], np.ndarray] | None:
+        """For the obstacle memory: which world (north, east) points lie on structure the LiDAR remembers (within
+        half a metre, its memory's cell), or None when that hold is off or there is no LiDAR."""
+        if not self.settings.obstacle_hold_structure or self.lidar_tracker is None:
+            return None
+        tracker = self.lidar_tracker
+        return lambda world: tracker.on_structure(t, world, _ON_STRUCTURE_M)
 
     def _radar_speaks_at(self, points_fwd_stbd: np.ndarray, lidar_fresh: bool) -> np.ndarray:
         """(n,) bool: the radar alone may put an obstacle at these body points (``radar_alone_beyond_m``): the LiDAR is
