@@ -4,6 +4,7 @@ own motion and by its track's velocity, and never overrides a measurement, a vou
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -139,13 +140,28 @@ def test_a_solid_on_a_tracked_hull_moves_with_the_track() -> None:
     assert now[1] == pytest.approx(round(math.hypot(20.0, 1.0) * 100), abs=1)
 
 
-def held_on(track: Track | None, tracks_later: list[Track], hull_hold_s: float = 1.0) -> list[int]:
+def held_on(
+    track: Track | None,
+    tracks_later: list[Track],
+    hull_hold_s: float = 1.0,
+    on_structure: Callable[[np.ndarray], np.ndarray] | None = None,
+) -> list[int]:
     """Bin 0 at 0.4, 0.8, 0.95 and 1.05 s after a solid 20 m ahead measured at 0 on ``track``'s hull (None: on
     none), the tracks at those ticks ``tracks_later``."""
     m = ObstacleMemory()
     first = [] if track is None else [track]
     m.fill_unknown(
-        0.0, 0.0, sent({0: 20.0}), np.array([[20.0, 0.0]]), (np.zeros(2), 0.0), first, HOLD_S, 0.5, MAX_M, hull_hold_s
+        0.0,
+        0.0,
+        sent({0: 20.0}),
+        np.array([[20.0, 0.0]]),
+        (np.zeros(2), 0.0),
+        first,
+        HOLD_S,
+        0.5,
+        MAX_M,
+        hull_hold_s,
+        on_structure,
     )
     return [
         int(
@@ -168,6 +184,21 @@ def test_a_solid_on_a_confirmed_tracks_hull_is_held_up_to_the_hull_hold() -> Non
     assert held_on(buoy, [buoy], hull_hold_s=0.5) == [2000, UNKNOWN, UNKNOWN, UNKNOWN]
     assert held_on(replace(buoy, source="fused"), []) == [2000, 2000, 2000, UNKNOWN]
     assert held_on(replace(buoy, source="radar"), []) == [2000, UNKNOWN, UNKNOWN, UNKNOWN]
+
+
+def test_a_solid_on_remembered_structure_is_held_up_to_the_hull_hold() -> None:
+    """A solid where the LiDAR remembers a quay is held 1 s like a tracked hull's (a quay does not move); one the
+    lookup does not place on structure, 0.5 s. The lookup is asked in world (north, east) and gets the solid."""
+    asked: list[np.ndarray] = []
+
+    def quay_at_20_m_north(world: np.ndarray) -> np.ndarray:
+        asked.append(world)
+        return np.hypot(world[:, 0] - 20.0, world[:, 1]) < 0.5
+
+    assert held_on(None, [], on_structure=quay_at_20_m_north) == [2000, 2000, 2000, UNKNOWN]
+    assert np.allclose(asked[0], [[20.0, 0.0]])
+    assert held_on(None, [], on_structure=lambda w: np.zeros(len(w), dtype=bool)) == [2000, UNKNOWN, UNKNOWN, UNKNOWN]
+    assert held_on(None, [], hull_hold_s=0.5, on_structure=quay_at_20_m_north) == [2000, UNKNOWN, UNKNOWN, UNKNOWN]
 
 
 MOUNT = Mount(z=-1.6)
@@ -205,6 +236,26 @@ def test_the_pipeline_holds_a_wall_through_a_revolution_that_returned_nothing() 
     assert set(np.flatnonzero(held.held_bins).tolist()) == set(WALL_BINS)
     later = pipeline.step(0.7, nothing_returned(0.6), [], ego)
     assert (later.distances_cm[WALL_BINS] == UNKNOWN).all()
+
+
+@pytest.mark.parametrize("hold_structure, bins_at_0_9_s", [(True, "held"), (False, "unknown")])
+def test_the_pipeline_holds_a_quay_it_remembers_as_long_as_a_tracked_hull(
+    hold_structure: bool, bins_at_0_9_s: str
+) -> None:
+    """A quay face 20 m ahead, 90 m long (longer than any vessel: structure the LiDAR remembers), then revolutions
+    in which nothing returned: 0.8 s after its last return its bins ahead still hold it (obstacle_hold_structure,
+    the hull hold of 1 s); with the rule off they are unknown after the 0.5 s hold, as for any solid."""
+    ego = SteadyEgo(level, 0.0)
+    pipeline = lidar_pipeline(MOUNT)
+    pipeline.settings = replace(pipeline.settings, obstacle_hold_structure=hold_structure)
+    quay = (((20.0, -45.0), (20.0, 45.0), 2.0),)
+    seen = pipeline.step(0.1, scan_of(revolution_over_water(MOUNT, level, yaw=0.0, walls=quay), 0.1), [], ego)
+    assert (seen.distances_cm[WALL_BINS] <= 2020).all() and (seen.distances_cm[WALL_BINS] >= 2000).all()
+    later = pipeline.step(0.9, nothing_returned(0.8), [], ego)
+    if bins_at_0_9_s == "held":
+        np.testing.assert_array_equal(later.distances_cm[WALL_BINS], seen.distances_cm[WALL_BINS])
+    else:
+        assert (later.distances_cm[WALL_BINS] == UNKNOWN).all()
 
 
 def test_without_the_boats_pose_nothing_is_held() -> None:
