@@ -191,6 +191,8 @@ class PipelineSettings:
     obstacle_hull_hold_s: float = 1.0
     # A solid on structure the LiDAR remembers (a quay; tracker.lidar.structure) is held obstacle_hull_hold_s too: a
     # quay does not move, and a far one met at grazing incidence by one beam comes and goes between revolutions.
+    # Ours; tuning seeds 45-68 (fused): false-clear bins 122 -> 102, false-obstacle 2,730 -> 2,737. Held out
+    # (random:1001-1050) against off: fused false-clear bins 269 -> 177, false-obstacle bins and tracking unchanged.
     obstacle_hold_structure: bool = True
     # A bin that would go out unknown (no solid in it, not vouched clear) shows the range of a returned solid in a
     # neighbouring bin lying within this (m, across the line of sight) of their shared edge (obstacle_map.py). A
