@@ -468,8 +468,8 @@ class StructureConfig:
     # the cluster standing no higher than that structure's lid (taller_*; LidarTracker._on_deck). A quay's deck
     # and the land behind its face, met by beams that pass over its edge as the boat pitches, lie behind the
     # wall's cells and were never under them. 0 turns it off. Ours, 10 m from the geometry (a quay's deck strip;
-    # tuning seeds 45-68, fused: 6 m MOTA 0.9518, 10 m 0.9537, 15 m 0.9529); held out (random:1001-1050, fused) against none: MOTA 0.9394 -> 0.9406, false track-frames 2.44 -> 2.22 % of
-    # matches, false-clear bins 267 -> 269.
+    # tuning seeds 45-68, fused: 6 m MOTA 0.9518, 10 m 0.9537, 15 m 0.9529); held out (random:1001-1050, fused)
+    # against none: MOTA 0.9394 -> 0.9406, false track-frames 2.44 -> 2.22 % of matches, false-clear bins 267 -> 269.
     deck_depth_m: float = 10.0
     # A confirmed track this long, slower than static_max_speed_mps for static_min_age_s, is structure too (a quay
     # stretch with its land; tracker.LidarTracker._static_structure). Until such a track has shown a speed above
@@ -478,11 +478,12 @@ class StructureConfig:
     static_min_length_m: float = 20.0
     static_max_speed_mps: float = 0.8
     static_min_age_s: float = 2.0
-    # A thin piece (minor-axis spread <= line_max_thickness_m, at least line_min_length_m long) whose line, followed from line_gap_m to
-    # line_gap_m + line_reach_m beyond either end, runs over remembered structure for at least line_min_share of
-    # that stretch continues a wall: structure (StructureMemory.continues). line_reach_m 0 turns it off. Held out
-    # (random:1001-1025, LiDAR only), switching it off: MOTA 0.726 -> 0.703 (worst scene 0.264 -> 0.197), false
-    # track-frames 14.0 % -> 18.2 % of matches. Lengths and shares as chosen on tuning seeds 1-16.
+    # A thin piece (minor-axis spread <= line_max_thickness_m, at least line_min_length_m long) whose line,
+    # followed from line_gap_m to line_gap_m + line_reach_m beyond either end, runs over remembered structure for
+    # at least line_min_share of that stretch continues a wall: structure (StructureMemory.continues). line_reach_m
+    # 0 turns it off. Held out (random:1001-1025, LiDAR only), switching it off: MOTA 0.726 -> 0.703 (worst scene
+    # 0.264 -> 0.197), false track-frames 14.0 % -> 18.2 % of matches.
+    # Lengths and shares as chosen on tuning seeds 1-16.
     line_reach_m: float = 30.0
     line_gap_m: float = 1.0
     line_max_thickness_m: float = 0.5
