@@ -89,6 +89,8 @@ def run_scene(seed: int, seconds: float, modes: tuple[str, ...] = tuple(MODES)) 
                 "position_error_m": _num(tr["position_error_m"]["mean"]),
                 "speed_error_mps": _num(tr["speed_error_mps"]["mean"]),
                 "false_clear_bins": bins.get("false_clear", 0),
+                # of those, the bins that went out "clear" (free water to ArduPilot); the rest went out "unknown"
+                "false_clear_sent_clear": bins.get("false_clear_sent_clear", 0),
                 "bins_with_solid": bins.get("bins_with_solid", 0),
                 "false_obstacle_bins": bins.get("false_obstacle", 0),
                 "obstacle_unreturned_bins": bins.get("obstacle_unreturned", 0),
@@ -188,6 +190,17 @@ def table(summary: dict[str, Any], modes: tuple[str, ...] = tuple(MODES)) -> str
     return "\n".join(lines)
 
 
+def false_clear_line(rows: list[dict[str, Any]], mode: str = "fused") -> str:
+    """Pooled false-clear bins split by what went out: "clear" tells the autopilot there is free water, "unknown"
+    only that the daemon cannot vouch; both count against the goal of none."""
+    total = sum(r[mode]["false_clear_bins"] for r in rows)
+    sent_clear = sum(r[mode].get("false_clear_sent_clear", 0) for r in rows)
+    return (
+        f'False-clear bins ({mode}, pooled): {total}, of which {sent_clear} went out "clear" and '
+        f'{total - sent_clear} "unknown".'
+    )
+
+
 def same_truth(rows: list[dict[str, Any]]) -> str:
     """Each mode's MOTA and IDF1 on one truth (every vessel either sensor returned) and the scenes where fused is
     above and below each sensor alone: whether fusing helps, which the per-mode table cannot say."""
@@ -248,6 +261,7 @@ def main() -> None:
     if set(modes) == set(MODES):
         print(same_truth(rows))
     for mode in modes:
+        print(false_clear_line(rows, mode))
         print(by_hull_line(rows, mode))
     print(f"{len(rows)} scenes in {time.perf_counter() - t0:.0f} s")
     if held_out:
@@ -269,9 +283,11 @@ def markdown(summary: dict[str, Any], rows: list[dict[str, Any]], seconds: float
         "",
         by_hull_line(rows) + " " + by_hull_line(rows, "lidar"),
         "",
+        " ".join(false_clear_line(rows, mode) for mode in MODES),
+        "",
         "Per scene (fused; LiDAR-only and radar-only MOTA beside):",
         "",
-        "| seed | MOTA | IDF1 | false track-frames | false-clear bins / with a solid | false-obstacle bins | "
+        "| seed | MOTA | IDF1 | false track-frames | false-clear bins (sent clear) / with a solid | false-obstacle bins | "
         "held obstacle bins on an unreturned solid | LiDAR MOTA | radar MOTA | the day |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -279,7 +295,8 @@ def markdown(summary: dict[str, Any], rows: list[dict[str, Any]], seconds: float
         f = r["fused"]
         lines.append(
             f"| {r['seed']} | {f['mota']:.3f} | {f['idf1']:.3f} | {f['false_track_frames']:.1%} | "
-            f"{f['false_clear_bins']} / {f['bins_with_solid']} | {f['false_obstacle_bins']} | "
+            f"{f['false_clear_bins']} ({f['false_clear_sent_clear']}) / {f['bins_with_solid']} | "
+            f"{f['false_obstacle_bins']} | "
             f"{f['obstacle_unreturned_bins']} | "
             f"{r['lidar']['mota']:.3f} | {r['radar']['mota']:.3f} | {r['description'].removeprefix('day: ')} |"
         )
