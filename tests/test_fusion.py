@@ -173,3 +173,16 @@ def test_a_younger_track_on_an_older_hulls_box_is_reported_tentative() -> None:
         True,
     ]
     assert report_second_tracks_tentative([host, piece], -1.0, 1.0)[1].confirmed  # negative: off
+
+
+def test_two_tracks_both_settled_beside_each_other_are_both_vessels() -> None:
+    """A buoy 1 m off an anchored boat's side (tuning seed 61) is a piece of that hull by the box test while young;
+    once both tracks are 5 s old it is a vessel of its own, but a piece is still caught while it alone is young."""
+    boat = dataclasses.replace(moving(1, 0.0, 0.0, 8.0, 2.8, 0.0), age=20.0)
+    buoy = moving(5, 0.0, 3.3, 1.8, 1.8, 0.0)  # centre 1.9 m off the box's side, at rest like the boat
+    young = report_second_tracks_tentative([boat, dataclasses.replace(buoy, age=4.9)], 2.0, 1.0, 5.0)
+    settled = report_second_tracks_tentative([boat, dataclasses.replace(buoy, age=5.0)], 2.0, 1.0, 5.0)
+    assert [tr.confirmed for tr in young] == [True, False]
+    assert [tr.confirmed for tr in settled] == [True, True]
+    # the default (no settling time) keeps the old rule: the settled buoy is a piece
+    assert not report_second_tracks_tentative([boat, dataclasses.replace(buoy, age=60.0)], 2.0, 1.0)[1].confirmed

@@ -8,6 +8,7 @@ object, not two. Radar tracks the LiDAR does not explain (fog, beyond LiDAR rang
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -161,12 +162,16 @@ class PublishedIds:
         return out
 
 
-def report_second_tracks_tentative(tracks: list[Track], gap_m: float, max_speed_difference_mps: float) -> list[Track]:
+def report_second_tracks_tentative(
+    tracks: list[Track], gap_m: float, max_speed_difference_mps: float, settled_s: float = math.inf
+) -> list[Track]:
     """The tracks, with each confirmed one that lies on another's hull reported tentative: its centre within
     ``gap_m`` of the box of an older confirmed track (a lower id: started earlier) at least as long, the two not
-    moving apart (velocities within ``max_speed_difference_mps`` where both are known). A long hull seen in parts
-    gives its pieces tracks of their own beside the hull's, whose box covers only what was seen of it; a vessel
-    passing close by moves differently, or is older than the track beside it. ``gap_m`` < 0: none."""
+    moving apart (velocities within ``max_speed_difference_mps`` where both are known), and not both tracked for
+    ``settled_s`` or longer. A long hull seen in parts gives its pieces tracks of their own beside the hull's, whose
+    box covers only what was seen of it; a vessel passing close by moves differently, or is older than the track
+    beside it; a buoy or a small boat at anchor a metre off a bigger one keeps its own track beside it for as long
+    as both are there. ``gap_m`` < 0: none."""
     if gap_m < 0 or len(tracks) < 2:
         return tracks
     conf = np.array([tr.confirmed for tr in tracks])
@@ -185,8 +190,11 @@ def report_second_tracks_tentative(tracks: list[Track], gap_m: float, max_speed_
     with np.errstate(invalid="ignore"):
         on_hull = (along <= length[None, :] / 2 + gap_m) & (across <= width[None, :] / 2 + gap_m)
         apart = np.hypot(*(vel[:, None, :] - vel[None, :, :]).transpose(2, 0, 1)) > max_speed_difference_mps
+    age = np.array([tr.age for tr in tracks])
+    both_settled = (age[:, None] >= settled_s) & (age[None, :] >= settled_s)
     host = (
         on_hull
+        & ~both_settled
         & ~apart  # NaN (a velocity not known yet) compares False: not known to move apart
         & conf[:, None]
         & conf[None, :]
