@@ -194,7 +194,7 @@ def false_clear_line(rows: list[dict[str, Any]], mode: str = "fused") -> str:
     """Pooled false-clear bins split by what went out: "clear" tells the autopilot there is free water, "unknown"
     only that the daemon cannot vouch; both count against the goal of none."""
     total = sum(r[mode]["false_clear_bins"] for r in rows)
-    sent_clear = sum(r[mode].get("false_clear_sent_clear", 0) for r in rows)
+    sent_clear = sum(r[mode]["false_clear_sent_clear"] for r in rows)
     return (
         f'False-clear bins ({mode}, pooled): {total}, of which {sent_clear} went out "clear" and '
         f'{total - sent_clear} "unknown".'
