@@ -109,13 +109,21 @@ def quay_top(north_from: float, north_to: float, east_from: float = 16.0, depth:
 
 
 @pytest.mark.parametrize(
-    "short_length_m, short_share, piece_is_wall, face_is_wall",
-    [(1.5, 0.5, True, False), (4.0, 0.5, False, False), (1.5, 0.25, True, True)],
+    "short_length_m, short_share, flank_m, piece_is_wall, face_is_wall",
+    [
+        (1.5, 0.5, 1.5, True, False),
+        (4.0, 0.5, 1.5, False, False),
+        (1.5, 0.25, 1.5, True, False),  # the flank test alone keeps the face a vessel
+        (1.5, 0.5, 0.0, True, False),  # and so does the short pieces' share alone
+        (1.5, 0.25, 0.0, True, True),
+    ],
 )
 def test_a_short_piece_on_a_walls_line_is_wall_and_a_face_across_it_is_not(
-    short_length_m: float, short_share: float, piece_is_wall: bool, face_is_wall: bool
+    short_length_m: float, short_share: float, flank_m: float, piece_is_wall: bool, face_is_wall: bool
 ) -> None:
-    cfg = StructureConfig(short_line_min_length_m=short_length_m, short_line_min_share=short_share)
+    cfg = StructureConfig(
+        short_line_min_length_m=short_length_m, short_line_min_share=short_share, line_flank_m=flank_m
+    )
     tracker = LidarTracker(LidarTrackerConfig(structure=cfg))
     assert tracker.detect(np.concatenate([wall(-40.0, 40.0), quay_top(-40.0, 40.0)]), 0.0, OWN) == []
     # 5 s later: a 2 m piece of the same wall 5 m past the remembered end (a far quay seen by one beam), and a
@@ -225,3 +233,21 @@ def test_lid_in_front_looks_back_along_the_line_of_sight_only_as_deep_as_asked()
     assert np.isinf(lid[1:]).all()
     assert mem.lid_in_front(1.0, points[1:2], OWN, 15.0)[0] == -2.5
     assert np.isinf(mem.lid_in_front(61.0, points, OWN, 10.0)).all()  # forgotten after memory_s
+
+
+@pytest.mark.parametrize("flank_m, piece_is_vessel", [(1.5, True), (0.0, False)])
+def test_a_boats_side_pointing_across_a_quay_is_no_piece_of_it(flank_m: float, piece_is_vessel: bool) -> None:
+    """A boat's 4.3 m side 20 m west of a remembered quay, its axis 60 deg off the quay's line: followed on, that
+    line crosses the face and 9 m of the quay's top (over line_min_share of its 30 m reach), but so do the lines
+    1.5 m either side of it (line_flank_m), so it runs across the quay, not along it: a vessel. Without the flank
+    test the wall-line rule made such a crossing boat structure, and the memory then followed its own path (tuning
+    seed 60's boat 07: 225 ticks missed)."""
+    tracker = LidarTracker(LidarTrackerConfig(structure=StructureConfig(line_flank_m=flank_m)))
+    assert tracker.detect(np.concatenate([wall(-40.0, 40.0), quay_top(-40.0, 40.0)]), 0.0, OWN) == []
+    axis = np.array([0.5, np.sqrt(3.0) / 2.0])  # (north, east)
+    along = np.arange(-2.15, 2.15, 0.1)
+    side = np.array([-20.0, 3.0]) + along[:, None] * axis
+    points = np.concatenate([np.column_stack([side, np.full(along.size, z)]) for z in (-0.4, -0.9)])
+    assert detections_near(tracker, points, 5.0, -20.0, 3.0) == (1 if piece_is_vessel else 0)
+    # A piece further along the quay's own line, water on one flank, stays wall with the flank test.
+    assert detections_near(tracker, wall(45.0, 47.0), 6.0, 46.0, 16.0) == 0

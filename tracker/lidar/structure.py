@@ -44,6 +44,8 @@ _NEXT_BEAM_TAN = math.tan(math.radians(2.0))
 # sides offset from it and from each other by their differing beams).
 _RUN_MAX_ANGLE_RAD = math.radians(5.0)
 _RUN_MAX_OFFSET_M = 1.0
+# A line followed along a wall: on its emptier flank at most this share of what lies on the line itself.
+_FLANK_MAX_RATIO = 0.5
 
 
 def structure_lids(clusters: list[np.ndarray], own_ne: np.ndarray, bin_m: float) -> np.ndarray:
@@ -274,12 +276,20 @@ class StructureMemory:
         # (P, 2 sides, S, 2): samples beyond the low end and beyond the high end
         beyond_lo = mean[:, None, :] + (lo[:, None] - steps[None, :])[..., None] * axis[:, None, :]
         beyond_hi = mean[:, None, :] + (hi[:, None] + steps[None, :])[..., None] * axis[:, None, :]
-        samples = np.stack([beyond_lo, beyond_hi], axis=1).reshape(-1, 2)
-        known = self.known(t, samples).reshape(mean.shape[0], 2, s_count)
-        share = known.mean(axis=2).max(axis=1)
+        samples = np.stack([beyond_lo, beyond_hi], axis=1)  # (P, 2, S, 2)
+        p_count = mean.shape[0]
         needed = np.where(length >= cfg.line_min_length_m, cfg.line_min_share, cfg.short_line_min_share)
-        out[idx] = share >= needed
-        lids[idx] = self.lids_at(t, samples).reshape(mean.shape[0], -1).min(axis=1)
+        on_line = self.known(t, samples.reshape(-1, 2)).reshape(p_count, 2, s_count).mean(axis=2)  # (P, 2)
+        along = on_line >= needed[:, None]
+        if cfg.line_flank_m > 0:
+            # A wall followed along its length has water on one flank of the line; a line that crosses remembered
+            # ground (a boat's axis pointing at a quay and the land behind it) has ground on both flanks.
+            normal = np.column_stack([-axis[:, 1], axis[:, 0]])[:, None, None, :]
+            flanks = np.concatenate([samples + cfg.line_flank_m * normal, samples - cfg.line_flank_m * normal], axis=1)
+            on_flank = self.known(t, flanks.reshape(-1, 2)).reshape(p_count, 2, 2, s_count).mean(axis=3)
+            along &= on_flank.min(axis=1) <= _FLANK_MAX_RATIO * on_line
+        out[idx] = along.any(axis=1)
+        lids[idx] = self.lids_at(t, samples.reshape(-1, 2)).reshape(p_count, -1).min(axis=1)
         return out, lids
 
 
