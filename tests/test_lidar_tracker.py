@@ -761,3 +761,41 @@ def test_a_thin_line_of_one_beam_shorter_than_structure_is_no_vessel_even_while_
     without = _confirmed(_flat_line_and_a_ship(config, _short_line_sliding_north))
     assert [len(r) for r in without] == [0] * 8 + [1] * 2 + [2] * 30
     assert min(abs(float(tr.position[1]) - 20.0) for tr in without[-1]) < 1.0
+
+
+def _buoy_off_an_anchored_boats_stern(split_small_max_m: float) -> tuple[list[Track], SyntheticObject, int]:
+    """An 8 x 3 m boat at anchor broadside 30 m east, and a 1.5 m round buoy 0.85 m off its stern. For 6 s the boat's
+    after 2 m return nothing (a dark stern), so the two lie 3 m apart and are tracked apart; then the whole hull
+    comes back, and the 1.1 m between their returns, under the clustering's 1.55 m reach at 30 m, joins them in one
+    cluster for 4 s. The confirmed tracks at the end, the buoy, and how many detections were split."""
+    config = LidarTrackerConfig()
+    config.association.split_small_max_m = split_small_max_m
+    tracker = LidarTracker(config)
+    rng = np.random.default_rng(7)
+    lit = SyntheticObject((1.0, 30.0), 0.0, 6.0, 3.0, 1.5, ShapeKind.BOX)
+    whole = SyntheticObject((0.0, 30.0), 0.0, 8.0, 3.0, 1.5, ShapeKind.BOX)
+    buoy = SyntheticObject((-5.6, 29.5), 0.0, 1.5, 1.5, 1.0, ShapeKind.ELLIPSE)
+    tracks: list[Track] = []
+    for k in range(100):
+        t = k * DT
+        boat = lit if t < 6.0 else whole
+        tracks = tracker.step(scan_objects([boat, buoy], ORIGIN, range_noise=0.02, rng=rng), t, ORIGIN, 0.0)
+    return [tr for tr in tracks if tr.confirmed], buoy, tracker.stats["split_detections"]
+
+
+def test_a_buoy_whose_returns_join_a_boats_cluster_keeps_its_track() -> None:
+    """split_small_max_m: the joined cluster is split between the two settled tracks, and the buoy keeps its track
+    on the buoy and the boat its length. Without the split the boat's track took the buoy in (10 m long, its centre
+    1.1 m astern) and the buoy's track ended."""
+    confirmed, buoy, splits = _buoy_off_an_anchored_boats_stern(3.5)
+    assert splits >= 36  # of the 40 joined scans
+    assert len(confirmed) == 2
+    on_buoy = near(confirmed, buoy, 0.5)
+    assert len(on_buoy) == 1
+    boat = next(tr for tr in confirmed if tr is not on_buoy[0])
+    assert boat.position == pytest.approx([0.0, 29.4], abs=0.6)  # its near side seen: the centre within a beam
+    assert boat.length == pytest.approx(8.0, abs=0.7)
+    confirmed, buoy, splits = _buoy_off_an_anchored_boats_stern(0.0)
+    assert splits == 0
+    assert near(confirmed, buoy, 0.5) == []
+    assert len(confirmed) == 1 and confirmed[0].length > 9.5

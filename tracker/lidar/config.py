@@ -430,6 +430,14 @@ class AssociationConfig:
     # pieces of a quay; a vessel coming into view, or out of the LiDAR's blind band, is born where nothing else is
     # tracked. 0 turns it off. Ours; the figures are LidarLifecycleConfig's.
     alone_m: float = 10.0
+    # A cluster that holds a small settled track (no more than this across, m) and one bigger settled track, its
+    # returns lying in two parts a clear gap apart, is split between them (LidarTracker._split_shared_detections):
+    # a buoy or a small USV at anchor 1-1.5 m off a boat's end merges into the boat's cluster when the own boat's
+    # view changes (the clustering's tolerance is 1.2 m at 20 m), and the boat's track then took it in, grew by the
+    # gap and the buoy, and ended the buoy's track as a piece of its hull (tuning seed 54: 213 vessel-ticks of one
+    # buoy missed). Both tracks must be older than duplicate_shadow_settled_s: a piece of a hull is caught before
+    # then. 0 turns it off. Ours, a small USV's size.
+    split_small_max_m: float = 3.5
 
     def __post_init__(self) -> None:
         positive(self, "gate", "max_distance", "duplicate_max_speed_diff")
@@ -444,6 +452,7 @@ class AssociationConfig:
             "reacquire_s",
             "reacquire_margin_m",
             "alone_m",
+            "split_small_max_m",
             allow_zero=True,
         )
 

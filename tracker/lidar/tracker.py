@@ -11,6 +11,7 @@ import logging
 import math
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from tracker.assignment import Assignment
 from tracker.lidar.association import associate, footprint_covariance
@@ -49,6 +50,14 @@ from tracker.types import Detection, ShapeKind, Track
 
 # Footprint cells of a cluster the deck rule looks along, at most (LidarTracker._on_deck).
 _DECK_CELLS = 32
+# A shared cluster is split (LidarTracker._split_shared_detections) when each of two settled tracks' predicted boxes,
+# grown by _SPLIT_BOX_GROW_M (a box's edge is good to a few tenths), holds _SPLIT_MIN_CELLS of its footprint cells
+# (0.75 m of 0.15 m cells: a buoy's near face), and the two parts lie _SPLIT_MIN_GAP_M apart at their nearest (over
+# three cells: water between them, not one hull's returns thinning out).
+_SPLIT_BOX_GROW_M = 0.3
+_SPLIT_MIN_CELLS = 5
+_SPLIT_MIN_GAP_M = 0.5
+_MIN_HALF_M = 0.1  # m; a box's half-size below this is taken as this, so a degenerate box has a depth scale
 
 log = logging.getLogger(__name__)
 
@@ -69,7 +78,14 @@ class LidarTracker:
         self.last_clusters: list[np.ndarray] = []  # (n, 3) world NED points per cluster, nearest first
         self.last_cluster_track: list[int | None] = []  # track id each cluster fed, None if none (or structure)
         self.last_detections: list[Detection] = []
-        self.stats = {"scans": 0, "out_of_order": 0, "degenerate_clusters": 0, "duplicates": 0, "reacquired": 0}
+        self.stats = {
+            "scans": 0,
+            "out_of_order": 0,
+            "degenerate_clusters": 0,
+            "duplicates": 0,
+            "reacquired": 0,
+            "split_detections": 0,
+        }
         self._cluster_result: ClusterResult | None = None
         self._detection_clusters: list[list[int]] = []  # cluster indices behind each detection
         self.structure = StructureMemory(self.config.structure)
@@ -381,6 +397,66 @@ class LidarTracker:
             fit = guard_heading(fit, footprint, prepared=prepared)
         return fit
 
+    def _split_shared_detections(self, detections: list[Detection], own: np.ndarray) -> list[Detection]:
+        """Split each detection whose footprint holds a small settled track and one bigger settled track, in parts a
+        clear gap apart, into one detection per track (``AssociationConfig.split_small_max_m``).
+
+        Each footprint cell and each return goes to the track in whose predicted box it lies deepest. A hull whose
+        returns run on without a gap is never split, so two tracks on one long hull (a ship first seen as bow and
+        stern) are left to the duplicate tests."""
+        cfg = self.config.association
+        if cfg.split_small_max_m <= 0 or not detections:
+            return detections
+        settled = [
+            i for i, life in enumerate(self._lives) if life.confirmed and life.age >= cfg.duplicate_shadow_settled_s
+        ]
+        if len(settled) < 2:
+            return detections
+        x = self.bank.states()[settled]
+        small = np.maximum(x[:, LEN], x[:, WID]) <= cfg.split_small_max_m
+        if small.all() or not small.any():
+            return detections
+        sizes = np.array([len(d.points) for d in detections])
+        starts = np.cumsum(sizes) - sizes
+        depth = box_depth(np.concatenate([d.points[:, :2] for d in detections]), x)  # (cells, tracks)
+        grown = 1.0 + _SPLIT_BOX_GROW_M / np.maximum(0.5 * np.minimum(x[:, LEN], x[:, WID]), _MIN_HALF_M)
+        held = np.add.reduceat((depth <= grown).astype(np.int64), starts, axis=0) >= _SPLIT_MIN_CELLS  # (D, T)
+        shared = np.flatnonzero((held.sum(axis=1) == 2) & (held & small).any(axis=1) & (held & ~small).any(axis=1))
+        if shared.size == 0:
+            return detections
+        parts_of: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
+        for j in shared.tolist():  # few: a small track beside a bigger one
+            owners = np.flatnonzero(held[j])
+            cell_owner = np.argmin(depth[starts[j] : starts[j] + sizes[j]][:, owners], axis=1)
+            points = self.last_clusters[self._detection_clusters[j][0]]
+            point_owner = np.argmin(box_depth(points[:, :2], x[owners]), axis=1)
+            cells = [detections[j].points[cell_owner == o] for o in range(2)]
+            if min(len(c) for c in cells) < _SPLIT_MIN_CELLS or _least_gap(cells[0], cells[1]) < _SPLIT_MIN_GAP_M:
+                continue
+            parts_of[j] = [(cells[o], points[point_owner == o]) for o in range(2)]
+        if not parts_of:
+            return detections
+        out: list[Detection] = []
+        clusters_out: list[list[int]] = []
+        for j, det in enumerate(detections):
+            pieces = (
+                []
+                if j not in parts_of
+                else [
+                    (self._fit_cluster(pts, cells, det.t, own, self._detection_clusters[j][0]) if len(pts) else None)
+                    for cells, pts in parts_of[j]
+                ]
+            )
+            if j not in parts_of or any(p is None for p in pieces):  # never lose a detection to a bad split
+                out.append(det)
+                clusters_out.append(self._detection_clusters[j])
+                continue
+            out.extend(p for p in pieces if p is not None)
+            clusters_out.extend([self._detection_clusters[j]] * 2)
+            self.stats["split_detections"] += 1
+        self._detection_clusters = clusters_out
+        return out
+
     def _merge_split_detections(self, detections: list[Detection], t: float, own: np.ndarray) -> list[Detection]:
         """Refit as one the detections that lie inside one confirmed track's predicted footprint and no other's.
 
@@ -484,7 +560,8 @@ class LidarTracker:
         own = np.asarray(own_position, dtype=float)[:2]
 
         self.bank.predict(dt)
-        detections = self._merge_split_detections(self.detect(points_world, t, own, point_times), t, own)
+        detections = self._split_shared_detections(self.detect(points_world, t, own, point_times), own)
+        detections = self._merge_split_detections(detections, t, own)
         self.last_detections = detections
         margin, result = self.config.cluster.occlusion_margin, self._cluster_result
         assert result is not None  # set by detect()
@@ -796,3 +873,20 @@ class LidarTracker:
             )
             for j, (life, kind) in enumerate(zip(self._lives, self._kinds, strict=True))
         ]
+
+
+def box_depth(points_ne: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """(P, T): how deep each of the (P, 2) points (north, east) lies in each of the T tracks' boxes (states ``x``):
+    max(|along| / half-length, |across| / half-width), at most 1 inside the box."""
+    rel = points_ne[:, None, :] - x[None, :, [PN, PE]]
+    c, s = np.cos(x[:, PSI])[None, :], np.sin(x[:, PSI])[None, :]
+    along = np.abs(rel[..., 0] * c + rel[..., 1] * s) / np.maximum(0.5 * x[None, :, LEN], _MIN_HALF_M)
+    across = np.abs(rel[..., 1] * c - rel[..., 0] * s) / np.maximum(0.5 * x[None, :, WID], _MIN_HALF_M)
+    return np.maximum(along, across)
+
+
+def _least_gap(a: np.ndarray, b: np.ndarray) -> float:
+    """The least horizontal distance (m) between two sets of (n, 2+) points; inf if either is empty."""
+    if len(a) == 0 or len(b) == 0:
+        return math.inf
+    return float(cKDTree(a[:, :2]).query(b[:, :2], k=1)[0].min())
