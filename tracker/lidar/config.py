@@ -65,7 +65,8 @@ class WaterConfig:
             raise ConfigError(f"WaterConfig.margin_floor: {self.margin_floor} is above margin_max {self.margin_max}")
         if self.min_rings < 1 or not 0.0 <= self.min_ring_share < 1.0:
             raise ConfigError(
-                f"WaterConfig.min_rings / min_ring_share: need >= 1 and [0, 1), got {self.min_rings!r}, {self.min_ring_share!r}"
+                "WaterConfig.min_rings / min_ring_share: need >= 1 and [0, 1), "
+                f"got {self.min_rings!r}, {self.min_ring_share!r}"
             )
         if self.min_sectors < 1:
             raise ConfigError(f"WaterConfig.min_sectors: must be >= 1, got {self.min_sectors!r}")
