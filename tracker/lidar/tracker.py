@@ -416,18 +416,30 @@ class LidarTracker:
         small = np.maximum(x[:, LEN], x[:, WID]) <= cfg.split_small_max_m
         if small.all() or not small.any():
             return detections
-        sizes = np.array([len(d.points) for d in detections])
+        # Only a detection reaching a small track's grown box can hold it: the rest are not looked at cell by cell.
+        centres = np.array([d.center for d in detections], dtype=float).reshape(-1, 2)
+        reach = 0.5 * np.hypot([d.length for d in detections], [d.width for d in detections])
+        small_reach = 0.5 * np.hypot(x[small, LEN], x[small, WID]) + _SPLIT_BOX_GROW_M
+        apart = centres[:, None, :] - x[None, small][..., [PN, PE]]
+        near = np.flatnonzero(
+            (np.hypot(apart[..., 0], apart[..., 1]) <= reach[:, None] + small_reach[None, :]).any(axis=1)
+        )
+        if near.size == 0:
+            return detections
+        nearby = [detections[j] for j in near.tolist()]
+        sizes = np.array([len(d.points) for d in nearby])
         starts = np.cumsum(sizes) - sizes
-        depth = box_depth(np.concatenate([d.points[:, :2] for d in detections]), x)  # (cells, tracks)
+        depth = box_depth(np.concatenate([d.points[:, :2] for d in nearby]), x)  # (cells, tracks)
         grown = 1.0 + _SPLIT_BOX_GROW_M / np.maximum(0.5 * np.minimum(x[:, LEN], x[:, WID]), _MIN_HALF_M)
         held = np.add.reduceat((depth <= grown).astype(np.int64), starts, axis=0) >= _SPLIT_MIN_CELLS  # (D, T)
         shared = np.flatnonzero((held.sum(axis=1) == 2) & (held & small).any(axis=1) & (held & ~small).any(axis=1))
         if shared.size == 0:
             return detections
         parts_of: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
-        for j in shared.tolist():  # few: a small track beside a bigger one
-            owners = np.flatnonzero(held[j])
-            cell_owner = np.argmin(depth[starts[j] : starts[j] + sizes[j]][:, owners], axis=1)
+        for n in shared.tolist():  # few: a small track beside a bigger one
+            j = int(near[n])
+            owners = np.flatnonzero(held[n])
+            cell_owner = np.argmin(depth[starts[n] : starts[n] + sizes[n]][:, owners], axis=1)
             points = self.last_clusters[self._detection_clusters[j][0]]
             point_owner = np.argmin(box_depth(points[:, :2], x[owners]), axis=1)
             cells = [detections[j].points[cell_owner == o] for o in range(2)]
