@@ -281,13 +281,15 @@ class StructureMemory:
         needed = np.where(length >= cfg.line_min_length_m, cfg.line_min_share, cfg.short_line_min_share)
         on_line = self.known(t, samples.reshape(-1, 2)).reshape(p_count, 2, s_count).mean(axis=2)  # (P, 2)
         along = on_line >= needed[:, None]
-        if cfg.line_flank_m > 0:
+        piece, side = np.nonzero(along)
+        if cfg.line_flank_m > 0 and piece.size:  # only the sides whose line met enough wall: few
             # A wall followed along its length has water on one flank of the line; a line that crosses remembered
             # ground (a boat's axis pointing at a quay and the land behind it) has ground on both flanks.
-            normal = np.column_stack([-axis[:, 1], axis[:, 0]])[:, None, None, :]
-            flanks = np.concatenate([samples + cfg.line_flank_m * normal, samples - cfg.line_flank_m * normal], axis=1)
-            on_flank = self.known(t, flanks.reshape(-1, 2)).reshape(p_count, 2, 2, s_count).mean(axis=3)
-            along &= on_flank.min(axis=1) <= _FLANK_MAX_RATIO * on_line
+            normal = np.column_stack([-axis[piece, 1], axis[piece, 0]])[:, None, :]  # (C, 1, 2)
+            line = samples[piece, side]  # (C, S, 2)
+            flanks = np.stack([line + cfg.line_flank_m * normal, line - cfg.line_flank_m * normal], axis=1)
+            on_flank = self.known(t, flanks.reshape(-1, 2)).reshape(piece.size, 2, s_count).mean(axis=2)
+            along[piece, side] = on_flank.min(axis=1) <= _FLANK_MAX_RATIO * on_line[piece, side]
         out[idx] = along.any(axis=1)
         lids[idx] = self.lids_at(t, samples.reshape(-1, 2)).reshape(p_count, -1).min(axis=1)
         return out, lids
