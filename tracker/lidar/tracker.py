@@ -435,37 +435,31 @@ class LidarTracker:
         shared = np.flatnonzero((held.sum(axis=1) == 2) & (held & small).any(axis=1) & (held & ~small).any(axis=1))
         if shared.size == 0:
             return detections
-        parts_of: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
+        pieces_of: dict[int, list[Detection]] = {}
         for n in shared.tolist():  # few: a small track beside a bigger one
-            j = int(near[n])
+            j, det = int(near[n]), detections[int(near[n])]
+            k = self._detection_clusters[j][0]
             owners = np.flatnonzero(held[n])
             cell_owner = np.argmin(depth[starts[n] : starts[n] + sizes[n]][:, owners], axis=1)
-            points = self.last_clusters[self._detection_clusters[j][0]]
-            point_owner = np.argmin(box_depth(points[:, :2], x[owners]), axis=1)
-            cells = [detections[j].points[cell_owner == o] for o in range(2)]
-            if min(len(c) for c in cells) < _SPLIT_MIN_CELLS or _least_gap(cells[0], cells[1]) < _SPLIT_MIN_GAP_M:
+            point_owner = np.argmin(box_depth(self.last_clusters[k][:, :2], x[owners]), axis=1)
+            cells = [det.points[cell_owner == o] for o in range(2)]
+            points = [self.last_clusters[k][point_owner == o] for o in range(2)]
+            if min(len(c) for c in cells) < _SPLIT_MIN_CELLS or min(len(p) for p in points) == 0:
                 continue
-            parts_of[j] = [(cells[o], points[point_owner == o]) for o in range(2)]
-        if not parts_of:
+            if _least_gap(cells[0], cells[1]) < _SPLIT_MIN_GAP_M:
+                continue
+            pieces = [self._fit_cluster(points[o], cells[o], det.t, own, k) for o in range(2)]
+            if all(piece is not None for piece in pieces):  # never lose a detection to a bad split
+                pieces_of[j] = [piece for piece in pieces if piece is not None]
+        if not pieces_of:
             return detections
+        self.stats["split_detections"] += len(pieces_of)
         out: list[Detection] = []
         clusters_out: list[list[int]] = []
         for j, det in enumerate(detections):
-            pieces = (
-                []
-                if j not in parts_of
-                else [
-                    (self._fit_cluster(pts, cells, det.t, own, self._detection_clusters[j][0]) if len(pts) else None)
-                    for cells, pts in parts_of[j]
-                ]
-            )
-            if j not in parts_of or any(p is None for p in pieces):  # never lose a detection to a bad split
-                out.append(det)
-                clusters_out.append(self._detection_clusters[j])
-                continue
-            out.extend(p for p in pieces if p is not None)
-            clusters_out.extend([self._detection_clusters[j]] * 2)
-            self.stats["split_detections"] += 1
+            parts = pieces_of.get(j, [det])
+            out.extend(parts)
+            clusters_out.extend([self._detection_clusters[j]] * len(parts))
         self._detection_clusters = clusters_out
         return out
 
