@@ -7,6 +7,8 @@ within ``radar_on_structure_gate_m`` of it keeps its outline in the obstacle arr
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from daemon.config import Config
@@ -16,6 +18,7 @@ from drivers.mount import Mount
 from tests.sea_geometry import SteadyEgo, revolution_over_water, scan_of
 from tests.test_pipeline_radar_outlines import FixedRadarTracks, radar_track
 from tracker.obstacle_map import bearing_bins
+from tracker.types import Track
 
 MOUNT = Mount(z=-1.6)  # the VLP-16 1.6 m above the water, the body origin at the waterline
 # A quay face 80 m long (too long for a vessel: structure) 42 m north, 2.5 m high: the -1 and +1 deg beams reach it.
@@ -26,7 +29,10 @@ def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.zeros(np.shape(t)), np.zeros(np.shape(t))
 
 
-def run(radar_north_east: tuple[float, float], gate_m: float = 3.0) -> tuple[np.ndarray, list[str]]:
+def run(
+    radar_north_east: tuple[float, float], gate_m: float = 3.0, then: Track | None = None
+) -> tuple[np.ndarray, list[str]]:
+    """Three revolutions with one radar track at ``radar_north_east``; with ``then``, a fourth with that track."""
     config = Config()
     config.lidar.mount.z = MOUNT.z
     pipeline = pipeline_for(config)
@@ -36,7 +42,9 @@ def run(radar_north_east: tuple[float, float], gate_m: float = 3.0) -> tuple[np.
     pipeline.radar_tracker = FixedRadarTracks([radar_track(*radar_north_east)])
     ego = SteadyEgo(level, 0.0)
     out = None
-    for k in range(3):  # the quay is seen whole, and remembered, from the first revolution
+    for k in range(3 if then is None else 4):  # the quay is seen whole, and remembered, from the first revolution
+        if k == 3:
+            pipeline.radar_tracker = FixedRadarTracks([then])
         t0 = 0.1 * k
         ret = revolution_over_water(MOUNT, level, yaw=0.0, t0=t0, walls=QUAY, water_returns=False)
         frame = RadarFrame(t0 + 0.1, k + 1, np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0))
@@ -60,4 +68,14 @@ def test_a_radar_track_in_open_water_in_the_gap_is_still_a_vessel() -> None:
 
 def test_with_the_gate_off_the_radar_track_on_the_quay_is_a_vessel() -> None:
     _, sources = run((40.0, 10.0), gate_m=-1.0)
+    assert sources == ["radar"]
+
+
+def test_a_radar_track_once_on_the_quay_stays_the_quay_when_it_drifts_off_it() -> None:
+    # The echo of the face drifts 8 m out, past the 3 m gate: the same track (id 1) is still the quay's.
+    _, sources = run((40.0, 10.0), then=radar_track(34.0, 10.0))
+    assert sources == []
+    # Another radar track there (a new id) that never lay on the quay is a vessel.
+    other = replace(radar_track(34.0, 10.0), id=2)
+    _, sources = run((40.0, 10.0), then=other)
     assert sources == ["radar"]

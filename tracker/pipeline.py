@@ -332,6 +332,7 @@ class PerceptionPipeline:
         self._radar_tracks: list[Track] = []
         self._published = PublishedIds()
         self._memory = ObstacleMemory()
+        self._radar_on_structure: set[int] = set()  # radar tracks found on structure the LiDAR saw, while they live
         self.skipped_no_pose = 0
         cfg = self.lidar_preprocess_config
         # The water surface is a body-relative estimate: it survives a change of world frame.
@@ -363,6 +364,7 @@ class PerceptionPipeline:
         self._lidar_tracks, self._radar_tracks = [], []
         self._published.reset()
         self._memory.reset()
+        self._radar_on_structure.clear()
         # What the sensors measured stays, moved into the body frame it was measured in: poses of the old world
         # frame mean nothing in the new one (nor may the coverage be turned by the heading difference between them).
         self._lidar_solid = _into_own_body(self._lidar_solid)
@@ -443,7 +445,14 @@ class PerceptionPipeline:
                 [tr.age < s.radar_alone_min_age_s or not tr.speed_valid or tr.part_of is not None for tr in alone]
             )
             if self.lidar_tracker is not None and s.radar_on_structure_gate_m >= 0:
-                no_vessel |= self.lidar_tracker.on_structure(t, world, s.radar_on_structure_gate_m)
+                # Once on the quay, always the quay's: the echo of a face wanders along and off it (clutter at its
+                # foot, multipath off it) and its track drifts metres out while the structure memory around it is
+                # carved for a moored hull or not yet refreshed. A boat leaving a quay is the LiDAR's to report.
+                # Tuning seeds 45-68, fused: MOTA 0.9569 -> 0.9573 (50 and 60 better, none worse), bins unchanged.
+                on = self.lidar_tracker.on_structure(t, world, s.radar_on_structure_gate_m)
+                self._radar_on_structure &= {tr.id for tr in self._radar_tracks}
+                self._radar_on_structure |= {tr.id for tr, q in zip(alone, on, strict=True) if q}
+                no_vessel |= np.array([tr.id in self._radar_on_structure for tr in alone])
             no_vessel &= speaks
             outline_only = [tr for tr, q in zip(alone, no_vessel, strict=True) if q]
             muted = {id(tr) for tr, ok in zip(alone, speaks & ~no_vessel, strict=True) if not ok}
