@@ -1,12 +1,14 @@
 """The live daemon for bench/load.py, in its own process, with its counters written out when it stops.
 
-    python -m bench._load_daemon OUT.json run --lidar udp://... --radar-cli ... --mavlink ...   # `usv-tracker run`'s flags
+    python -m bench._load_daemon OUT.json run --lidar udp://... --radar-cli ... --mavlink ...
+    # `usv-tracker run`'s flags
 
 It starts exactly as `usv-tracker run` does live (daemon.runner: start_daemon, the start-up objects frozen out of the
-garbage collector, run_live; logging as the CLI sets it up, stamped to the millisecond), touches OUT.json.ready once everything is open, and
-on SIGTERM stops and writes what a bench needs and the health line does not carry: the LiDAR source's own
-counters (packets taken, other senders' datagrams dropped, the sender it locked onto), the hand-over buffers, the
-radar parser, and the time and duration of every cycle (the health line keeps only the last minute's p50/p99).
+garbage collector, run_live; logging as the CLI sets it up, stamped to the millisecond), touches OUT.json.ready once
+everything is open, and on SIGTERM stops and writes what a bench needs and the health line does not carry: the LiDAR
+source's own counters (packets taken, other senders' datagrams dropped, the sender it locked onto), the hand-over
+buffers, the radar parser, and the time and duration of every cycle (the health line keeps only the last minute's
+p50/p99).
 """
 
 from __future__ import annotations

@@ -76,8 +76,8 @@ def main() -> None:
                 flush=True,
             )
     lines = [
-        "`python bench/curved_hulls.py`: the `moorings` scene (round buoys, round-ended tenders and RIBs, one box-hulled "
-        f"workboat; the own boat at 1.5 m/s) simulated for {SECONDS:.0f} s and replayed LiDAR only in each "
+        "`python bench/curved_hulls.py`: the `moorings` scene (round buoys, round-ended tenders and RIBs, one "
+        f"box-hulled workboat; the own boat at 1.5 m/s) simulated for {SECONDS:.0f} s and replayed LiDAR only in each "
         "`[tracker.lidar.shape] mode`, scored by the evaluator (errors of matched pairs: track centre to hull centre, "
         "length and width against the hull's).",
         "",

@@ -10,8 +10,8 @@ most points a VLP-16 can give at 600 rpm; (3) and (4) the `dense` scenario in op
 the own boat rolling 5 deg and pitching 3 deg, heaving 0.2 m in a sea-state-3 sea whose water returns to the tilted
 beams and whose clutter fills the radar frame: the cost of waves, the same scene otherwise; (5) issue 13's worst
 case: (4) plus water returns from nearly every steep firing, rain, a 25 m quay basin and ~200 radar points a frame
-(~28k LiDAR points a revolution). Packets go through the real decoder (ScanAssembler) into LidarScans; radar frames come from the radar
-model through the real frame parser. Each cycle = one revolution + one radar frame through
+(~28k LiDAR points a revolution). Packets go through the real decoder (ScanAssembler) into LidarScans; radar frames come
+from the radar model through the real frame parser. Each cycle = one revolution + one radar frame through
 PerceptionPipeline.step (preprocess, both trackers, fusion, obstacle array) - exactly what the loop runs per tick.
 The process is pinned to one core. Prints and saves p50/p99/max and the per-stage medians.
 """

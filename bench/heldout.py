@@ -210,8 +210,8 @@ def same_truth(rows: list[dict[str, Any]]) -> str:
         alone = np.array([r[mode]["mota_all_returned"] for r in rows])
         idf1 = np.nanmean([r[mode]["idf1_all_returned"] for r in rows])
         parts.append(
-            f"{mode} alone MOTA {np.nanmean(alone):.4f} (worst {np.nanmin(alone):.3f}), IDF1 {idf1:.3f}; fused above it "
-            f"in {int((fused > alone).sum())} scenes, below in {int((fused < alone).sum())}"
+            f"{mode} alone MOTA {np.nanmean(alone):.4f} (worst {np.nanmin(alone):.3f}), IDF1 {idf1:.3f}; "
+            f"fused above it in {int((fused > alone).sum())} scenes, below in {int((fused < alone).sum())}"
         )
     idf1 = np.nanmean([r["fused"]["idf1_all_returned"] for r in rows])
     return (
@@ -287,8 +287,8 @@ def markdown(summary: dict[str, Any], rows: list[dict[str, Any]], seconds: float
         "",
         "Per scene (fused; LiDAR-only and radar-only MOTA beside):",
         "",
-        "| seed | MOTA | IDF1 | false track-frames | false-clear bins (sent clear) / with a solid | false-obstacle bins | "
-        "held obstacle bins on an unreturned solid | LiDAR MOTA | radar MOTA | the day |",
+        "| seed | MOTA | IDF1 | false track-frames | false-clear bins (sent clear) / with a solid | "
+        "false-obstacle bins | held obstacle bins on an unreturned solid | LiDAR MOTA | radar MOTA | the day |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:

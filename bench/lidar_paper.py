@@ -475,8 +475,8 @@ def table1_markdown(name: str, res: dict[str, Any]) -> list[str]:
     )
     lines += [
         "",
-        f"Paper values in parentheses. Adaptive picked the ellipse in {fmt(rows['adaptive']['ellipse_share'], pct=True)}"
-        " of revolutions. Medians, "
+        "Paper values in parentheses. Adaptive picked the ellipse in "
+        f"{fmt(rows['adaptive']['ellipse_share'], pct=True)} of revolutions. Medians, "
         f"ours tracked: position {fmt(rows['ours-track']['position_median'])} m, heading "
         f"{fmt(rows['ours-track']['heading_median'], 1)} deg.",
         "",

@@ -266,19 +266,19 @@ def report(
         "# ROTracker (paper 001) on the simulated AWR1843",
         "",
         f"`python bench/radar_paper.py`: {len(SPEEDS)} sequences x {len(seeds)} radar-model seeds x {seq_len} at 10 Hz "
-        f"({n_frames} frames) for Tables 3-4, 6 band sequences for Table 5; {elapsed:.0f} s on this machine. Frames take "
-        "the daemon's path (AWR1843 model -> UART frame -> `RadarFrameParser` with the radar mount -> "
+        f"({n_frames} frames) for Tables 3-4, 6 band sequences for Table 5; {elapsed:.0f} s on this machine. Frames "
+        "take the daemon's path (AWR1843 model -> UART frame -> `RadarFrameParser` with the radar mount -> "
         "`RadarTracker.step_frame` with the own boat's `EgoPose`).",
         "",
         "**Scoring.** CLEAR MOT with py-motmetrics 1.4: hypotheses are the tracker's *confirmed* tracks (coasting ones "
-        f"included, as the daemon publishes them), objects the simulated boats; distance = Euclidean distance in metres "
-        f"between the track position and the hull centre, no match beyond {GATE_M:.0f} m; a pair matched in the previous "
-        "frame is kept while inside the gate, the rest is a Hungarian assignment; a boat changing track is an id switch. "
-        "TP % and FP % are per truth object (MOTA = TP - FP - IDSW). MVE = mean |published speed - true speed| and "
-        f"MAE = mean |published course - true course| (boats moving >= {MOVING_MIN_MPS} m/s, tracks publishing a "
-        'non-zero velocity), over matched pairs whose track publishes a velocity (the motion discriminator\'s "wait" '
-        "level publishes none; see the coverage columns). Track ids are the tracker's own; the truth's are the scene's "
-        "vessel indices (0 Smurf, 1 Titan, 2 Xi).",
+        "included, as the daemon publishes them), objects the simulated boats; distance = Euclidean distance in metres "
+        f"between the track position and the hull centre, no match beyond {GATE_M:.0f} m; a pair matched in the "
+        "previous frame is kept while inside the gate, the rest is a Hungarian assignment; a boat changing track is an "
+        "id switch. TP % and FP % are per truth object (MOTA = TP - FP - IDSW). MVE = mean |published speed - true "
+        f"speed| and MAE = mean |published course - true course| (boats moving >= {MOVING_MIN_MPS} m/s, tracks "
+        "publishing a non-zero velocity), over matched pairs whose track publishes a velocity (the motion "
+        "discriminator's \"wait\" level publishes none; see the coverage columns). Track ids are the tracker's own; "
+        "the truth's are the scene's vessel indices (0 Smurf, 1 Titan, 2 Xi).",
         "",
         f'**Settings** ("ours"): the config defaults (paper values) plus `{_overrides_text()}` and the radar mount '
         f"`sensor_position_body={ours.sensor_position_body}`. With the paper's own settings (20 returns per cluster) "
@@ -366,8 +366,8 @@ def report(
         "",
         "## Runtime",
         "",
-        f'Parser + tracker per frame over {len(wall)} frames of Table 3 ("ours"), the quietest of {len(pass_p99)} passes '
-        f"(p99 per pass: {', '.join(f'{v:.2f}' for v in pass_p99)} ms): mean {rt['wall_mean_ms']:.2f} ms, "
+        f'Parser + tracker per frame over {len(wall)} frames of Table 3 ("ours"), the quietest of {len(pass_p99)} '
+        f"passes (p99 per pass: {', '.join(f'{v:.2f}' for v in pass_p99)} ms): mean {rt['wall_mean_ms']:.2f} ms, "
         f"p50 {rt['wall_p50_ms']:.2f} ms, p99 {rt['wall_p99_ms']:.2f} ms, max {rt['wall_max_ms']:.2f} ms wall clock; "
         f"CPU time of the thread mean {rt['cpu_mean_ms']:.2f} ms, p99 {rt['cpu_p99_ms']:.2f} ms "
         "(2 shared cores; paper: 24.5 ms mean on a Jetson Xavier NX). Each frame's fastest of the "
@@ -418,11 +418,13 @@ def goals(
         ),
         line(
             m_all.motp_cm <= 50.0,
-            f"MOTP <= 50 cm: {fmt(m_all.motp_cm)} cm overall, worst class {fmt(max(m_speed[sp].motp_cm for sp in SPEEDS))}",
+            f"MOTP <= 50 cm: {fmt(m_all.motp_cm)} cm overall, "
+            f"worst class {fmt(max(m_speed[sp].motp_cm for sp in SPEEDS))}",
         ),
         line(
             m_all.mve_cmps <= 15.0,
-            f"MVE <= 15 cm/s: {fmt(m_all.mve_cmps)} cm/s overall, worst class {fmt(max(m_speed[sp].mve_cmps for sp in SPEEDS))}",
+            f"MVE <= 15 cm/s: {fmt(m_all.mve_cmps)} cm/s overall, "
+            f"worst class {fmt(max(m_speed[sp].mve_cmps for sp in SPEEDS))}",
         ),
         line(m_all.mae_deg <= 10.0, f"MAE <= 10 deg: {fmt(m_all.mae_deg)} deg overall"),
         line(
@@ -431,7 +433,8 @@ def goals(
         ),
         line(
             v_helps,
-            f"removing the velocity measurement hurts MVE (overall {fmt(full[0].mve_cmps)} -> {fmt(no_v[0].mve_cmps)}, low {fmt(full[1].mve_cmps)} -> {fmt(no_v[1].mve_cmps)} cm/s)",
+            f"removing the velocity measurement hurts MVE (overall {fmt(full[0].mve_cmps)} -> {fmt(no_v[0].mve_cmps)}, "
+            f"low {fmt(full[1].mve_cmps)} -> {fmt(no_v[1].mve_cmps)} cm/s)",
         ),
         line(
             v_helps_vec,
@@ -449,8 +452,9 @@ def goals(
         ),
         line(
             rt["wall_p99_ms"] < 5.0,
-            f"radar pipeline p99 < 5 ms: {rt['wall_p99_ms']:.2f} ms wall, {rt['cpu_p99_ms']:.2f} ms CPU in the quietest "
-            f"pass (each frame's fastest of the passes, a lower bound of its own cost: p99 {rt['own_p99_ms']:.2f} ms)",
+            f"radar pipeline p99 < 5 ms: {rt['wall_p99_ms']:.2f} ms wall, {rt['cpu_p99_ms']:.2f} ms CPU in the "
+            "quietest pass (each frame's fastest of the passes, a lower bound of its own cost: "
+            f"p99 {rt['own_p99_ms']:.2f} ms)",
         ),
     ]
 

@@ -1,11 +1,11 @@
 """Scenes and settings for the radar-paper benchmark (paper 001, ROTracker) beyond ``simulator.scenarios``.
 
 * ``band_scene``: the paper's three boats inside one distance band (Table 5: 0-30, 30-60, 60-90 m), on closed laps
-  laid out in range and bearing so that they stay inside the band and the radar's field of view. "static" moors them in the middle of their lap (Smurf
-  broadside, Titan stern-on, Xi at 45 deg to the line of sight); "moving" runs Smurf at the paper's "low", Titan at
-  "mid" and Xi at "high" speed. No shore: Table 3's scenes test the shore filter; here a bank behind the boats
-  would be seen in pieces between their radar shadows, and pieces shorter than ``shore.min_extent_m`` are (rightly)
-  indistinguishable from moored boats.
+  laid out in range and bearing so that they stay inside the band and the radar's field of view. "static" moors them in
+  the middle of their lap (Smurf broadside, Titan stern-on, Xi at 45 deg to the line of sight); "moving" runs Smurf at
+  the paper's "low", Titan at "mid" and Xi at "high" speed. No shore: Table 3's scenes test the shore filter; here a
+  bank behind the boats would be seen in pieces between their radar shadows, and pieces shorter than
+  ``shore.min_extent_m`` are (rightly) indistinguishable from moored boats.
 * ``BAND_MODEL``: the AWR1843 model settings for the bands. The simulator's default is a 50 m configuration (max range
   50 m, 45 dB SNR for a 1 m hull side at 10 m); the paper configured the radar for 100 m (sec. 3.1), so the band runs
   use max_range 100 m and +13 dB SNR at 10 m (what a longer chirp buys), enough for a 0.6 m high Smurf face-on at 90 m

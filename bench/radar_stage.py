@@ -82,9 +82,11 @@ def main() -> None:
         f"| {k + 1} | {p['p50_ms']:.2f} | {p['p99_ms']:.2f} | {p['max_ms']:.2f} |" for k, p in enumerate(passes)
     )
     quiet = min(passes, key=lambda p: p["p99_ms"])
-    markdown = f"""`python bench/radar_stage.py`: the radar stage alone (`RadarTracker.step_frame`, built as the daemon builds it)
+    markdown = f"""`python bench/radar_stage.py`: the radar stage alone (`RadarTracker.step_frame`, built as the \
+daemon builds it)
 on bench/cycle.py's worst case, {len(frames)} frames of {points:.0f} radar points on average through the real parser;
-thread CPU time per frame after the first {WARMUP_FRAMES} of each pass, a fresh tracker each pass. Goal (issue 12): p99 <= 5 ms.
+thread CPU time per frame after the first {WARMUP_FRAMES} of each pass, a fresh tracker each pass. \
+Goal (issue 12): p99 <= 5 ms.
 
 | pass | CPU p50 (ms) | p99 (ms) | max (ms) |
 |---|---|---|---|

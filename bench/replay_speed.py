@@ -109,7 +109,8 @@ def markdown(figures: dict[str, Any]) -> str:
         f"{load['before'][0]:.1f} before and {load['after'][0]:.1f} after (1 min): the machine was shared, so these "
         "are figures under load, not an idle machine's.",
         "",
-        "| mode | pass ratios (x real time) | median | wall s (median) | tick p50 (pipeline + output) | tick loop waited on a decoder |",
+        "| mode | pass ratios (x real time) | median | wall s (median) | tick p50 (pipeline + output) | "
+        "tick loop waited on a decoder |",
         "|---|---|---|---|---|---|",
     ]
     for key, label, _lidar, _radar, prefetch in MODES:

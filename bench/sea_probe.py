@@ -111,7 +111,8 @@ def main() -> None:
         f"Seas with any false obstacle bin or track: **{len(bad)} of {len(seas)}**; false bin-revolutions in all: "
         f"{sum(int(r['false_bin_revolutions']) for r in rows)} of {len(seas) * REVOLUTIONS * 72}.",
         "",
-        "| attitude | crests (m) | firings returning | heading (rad) | heave (m) | false bin-revolutions | tracks (confirmed) | first |",
+        "| attitude | crests (m) | firings returning | heading (rad) | heave (m) | false bin-revolutions | "
+        "tracks (confirmed) | first |",
         "|---|---|---|---|---|---|---|---|",
     ]
     lines += [

@@ -262,10 +262,10 @@ def markdown(r: dict[str, Any], cli: str) -> str:
         "",
         "| figure | value | goal |",
         "|---|---|---|",
-        f"| RSS at 1 min (the end of the first scene, {p['rss_ref_t_s']:.0f} s after exec) / at the end (the end of the "
-        f"last scene, the first one again) | {p['rss_ref_mb']:.1f} / {p['rss_end_mb']:.1f} MB | |",
-        f"| RSS growth after the first minute: end sample - 1 min sample (the same scene) | {p['rss_growth_mb']:+.1f} MB | "
-        f"< 5 MB over the hour: {'met' if growth_ok else '**not met**'} |",
+        f"| RSS at 1 min (the end of the first scene, {p['rss_ref_t_s']:.0f} s after exec) / at the end (the end of "
+        f"the last scene, the first one again) | {p['rss_ref_mb']:.1f} / {p['rss_end_mb']:.1f} MB | |",
+        "| RSS growth after the first minute: end sample - 1 min sample (the same scene) | "
+        f"{p['rss_growth_mb']:+.1f} MB | < 5 MB over the hour: {'met' if growth_ok else '**not met**'} |",
         f"| the same from minute-long windows (minute 2 / the last minute): median, minimum | "
         f"{p['rss_ref_window_median_mb']:.1f} -> {p['rss_end_window_median_mb']:.1f} MB "
         f"({p['rss_end_window_median_mb'] - p['rss_ref_window_median_mb']:+.1f}), "

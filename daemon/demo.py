@@ -139,11 +139,12 @@ def run_demo(
         print()
         print("summary")
         print(
-            f"  autopilot received {len(received)} OBSTACLE_DISTANCE messages ({len(received) / max(seconds, 1e-6):.1f}/s),"
-            f" proximity health: {ap.proximity_health()}"
+            f"  autopilot received {len(received)} OBSTACLE_DISTANCE messages "
+            f"({len(received) / max(seconds, 1e-6):.1f}/s), proximity health: {ap.proximity_health()}"
         )
         print(
-            f"  loop: {stats.cycles} cycles, p50 {p50:.1f} ms, p99 {p99:.1f} ms, deadline misses {stats.deadline_misses}"
+            f"  loop: {stats.cycles} cycles, p50 {p50:.1f} ms, p99 {p99:.1f} ms, "
+            f"deadline misses {stats.deadline_misses}"
         )
         ais = ap.ais_vessels()
         if ais:
@@ -155,7 +156,8 @@ def run_demo(
             d = np.asarray(received[-1].distances, dtype=float)
             obstacles = d[(d > 0) & (d <= config.output.max_distance_m * 100)]
             print(
-                f"  last message: {obstacles.size} of 72 bearings with an obstacle, nearest {obstacles.min() / 100:.1f} m"
+                f"  last message: {obstacles.size} of 72 bearings with an obstacle, "
+                f"nearest {obstacles.min() / 100:.1f} m"
                 if obstacles.size
                 else "  last message: no obstacle in range"
             )

@@ -67,7 +67,8 @@ def save_demo_picture(path: Path, scene: Scene, t_sim: float, output: Any, dista
     ax.set_xlabel("starboard (m)")
     ax.set_ylabel("forward (m)")
     ax.set_title(
-        f"usv-tracker demo, t = {t_sim:.1f} s: truth (blue), tracks (orange), returns (black), bins obstacle red / clear green"
+        f"usv-tracker demo, t = {t_sim:.1f} s: truth (blue), tracks (orange), returns (black), "
+        "bins obstacle red / clear green"
     )
     ax.legend(loc="lower left", fontsize=8)
     ax.grid(alpha=0.3)

@@ -21,7 +21,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--match-distance",
         type=float,
         default=DEFAULT_MATCH_DISTANCE_M,
-        help=f"m; a track matches a vessel whose hull footprint its centre lies within (default {DEFAULT_MATCH_DISTANCE_M:g})",
+        help="m; a track matches a vessel whose hull footprint its centre lies within "
+        f"(default {DEFAULT_MATCH_DISTANCE_M:g})",
     )
     p.add_argument(
         "--max-distance",

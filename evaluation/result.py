@@ -128,7 +128,8 @@ def format_text(r: EvaluationResult) -> str:
             f"bins (OBSTACLE_DISTANCE, max_distance {s['max_distance_m']:g} m)",
             f"  ticks sent {b.ticks_sent} (scored {b.ticks_scored}, no reference {b.ticks_without_reference})   "
             f"withheld {b.ticks_withheld} ({b.ticks_withheld_with_solid} with a solid in range)",
-            f"  bins scored {b.bins_scored}: obstacle {b.obstacle_bins}, clear {b.clear_bins}, unknown {b.unknown_bins}",
+            f"  bins scored {b.bins_scored}: obstacle {b.obstacle_bins}, clear {b.clear_bins}, "
+            f"unknown {b.unknown_bins}",
             f"  false clear {b.false_clear} of {b.bins_with_solid} bins with a solid ({_pct(b.false_clear_rate)}; "
             f"sent clear {b.false_clear_sent_clear}, unknown {b.false_clear_sent_unknown})",
             f"  false obstacle {b.false_obstacle} of {b.obstacle_bins} obstacle bins ({_pct(b.false_obstacle_rate)}); "

@@ -112,9 +112,9 @@ class Vlp16Model:
     (0.1 s: a wet or fouled window); ``packet_loss`` that a data packet never arrives. Each of these not given
     is taken from ``scene.conditions``. The scene's sea
     (simulator/sea.py) decides what the water and the rain return: a firing that meets the water before any solid
-    ends there, returning from it with the sea's probability for its grazing angle. Packet times are on a fixed grid, t = k * 1327.104 us of the simulation clock, and
-    the randomness of a packet depends only on ``seed`` and its number, so the stream is reproducible however the
-    caller slices ``packets()``.
+    ends there, returning from it with the sea's probability for its grazing angle. Packet times are on a fixed grid,
+    t = k * 1327.104 us of the simulation clock, and the randomness of a packet depends only on ``seed`` and its
+    number, so the stream is reproducible however the caller slices ``packets()``.
     """
 
     def __init__(

@@ -1,4 +1,5 @@
-"""End to end: a scene simulated to capture files, replayed through the real daemon, scored by `usv-tracker evaluate`."""
+"""End to end: a scene simulated to capture files, replayed through the real daemon, scored by
+`usv-tracker evaluate`."""
 
 from __future__ import annotations
 

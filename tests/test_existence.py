@@ -125,8 +125,8 @@ def test_rough_sea_clutter_builds_no_shore_but_a_quay_wall_among_it_does() -> No
 def test_boats_moored_across_the_view_on_a_calm_sea_are_not_their_own_clutter() -> None:
     """The paper bench's 0-30 m band, moored: Smurf, Titan and Xi 18 m off at -40, 0 and +40 deg on a calm sea,
     through the simulated AWR1843 and the real parser. Their returns fill most sectors of their range ring; counted as
-    the sea, they were dropped by the keep test (a third of the frames held); tracks that have stood out for 3 s stay out of
-    the measure."""
+    the sea, they were dropped by the keep test (a third of the frames held); tracks that have stood out for 3 s stay
+    out of the measure."""
     from bench.radar_eval import record, run_tracker, score
     from bench.radar_paper import BAND_MODEL
     from bench.radar_scenes import band_scene, daemon_config

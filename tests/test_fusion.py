@@ -116,7 +116,8 @@ def test_a_radar_track_keeps_the_id_while_its_lidar_partner_coasts_tentative() -
 
 def test_a_coasting_lidar_track_is_not_folded_into_a_stranger_or_a_far_radar_track() -> None:
     # Radar track 9 was never sent with LiDAR track 4 (another boat); radar track 10 was, but has moved 8 m away
-    # (boxes 3 m and 2 m: reach 2.5 + 3 m): both stay their own objects, and the tentative LiDAR track is sent as it was.
+    # (boxes 3 m and 2 m: reach 2.5 + 3 m): both stay their own objects, and the
+    # tentative LiDAR track is sent as it was.
     ids = PublishedIds()
     cycle(ids, 0.0, [track(4, 35.0, 0.0, "lidar", 3.0, 1.2)], [track(10, 35.0, 0.5, "radar", 2.0, 1.5)])
     out = cycle(

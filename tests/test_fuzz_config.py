@@ -68,7 +68,11 @@ _SCALARS = st.one_of(
     st.text(max_size=20),
     _URLS,
 )
-_VALUES = st.recursive(_SCALARS, lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.sampled_from(["x", "yaw", "a"]), inner, max_size=3), max_leaves=6)  # fmt: skip
+_VALUES = st.recursive(
+    _SCALARS,
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.sampled_from(["x", "yaw", "a"]), inner, max_size=3),
+    max_leaves=6,
+)  # fmt: skip
 
 
 def _fields(cls: type) -> list[str]:

@@ -84,7 +84,8 @@ def test_empty_and_all_bad_input() -> None:
 
 
 def test_pose_index_picks_each_points_pose_from_a_table() -> None:
-    # Three poses, four points: points 0 and 3 at pose 0 (heading north; all beyond the spray check), 1 at pose 2 (east), 2 at pose 1.
+    # Three poses, four points: points 0 and 3 at pose 0 (heading north; all beyond the spray check),
+    # 1 at pose 2 (east), 2 at pose 1.
     body = np.array([[10.0, 0.0, -2.0], [10.0, 0.0, -2.0], [0.0, 10.0, -2.0], [15.0, 5.0, -2.0]])
     pos = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, -3.0, 0.0]])
     yaw = np.array([0.0, math.pi, math.pi / 2])

@@ -279,8 +279,8 @@ def test_a_half_hidden_hull_is_measured_from_its_lit_edge() -> None:
 
 def test_a_boat_hidden_behind_another_keeps_its_track_and_id() -> None:
     # A boat at 40 m; a nearer one (20 m, its bearing span covering the far one's) hides it completely for 2.5 s
-    # (no returns at all), longer than lifecycle.max_unseen_time (1 s). In the nearer boat's shadow the far track coasts on
-    # and keeps its id when the boat reappears; without the occlusion rule it is deleted and a new id starts.
+    # (no returns at all), longer than lifecycle.max_unseen_time (1 s). In the nearer boat's shadow the far track coasts
+    # on and keeps its id when the boat reappears; without the occlusion rule it is deleted and a new id starts.
     rng = np.random.default_rng(13)
     frames = []
     for k in range(70):

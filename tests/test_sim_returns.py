@@ -75,8 +75,8 @@ def test_counts_and_ranges_match_the_models_own_hits() -> None:
 
 def test_present_is_every_solid_there_returned_or_not() -> None:
     """The present record is geometry, not returns: the wall 19 m ahead and the quay 30 m astern in their bins
-    (the wall's face spans +-14.7 deg, each bin at 19 / cos of its nearer edge) and open water elsewhere; a solid a sensor returned is never nearer than what is there, to
-    the outline's 0.1 m sampling."""
+    (the wall's face spans +-14.7 deg, each bin at 19 / cos of its nearer edge) and open water elsewhere; a solid a
+    sensor returned is never nearer than what is there, to the outline's 0.1 m sampling."""
     rec, _ = record_lidar(wall_scene(), 0.3)
     present = rec.present_nearest()
     assert present.shape == (3, 72)

@@ -2,8 +2,8 @@
 
 Host time is the capture's time, so a replay is deterministic: the same file gives the same scans with
 the same stamps however fast it runs. Senders are locked exactly as live (``sender_lock.py``), on the capture's
-clock: a recording of a network with two Velodynes replays one of them, the one the daemon took. ``speed=1`` paces packets at the recorded timing (a live-like
-feed for the daemon), ``speed=None`` (or 0) goes as fast as the CPU allows.
+clock: a recording of a network with two Velodynes replays one of them, the one the daemon took. ``speed=1`` paces
+packets at the recorded timing (a live-like feed for the daemon), ``speed=None`` (or 0) goes as fast as the CPU allows.
 """
 
 from __future__ import annotations

@@ -124,7 +124,7 @@ class SenderLock:
         """A position datagram from the locked sensor, which sends those from another port than its data."""
         return self._ip is not None and address[0] == self._ip
 
-    # --- everything else -----------------------------------------------------------------------------------------------
+    # --- everything else ----------------------------------------------------------------------------------------------
     @property
     def locked(self) -> bool:
         return self._ip is not None

@@ -100,10 +100,11 @@ def visibility(
     """Eq. 10: trust (0..1) in each measured component [p_n, p_e, heading, length, width, height].
 
     ``aspect`` is the object's heading relative to the line of sight from the sensor; at 0 or 90 deg only one
-    side is visible: length, width and the centre are uncertain, the heading is not. The paper names the inputs (relative position, relative heading, MSE) and their direction of
-    influence, not the function; ours: a range factor 1 / (1 + (r / r_half)^2), a fit factor exp(-MSE / MSE_0) and
-    an aspect factor max(|sin 2 aspect|, floor). An ``occluded`` object (partly in a nearer one's shadow) has its
-    position and size trust multiplied by ``occluded_visibility``.
+    side is visible: length, width and the centre are uncertain, the heading is not. The paper names the inputs
+    (relative position, relative heading, MSE) and their direction of influence, not the function; ours: a range factor
+    1 / (1 + (r / r_half)^2), a fit factor exp(-MSE / MSE_0) and an aspect factor max(|sin 2 aspect|, floor). An
+    ``occluded`` object (partly in a nearer one's shadow) has its position and size trust multiplied by
+    ``occluded_visibility``.
     """
     f_range = 1.0 / (1.0 + (range_m / config.visibility_half_range) ** 2)
     f_fit = math.exp(-max(mse, 0.0) / config.visibility_mse_scale)
@@ -311,8 +312,9 @@ class EkfBank:
 
     def choose_aliases(self, pairs: list[tuple[int, Measurement]], seen: list[tuple[bool, bool]]) -> list[Measurement]:
         """The alias of each measurement closest (Mahalanobis in heading, length, width) to its track's prediction,
-        for many (track, measurement) pairs at once (box or ellipse kinds only): the four quarter turns of each, residuals in (heading, length, width), the size rows of an extent not
-        in view counted only where the alias comes out larger than the track."""
+        for many (track, measurement) pairs at once (box or ellipse kinds only): the four quarter turns of each,
+        residuals in (heading, length, width), the size rows of an extent not in view counted only where the alias comes
+        out larger than the track."""
         k = len(pairs)
         if k == 0:
             return []

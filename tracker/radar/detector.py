@@ -443,9 +443,9 @@ class RadarDetector:
         )
 
     def fit_clusters(self, clusters: list[RadarCluster]) -> None:
-        """The velocity fits of those ``clusters`` not fitted yet, in one batch (velocity_profile.fit_velocity_profiles),
-        drawing from the tracker's RNG in their order (a shore cluster's, on a generator of its own, is left to
-        ``RadarCluster.velocity``)."""
+        """The velocity fits of those ``clusters`` not fitted yet, in one batch
+        (velocity_profile.fit_velocity_profiles), drawing from the tracker's RNG in their order (a shore cluster's, on a
+        generator of its own, is left to ``RadarCluster.velocity``)."""
         todo = [cl for cl in clusters if not cl.fitted and cl.rng is self.rng]
         if not todo:
             return

@@ -129,7 +129,7 @@ def point_group_iou(points_a: np.ndarray, points_b: np.ndarray, pad: float) -> f
     return convex_iou(padded_hull(points_a, pad), padded_hull(points_b, pad))
 
 
-# --- Support polygons: the hull as its extent in a fan of directions ---------------------------------------------------
+# --- Support polygons: the hull as its extent in a fan of directions --------------------------------------------------
 # The motion discriminator compares two hulls per track per frame; qhull's set-up alone costs ~0.1 ms a call here. A
 # convex set is the intersection of its supporting half-planes; kept in SUPPORT_DIRECTIONS directions, its outline is
 # a circumscribed polygon, and two such outlines in the same fan intersect in the outline of the smaller offset per

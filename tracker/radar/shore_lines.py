@@ -4,9 +4,9 @@ The static map (``static_map``) calls a structure shore once enough evidence has
 40 m away gives 7-14 returns a frame spread along 25-40 m with a metre of azimuth scatter, and in the simulated paper
 scenes the map took 5-10 s to see it; until then wall pieces were tracked as boats. Over half a second the same wall
 gives 50-100 returns that link into one long, thin line: at least ``shore.min_extent_m`` along its main axis and at
-most ``shore.line_max_thickness_m`` plus ``kalman.position_std_per_m`` per metre of range (azimuth scatter) RMS across it. Boats are shorter than the extent; sea clutter near the radar
-links into blobs, not lines; a slow boat's returns in half a second are a boat-sized patch. Returns on such a line are
-shore now, whatever the map says yet.
+most ``shore.line_max_thickness_m`` plus ``kalman.position_std_per_m`` per metre of range (azimuth scatter) RMS across
+it. Boats are shorter than the extent; sea clutter near the radar links into blobs, not lines; a slow boat's returns in
+half a second are a boat-sized patch. Returns on such a line are shore now, whatever the map says yet.
 """
 
 from __future__ import annotations

@@ -319,8 +319,8 @@ class RadarTracker:
         self, tr: RadarTrackState, t: float, frame_dt: float, ashore: bool, shadow: np.ndarray | None
     ) -> None:
         """No cluster this frame. A confirmed track at least ``occlusion.min_share`` in a nearer object's shadow may
-        coast ``lifecycle.max_unseen_time_occluded``, its velocity and turn rate relaxing toward zero meanwhile. One whose
-        centre now lies on the shore (``ashore``) is deleted."""
+        coast ``lifecycle.max_unseen_time_occluded``, its velocity and turn rate relaxing toward zero meanwhile. One
+        whose centre now lies on the shore (``ashore``) is deleted."""
         cfg = self.cfg
         if ashore:
             # Its returns now count as shore (a quay piece tracked before the wall was known): it is no object.
@@ -362,9 +362,9 @@ class RadarTracker:
         """Every track's count of the frame's candidate returns (kept clusters, loose) in its predicted box against the
         clutter expected there (tracker.existence), before any update moves the boxes; then the frame's candidates
         into the clutter density, less those of tracks confirmed for longer than the density remembers
-        (existence.clutter_time_constant_s). Boats moored across the radar's view otherwise became their own ring's "clutter"
-        and lost the test; a clutter track never lives that long, so it cannot calm the sea's measure (leaving out
-        every confirmed track did: held out, radar-only false-obstacle bins 0.77 -> 2.2 %)."""
+        (existence.clutter_time_constant_s). Boats moored across the radar's view otherwise became their own ring's
+        "clutter" and lost the test; a clutter track never lives that long, so it cannot calm the sea's measure (leaving
+        out every confirmed track did: held out, radar-only false-obstacle bins 0.77 -> 2.2 %)."""
         cfg = self.cfg
         cand = out.candidate
         boxes = self._boxes
@@ -412,8 +412,8 @@ class RadarTracker:
         """Clusters per track, and the clusters that start tracks.
 
         One-to-one assignment first (sec. 2.3-1). A sparse hull often comes as two or three DBSCAN clusters; a
-        cluster left over whose box lies within ``association.merge_gap_m`` of a track's predicted box and whose Doppler agrees
-        joins that track's measurement instead of starting a duplicate track (not in the paper).
+        cluster left over whose box lies within ``association.merge_gap_m`` of a track's predicted box and whose Doppler
+        agrees joins that track's measurement instead of starting a duplicate track (not in the paper).
         """
         cfg = self.cfg
         if not clusters:
@@ -440,10 +440,10 @@ class RadarTracker:
         return claims, spawn
 
     def _recover(self, claims: dict[int, list[int]], spawn: list[int], det_boxes: np.ndarray) -> list[int]:
-        """A confirmed track left without a cluster takes the nearest would-be new track within ``association.recovery_gate_m``
-        of its prediction (not in the paper). A boat turning hard leaves its predicted box within a second; without
-        this a second track starts on it and the first coasts off on the old course, an id switch and a false track.
-        The update that follows opens the velocity up (doppler.maneuver_nis)."""
+        """A confirmed track left without a cluster takes the nearest would-be new track within
+        ``association.recovery_gate_m`` of its prediction (not in the paper). A boat turning hard leaves its predicted
+        box within a second; without this a second track starts on it and the first coasts off on the old course, an id
+        switch and a false track. The update that follows opens the velocity up (doppler.maneuver_nis)."""
         lost = [ti for ti, tr in enumerate(self.tracks) if ti not in claims and tr.life.confirmed]
         if not lost:
             return spawn
@@ -464,8 +464,8 @@ class RadarTracker:
         return [int(d) for d in cand if int(d) not in taken]
 
     def _outline(self, tr: RadarTrackState, cl: RadarCluster) -> np.ndarray | None:
-        """(k, 2) the track's returns of the last ``visible_side.shape_window_s`` and this cluster's, relative to the track's
-        centre (world axes); None without the visible-side centre (which keeps them)."""
+        """(k, 2) the track's returns of the last ``visible_side.shape_window_s`` and this cluster's, relative to the
+        track's centre (world axes); None without the visible-side centre (which keeps them)."""
         if not self.cfg.visible_side.enabled:
             return None
         return np.concatenate([g for _, g in tr.shape] + [cl.points - tr.kf.x[kalman.POS, 0]])
@@ -482,13 +482,13 @@ class RadarTracker:
         )
 
     def _outline_size(self, outline: np.ndarray | None, size: np.ndarray) -> np.ndarray:
-        """(2,) size measurement: the frame's box, or the extent of the track's returns over ``visible_side.shape_window_s`` when
-        larger (not in the paper). A far hull gives 1-3 returns a frame, whose box is a fraction of the hull (the box of
-        two returns is their distance): measured so, the track's size shrinks to the 0.5 m floor, its box no longer
-        covers its own returns next frame (association, shadow test) and its bearing span misses a nearer boat
-        shadowing it. The returns of the last second relative to the track's centre fill in the outline; their q to 1 - q
-        quantile spread (``visible_side.outline_size_quantile``, robust to a stray return) is 1 - 2q of the extent they cover when
-        spread evenly along the hull's sides, hence the division."""
+        """(2,) size measurement: the frame's box, or the extent of the track's returns over
+        ``visible_side.shape_window_s`` when larger (not in the paper). A far hull gives 1-3 returns a frame, whose box
+        is a fraction of the hull (the box of two returns is their distance): measured so, the track's size shrinks to
+        the 0.5 m floor, its box no longer covers its own returns next frame (association, shadow test) and its bearing
+        span misses a nearer boat shadowing it. The returns of the last second relative to the track's centre fill in
+        the outline; their q to 1 - q quantile spread (``visible_side.outline_size_quantile``, robust to a stray return)
+        is 1 - 2q of the extent they cover when spread evenly along the hull's sides, hence the division."""
         q = self.cfg.visible_side.outline_size_quantile
         if q <= 0 or outline is None or outline.shape[0] < 3:
             return size
@@ -565,8 +565,8 @@ class RadarTracker:
             tr.shape.popleft()
 
     def _merge_births(self, fresh: list[RadarCluster]) -> list[RadarCluster]:
-        """New clusters within ``association.merge_gap_m`` of each other whose Doppler agrees start one track, not one each: the
-        same rule that joins a leftover cluster to a track (pieces of one sparse hull)."""
+        """New clusters within ``association.merge_gap_m`` of each other whose Doppler agrees start one track, not one
+        each: the same rule that joins a leftover cluster to a track (pieces of one sparse hull)."""
         cfg = self.cfg
         if len(fresh) < 2 or cfg.association.merge_gap_m <= 0:
             return fresh
@@ -608,8 +608,9 @@ class RadarTracker:
         paper, which clusters one frame). A boat 45 m away gives 2-3 returns a frame, never the clustering.min_points of
         one frame; over three frames it does. Only returns beyond ``births.pool_min_range_m`` are pooled: nearer, a boat
         fills a cluster in one frame while sea clutter, dense near the radar, would fill one over three. A pooled
-        cluster must hold returns of this frame and of an earlier one, and lie clear of every track (``association.merge_gap_m``
-        from its box, ``association.recovery_gate_m`` from its centre); its returns are then spent."""
+        cluster must hold returns of this frame and of an earlier one, and lie clear of every track
+        (``association.merge_gap_m`` from its box, ``association.recovery_gate_m`` from its centre); its returns are
+        then spent."""
         cfg = self.cfg
         free = out.loose & (out.range_m >= cfg.births.pool_min_range_m)
         for cl in groups.values():
@@ -687,9 +688,10 @@ class RadarTracker:
         return np.flatnonzero(ok).tolist()
 
     def _gather_loose(self, out: DetectorOutput, lost: list[int]) -> dict[int, RadarCluster]:
-        """Confirmed tracks (and tentative ones born sparse) without a cluster this frame take the loose returns within ``association.merge_gap_m`` of their predicted box
-        (each return to the nearest such track), if there are ``association.update_min_points`` of them (one beyond
-        ``association.update_single_return_range_m``) and their Doppler agrees.
+        """Confirmed tracks (and tentative ones born sparse) without a cluster this frame take the loose returns within
+        ``association.merge_gap_m`` of their predicted box (each return to the nearest such track), if there are
+        ``association.update_min_points`` of them (one beyond ``association.update_single_return_range_m``) and their
+        Doppler agrees.
         A far boat gives 2-3 returns a frame: too few to start a track, enough to keep one on it."""
         cfg = self.cfg
         # Tentative tracks only when born from pooled returns: one born from sea clutter would live on clutter.
@@ -722,8 +724,8 @@ class RadarTracker:
         """The cluster's Doppler is what the track predicts along its lines of sight (no Doppler: yes).
 
         With a turn-rate state the prediction includes each return's rotation Doppler, for any turn rate within
-        ``association.merge_turn_rate_sigmas`` standard deviations of the track's: the two ends of a hull turning at 1.2 rad/s
-        differ by 2-3 m/s, and a track that has seen only part of the turn underestimates its rate.
+        ``association.merge_turn_rate_sigmas`` standard deviations of the track's: the two ends of a hull turning at
+        1.2 rad/s differ by 2-3 m/s, and a track that has seen only part of the turn underestimates its rate.
         """
         ok = np.isfinite(cl.doppler_world)
         if not ok.any():
@@ -745,8 +747,8 @@ class RadarTracker:
         """Two tracks on one boat (born from pieces of one hull before either was established): the younger goes.
 
         Duplicates are tracks whose boxes overlap by ``association.duplicate_iou`` or whose centres are within
-        ``association.duplicate_distance_m``, moving alike (``association.duplicate_velocity_mps``); two boats passing each other move
-        differently and are left alone. Not in the paper.
+        ``association.duplicate_distance_m``, moving alike (``association.duplicate_velocity_mps``); two boats passing
+        each other move differently and are left alone. Not in the paper.
         """
         cfg = self.cfg
         if len(self.tracks) < 2 or cfg.association.duplicate_distance_m <= 0:
@@ -760,9 +762,9 @@ class RadarTracker:
         np.fill_diagonal(near, False)
         if not near.any():
             return
-        # Moving alike: velocities within association.duplicate_velocity_mps, or, when one of them is still tentative, not told
-        # apart by their own uncertainty (a track born a few frames ago knows little of its velocity). Two confirmed
-        # tracks must really move alike: boats crossing each other do not.
+        # Moving alike: velocities within association.duplicate_velocity_mps, or, when one of them is still tentative,
+        # not told apart by their own uncertainty (a track born a few frames ago knows little of its velocity). Two
+        # confirmed tracks must really move alike: boats crossing each other do not.
         i, j = np.nonzero(np.triu(near))
         dv = x[i, 2:] - x[j, 2:]
         m2 = kalman.mahalanobis2_many(dv, pv[i] + pv[j])
@@ -836,8 +838,8 @@ class RadarTracker:
         return speed > sigmas * math.sqrt(max(var_along, 0.0))
 
     def _moving(self, tr: RadarTrackState, cl: RadarCluster | None = None) -> bool:
-        """Clearly moving: filter speed above ``shore.map_exclude_min_speed_mps`` and twice its own standard deviation, and
-        (with a cluster) that velocity explains the cluster's Doppler.
+        """Clearly moving: filter speed above ``shore.map_exclude_min_speed_mps`` and twice its own standard deviation,
+        and (with a cluster) that velocity explains the cluster's Doppler.
 
         A boat crossing the line of sight has near-zero Doppler, so its returns pass as static; left in the map, a
         slow boat's wake of returns grows into a false "shore" that then swallows the boat. A quay fragment tracked
