@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tracker.grouping import expand_groups, group_keys
+from tracker.grouping import component_labels, expand_groups, group_keys, lowest_to_ranks
 
 
 def test_groups_come_in_key_order_with_their_members() -> None:
@@ -28,3 +28,13 @@ def test_expand_groups_lists_members_group_after_group() -> None:
 def test_empty_keys() -> None:
     order, starts, counts, inverse = group_keys(np.zeros(0, dtype=np.int64))
     assert order.size == starts.size == counts.size == inverse.size == 0
+
+
+def test_components_are_numbered_in_the_order_of_their_lowest_nodes() -> None:
+    # 0-3, 3-5 and 2-5 join {0, 2, 3, 5}; 1-4 joins {1, 4}; 6 is alone. Numbered by lowest node: 0, 1, 6.
+    lowest = component_labels(7, np.array([0, 3, 2, 1]), np.array([3, 5, 5, 4]))
+    assert lowest.tolist() == [0, 1, 0, 0, 1, 0, 6]
+    assert lowest_to_ranks(lowest).tolist() == [0, 1, 0, 0, 1, 0, 2]
+    # Only the components of the marked nodes count (DBSCAN's core points); the rest get -1.
+    marked = np.array([False, True, False, False, True, False, True])
+    assert lowest_to_ranks(lowest, marked).tolist() == [-1, 0, -1, -1, 0, -1, 1]

@@ -93,3 +93,14 @@ def component_labels(n: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
             if np.array_equal(up, lab):
                 break
             lab = up
+
+
+def lowest_to_ranks(lowest: np.ndarray, roots: np.ndarray | None = None) -> np.ndarray:
+    """(n,) component number 0..k-1 of each node from ``component_labels``' lowest-node labels, numbered in the
+    order of the components' lowest nodes (what ``np.unique(lowest, return_inverse=True)`` gives, without its
+    sort). ``roots``: (n,) bool, the nodes whose components count (their lowest nodes); others get -1."""
+    is_root = lowest == np.arange(lowest.size)
+    if roots is not None:
+        is_root &= roots
+    rank = np.cumsum(is_root) - 1
+    return np.where(is_root[lowest], rank[lowest], -1)

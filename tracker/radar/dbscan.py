@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tracker.grouping import component_labels
+from tracker.grouping import component_labels, lowest_to_ranks
 
 
 def kd_tree(points: np.ndarray) -> cKDTree:
@@ -44,14 +44,8 @@ def dbscan(points: np.ndarray, eps: float, min_points: int) -> np.ndarray:
     both = core[a] & core[b]
     comp = component_labels(n, a[both], b[both])
     core_idx = np.flatnonzero(core)
-    # Renumber the core components in order of their lowest point index.
-    first_seen = np.unique(comp[core_idx], return_index=True)
-    order = np.argsort(first_seen[1])
-    renum = np.empty(order.size, dtype=np.int64)
-    renum[order] = np.arange(order.size)
-    lookup = np.full(comp.max() + 1, -1, dtype=np.int64)
-    lookup[first_seen[0]] = renum
-    labels[core_idx] = lookup[comp[core_idx]]
+    # The core components numbered in order of their lowest point index.
+    labels[core_idx] = lowest_to_ranks(comp, core)[core_idx]
     # Border points: both pair directions, keep (border, core) pairs, nearest core wins.
     src = np.concatenate([a, b])
     dst = np.concatenate([b, a])

@@ -16,7 +16,7 @@ from collections import deque
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tracker.grouping import component_labels
+from tracker.grouping import component_labels, group_keys, lowest_to_ranks
 from tracker.radar.dbscan import kd_tree
 
 
@@ -129,15 +129,14 @@ class ShoreLines:
         key = (cell[:, 0] - cell[:, 0].min()) * (int(cell[:, 1].max() - cell[:, 1].min()) + 1) + (
             cell[:, 1] - cell[:, 1].min()
         )
-        _, of_point = np.unique(key, return_inverse=True)
-        of_point = of_point.reshape(-1)
+        of_point = group_keys(key)[3]  # each point's cell, cells in key order (as np.unique's inverse)
         w = np.bincount(of_point).astype(float)
         centroid = np.column_stack([np.bincount(of_point, pts[:, 0]), np.bincount(of_point, pts[:, 1])]) / w[:, None]
         pairs = kd_tree(centroid).query_pairs(self.link_m, output_type="ndarray")
         # numpy component labels, not scipy's sparse connected_components: a few hundred cells and ~2000 pairs cost
         # it less than building the sparse matrix does (same labels, numbered by their lowest cell).
         lowest = component_labels(centroid.shape[0], pairs[:, 0], pairs[:, 1])
-        return np.unique(lowest, return_inverse=True)[1].reshape(-1)[of_point]
+        return lowest_to_ranks(lowest)[of_point]
 
     def near(self, points_ne: np.ndarray, margin_m: float) -> np.ndarray:
         """(n,) bool: within ``margin_m`` of a return found on a line at the last full search."""
