@@ -490,12 +490,13 @@ def test_a_piece_of_a_hull_behind_a_tracked_piece_as_seen_from_the_boat_is_no_se
     assert sorted(round(float(tr.position[0])) for tr in confirmed) == [35, 42]
 
 
-def _hull_with_a_piece_astern(speed: float, end_gap_m: float) -> list[list[Track]]:
+def _hull_with_a_piece_astern(speed: float, end_gap_m: float, in_line_gap_m: float = 8.0) -> list[list[Track]]:
     """A 10 x 3 m boat broadside 30 m north running east at ``speed`` (m/s). From 2.5 s a clump of returns (a dinghy
     towed close, a davit, a far hull's stern coming back alone) keeps 2.1-2.9 m astern of it, beyond the
     clustering's reach of the hull's returns (1.55 m at 30 m): a cluster, and a track, of its own."""
     config = LidarTrackerConfig()
     config.association.duplicate_end_gap_m = end_gap_m
+    config.association.duplicate_in_line_gap_m = in_line_gap_m
     tracker = LidarTracker(config)
     rng = np.random.default_rng(7)
     history = []
@@ -520,16 +521,19 @@ def _confirmed_astern(tracks: list[Track], t: float, speed: float) -> int:
 def test_a_piece_off_a_moving_hulls_stern_is_no_second_vessel() -> None:
     """Off the stern of a boat running at 3 m/s (its velocity known), a piece whose own velocity is not known yet is
     the same hull (duplicate_end_gap_m): no confirmed track astern on any scan, the hull's one track throughout.
-    With the rule off the piece becomes a second confirmed "vessel"; behind a boat at rest it stays one (two boats
-    moored in line are left to the other tests)."""
+    With the rule off (and the in-line rule, duplicate_in_line_gap_m) the piece becomes a second confirmed "vessel";
+    behind a boat at rest it stays one (two boats moored in line are left to the other tests)."""
     history = _hull_with_a_piece_astern(3.0, 2.5)
     for k, tracks in enumerate(history):
         t = k * DT
         assert _confirmed_astern(tracks, t, 3.0) == 0, f"t = {t:.1f} s"
     hull_ids = {tr.id for tr in history[-1] if tr.confirmed and abs(tr.position[1] - (-10.0 + 3.0 * 59 * DT)) < 2.0}
     assert len(hull_ids) == 1
-    off = _hull_with_a_piece_astern(3.0, 0.0)
+    off = _hull_with_a_piece_astern(3.0, 0.0, in_line_gap_m=0.0)
     assert _confirmed_astern(off[-1], 59 * DT, 3.0) == 1
+    # once its velocity is known, the piece moving with the hull is caught in line as well
+    in_line_only = _hull_with_a_piece_astern(3.0, 0.0)
+    assert _confirmed_astern(in_line_only[-1], 59 * DT, 3.0) == 0
     at_rest = _hull_with_a_piece_astern(0.0, 2.5)
     assert _confirmed_astern(at_rest[-1], 59 * DT, 0.0) == 1
 
@@ -799,3 +803,33 @@ def test_a_buoy_whose_returns_join_a_boats_cluster_keeps_its_track() -> None:
     assert splits == 0
     assert near(confirmed, buoy, 0.5) == []
     assert len(confirmed) == 1 and confirmed[0].length > 9.5
+
+
+def _bow_and_stern_under_way(in_line_gap_m: float, stern_speed: float) -> list[int]:
+    """A ship 40 m north running east at 4 m/s, broadside, of which the beams return only the bow and the stern
+    (6 x 4 m each, their centres 12 m apart: the middle's low freeboard lies in a blind band); the stern piece runs at
+    ``stern_speed``, 12 m astern of the bow at 6 s. The number of confirmed tracks in each of the last 4 s of scans
+    (of 8 s)."""
+    config = LidarTrackerConfig()
+    config.association.duplicate_in_line_gap_m = in_line_gap_m
+    tracker = LidarTracker(config)
+    rng = np.random.default_rng(3)
+    counts = []
+    for k in range(80):
+        t = k * DT
+        bow = SyntheticObject((40.0, 4.0 * t), math.pi / 2, 6.0, 4.0, 2.0, ShapeKind.BOX)
+        stern_east = 4.0 * 6.0 - 12.0 + stern_speed * (t - 6.0)
+        stern = SyntheticObject((40.0, stern_east), math.pi / 2, 6.0, 4.0, 2.0, ShapeKind.BOX)
+        tracks = tracker.step(scan_objects([bow, stern], ORIGIN, range_noise=0.02, rng=rng), t, ORIGIN, 0.0)
+        counts.append(sum(1 for tr in tracks if tr.confirmed))
+    return counts[40:]
+
+
+def test_bow_and_stern_of_one_hull_under_way_are_one_vessel() -> None:
+    """duplicate_in_line_gap_m: two tracks moving alike, one ahead of the other on its line of motion with a 6 m gap
+    between them, are pieces of one hull: one vessel, and the stern's next tracks (born where it was, their velocity
+    not known yet) are that piece again, never reported. Off, they are two; and a boat catching up at 1 m/s more
+    keeps its own track (14-10 m behind over those 4 s, in line within the gap)."""
+    assert _bow_and_stern_under_way(8.0, 4.0) == [1] * 40
+    assert _bow_and_stern_under_way(0.0, 4.0) == [2] * 40
+    assert _bow_and_stern_under_way(8.0, 5.0) == [2] * 40

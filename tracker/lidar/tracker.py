@@ -56,6 +56,7 @@ _DECK_CELLS = 32
 # three cells: water between them, not one hull's returns thinning out).
 _SPLIT_BOX_GROW_M = 0.3
 _SPLIT_MIN_CELLS = 5
+_IN_LINE_MAX_SPEED_DIFF = 0.5  # m/s: pieces of one hull move as one
 _SPLIT_MIN_GAP_M = 0.5
 _MIN_HALF_M = 0.1  # m; a box's half-size below this is taken as this, so a degenerate box has a depth scale
 
@@ -90,6 +91,7 @@ class LidarTracker:
         self._detection_clusters: list[list[int]] = []  # cluster indices behind each detection
         self.structure = StructureMemory(self.config.structure)
         self.last_structure = np.zeros(0, dtype=bool)  # per cluster of the last scan: structure, not a vessel
+        self._long_hulls: set[int] = set()  # ids of tracks that lost an in-line piece of their hull (_duplicates)
 
     # -- detection ---------------------------------------------------------------------------------------------
 
@@ -755,6 +757,27 @@ class LidarTracker:
             moving = known & (np.hypot(velocity[:, 0], velocity[:, 1]) >= cfg.duplicate_end_min_speed_mps)
             off_end = (along <= 0.5 * x[:, [LEN]] + half[None, :] + cfg.duplicate_end_gap_m) & beside
             overlap |= off_end & moving[:, None] & ~known[None, :]
+        if cfg.duplicate_in_line_gap_m > 0:
+            # Two pieces of one long hull under way: both moving alike, one ahead of the other on the same line of
+            # motion, a gap between their ends that the hull's unseen middle fills.
+            speed = np.hypot(velocity[:, 0], velocity[:, 1])
+            moving = known & (speed >= cfg.duplicate_end_min_speed_mps)
+            ux = np.where(moving, velocity[:, 0] / np.maximum(speed, 1e-9), 0.0)[:, None]
+            uy = np.where(moving, velocity[:, 1] / np.maximum(speed, 1e-9), 0.0)[:, None]
+            ahead = np.abs(rel[..., 0] * ux + rel[..., 1] * uy)
+            aside = np.abs(rel[..., 1] * ux - rel[..., 0] * uy)
+            reach = 0.5 * np.maximum(x[:, LEN], x[:, WID])
+            in_line = (ahead <= reach[:, None] + reach[None, :] + cfg.duplicate_in_line_gap_m) & (
+                aside <= 0.5 * np.minimum(x[:, [LEN]], x[:, [WID]]) + cfg.duplicate_margin
+            )
+            dv_line = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
+            in_line &= moving[:, None]
+            piece = in_line & moving[None, :] & (dv_line <= _IN_LINE_MAX_SPEED_DIFF)
+            # Once a hull has shown a piece in line, the piece's next track (born where it was, its velocity not
+            # known yet) is that piece again, not a vessel for the second or so until its velocity settles.
+            self._long_hulls &= {life.id for life in self._lives}
+            long_hull = np.array([life.id in self._long_hulls for life in self._lives])
+            overlap |= piece | (in_line & long_hull[:, None] & ~known[None, :])
         if cfg.duplicate_shadow_m > 0:
             centres = x[:, [PN, PE]]
             shadow = in_shadow(centres, half, centres, own, cfg.duplicate_shadow_m, cfg.duplicate_margin)
@@ -771,6 +794,9 @@ class LidarTracker:
         np.fill_diagonal(pair, False)
         alive_host = np.array([i not in dying for i in range(n)])
         losers = np.flatnonzero((pair & alive_host[:, None]).any(axis=0))
+        if cfg.duplicate_in_line_gap_m > 0:
+            hosts = np.flatnonzero((pair & piece & alive_host[:, None]).any(axis=1))
+            self._long_hulls |= {self._lives[i].id for i in hosts.tolist()}
         out = [int(i) for i in losers if int(i) not in dying]
         self.stats["duplicates"] += len(out)
         return out
