@@ -56,9 +56,9 @@ _DECK_CELLS = 32
 # three cells: water between them, not one hull's returns thinning out).
 _SPLIT_BOX_GROW_M = 0.3
 _SPLIT_MIN_CELLS = 5
-_IN_LINE_MAX_SPEED_DIFF = 0.5  # m/s: pieces of one hull move as one
 _SPLIT_MIN_GAP_M = 0.5
 _MIN_HALF_M = 0.1  # m; a box's half-size below this is taken as this, so a degenerate box has a depth scale
+_IN_LINE_MAX_SPEED_DIFF = 0.5  # m/s: two pieces of one hull in line (duplicate_in_line_gap_m) move as one
 
 log = logging.getLogger(__name__)
 
@@ -745,6 +745,9 @@ class LidarTracker:
         inside = (along <= 0.5 * x[:, [LEN]] + cfg.duplicate_margin) & beside
         overlap = inside | inside.T
         velocity = x[:, [VN, VE]]
+        speed = np.hypot(velocity[:, 0], velocity[:, 1])
+        moving = known & (speed >= cfg.duplicate_end_min_speed_mps)
+        dv = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
         half = 0.5 * np.maximum(x[:, LEN], x[:, WID])
         old = np.array([life.age >= cfg.duplicate_shadow_settled_s for life in self._lives])
         settled = old[:, None] & old[None, :] if cfg.duplicate_shadow_settled_s > 0 else np.zeros((n, n), dtype=bool)
@@ -754,25 +757,21 @@ class LidarTracker:
             )
             overlap |= touch & (half[None, :] <= cfg.duplicate_piece_max_half_m) & ~settled
         if cfg.duplicate_end_gap_m > 0:
-            moving = known & (np.hypot(velocity[:, 0], velocity[:, 1]) >= cfg.duplicate_end_min_speed_mps)
             off_end = (along <= 0.5 * x[:, [LEN]] + half[None, :] + cfg.duplicate_end_gap_m) & beside
             overlap |= off_end & moving[:, None] & ~known[None, :]
+        piece = np.zeros((n, n), dtype=bool)
         if cfg.duplicate_in_line_gap_m > 0:
             # Two pieces of one long hull under way: both moving alike, one ahead of the other on the same line of
             # motion, a gap between their ends that the hull's unseen middle fills.
-            speed = np.hypot(velocity[:, 0], velocity[:, 1])
-            moving = known & (speed >= cfg.duplicate_end_min_speed_mps)
             ux = np.where(moving, velocity[:, 0] / np.maximum(speed, 1e-9), 0.0)[:, None]
             uy = np.where(moving, velocity[:, 1] / np.maximum(speed, 1e-9), 0.0)[:, None]
             ahead = np.abs(rel[..., 0] * ux + rel[..., 1] * uy)
             aside = np.abs(rel[..., 1] * ux - rel[..., 0] * uy)
-            reach = 0.5 * np.maximum(x[:, LEN], x[:, WID])
-            in_line = (ahead <= reach[:, None] + reach[None, :] + cfg.duplicate_in_line_gap_m) & (
+            in_line = (ahead <= half[:, None] + half[None, :] + cfg.duplicate_in_line_gap_m) & (
                 aside <= 0.5 * np.minimum(x[:, [LEN]], x[:, [WID]]) + cfg.duplicate_margin
             )
-            dv_line = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
             in_line &= moving[:, None]
-            piece = in_line & moving[None, :] & (dv_line <= _IN_LINE_MAX_SPEED_DIFF)
+            piece = in_line & moving[None, :] & (dv <= _IN_LINE_MAX_SPEED_DIFF)
             # Once a hull has shown a piece in line, the piece's next track (born where it was, its velocity not
             # known yet) is that piece again, not a vessel for the second or so until its velocity settles.
             self._long_hulls &= {life.id for life in self._lives}
@@ -783,7 +782,6 @@ class LidarTracker:
             shadow = in_shadow(centres, half, centres, own, cfg.duplicate_shadow_m, cfg.duplicate_margin)
             shadow &= ~settled
             overlap |= shadow | shadow.T
-        dv = np.linalg.norm(velocity[:, None, :] - velocity[None, :, :], axis=-1)
         same_motion = (dv <= cfg.duplicate_max_speed_diff) | ~(known[:, None] & known[None, :])
         # the guest loses to a confirmed host with more hits (ties: the younger, later-born guest loses)
         order = np.arange(n)
@@ -794,9 +792,8 @@ class LidarTracker:
         np.fill_diagonal(pair, False)
         alive_host = np.array([i not in dying for i in range(n)])
         losers = np.flatnonzero((pair & alive_host[:, None]).any(axis=0))
-        if cfg.duplicate_in_line_gap_m > 0:
-            hosts = np.flatnonzero((pair & piece & alive_host[:, None]).any(axis=1))
-            self._long_hulls |= {self._lives[i].id for i in hosts.tolist()}
+        hosts = np.flatnonzero((pair & piece & alive_host[:, None]).any(axis=1))
+        self._long_hulls |= {self._lives[i].id for i in hosts.tolist()}
         out = [int(i) for i in losers if int(i) not in dying]
         self.stats["duplicates"] += len(out)
         return out
