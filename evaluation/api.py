@@ -29,7 +29,7 @@ from evaluation.errors import EvaluationError
 from evaluation.reference import FrameTruth, GnssTruth, SimulatorTruth, detect_truth
 from evaluation.result import EvaluationResult
 from evaluation.ticks import read_ticks
-from evaluation.tracking import ScoredFrame, score_tracks
+from evaluation.tracking import ScoredFrame, drop_unmatched_on_unreturned, score_tracks
 from simulator.returns import ReturnsFormatError, ReturnsTable, read_returns_csv
 from simulator.truth import T0_UNIX
 
@@ -118,8 +118,10 @@ def evaluate_run(
         vis["dropped"] += int((on_other & ~on_care).sum())
         if reference.kind == "gnss":
             vis["unknown"] += int((~on_care & ~on_other).sum())
-        frames.append(ScoredFrame(int(i), ft.select(care), tick.tracks.select(keep)))
+        frames.append(ScoredFrame(int(i), ft.select(care), tick.tracks.select(keep), on_other[keep]))
 
+    frames, on_unreturned = drop_unmatched_on_unreturned(frames, match_distance_m)
+    vis["dropped"] += on_unreturned
     scores = score_tracks(frames, match_distance_m)
     for vid, row in per_vessel.items():
         row.update({k: v for k, v in scores.per_vessel.get(vid, {}).items() if k != "to_track"})

@@ -132,6 +132,34 @@ def test_fairness_with_a_returns_record(tmp_path: Path) -> None:
     assert strict.visibility["vessel_ticks_to_track"] == 8 and strict.visibility["vessel_ticks_sensor_limit"] == 8
 
 
+def test_track_on_an_unreturned_vessel_beside_a_returned_one_is_not_false(tmp_path: Path) -> None:
+    """A 1 m buoy c 1.6 m off boat a's bow returns in windows 0-4 only; its track stays on it. While c is
+    unreturned that track lies within the match distance of a too, which a's own track holds: it is a track on an
+    unreturned vessel (not scored), not a false positive. A second track on a with no unreturned vessel near it is
+    still false."""
+    scene = two_boats()
+    scene.vessels.append(Vessel("c", 1.0, 1.0, 1.0, Trajectory.stationary((13.6, 0.0), 0.0)))
+    write_truth(tmp_path, scene, 2.0)
+    counts = np.zeros((10, 4, 2), int)
+    counts[:, 1, 0] = 50  # a, every window
+    counts[:, 2, 0] = 50  # b, every window
+    counts[:5, 3, 0] = 10  # c, windows 0-4
+    write_returns(tmp_path / "returns.csv", counts, np.full((10, 72), np.inf))
+    ticks = [
+        tick_rec(0.05 + 0.1 * k, [track(1, 10.0, 0.0), track(2, 0.0, 20.0), track(3, 13.6, 0.0, length=1.0)])
+        for k in range(1, 10)
+    ]
+    ticks[-1]["tracks"].append(track(4, 0.0, 22.5))  # 1.5 m east of b's footprint, b held by track 2: false
+    tracks = write_ticks(tmp_path / "tracks.jsonl", ticks)
+    r = evaluate_run(tmp_path, tracks)
+    v = r.visibility
+    # ticks 0.25 .. 0.65 score c (5 ticks, track 3 matches it); 0.75 .. 0.95 do not (c a sensor limit)
+    assert v["per_vessel"][2]["to_track"] == 5 and v["per_vessel"][2]["matched"] == 5
+    # tick 0.15 has no record yet (all three tracks left out), then track 3 in the three ticks c was not returned
+    assert v["tracks_on_unreturned_vessels"] == 3 + 3
+    assert (r.tracks.matches, r.tracks.false_positives) == (8 + 8 + 5, 1)
+
+
 def test_gnss_reference(tmp_path: Path) -> None:
     """A reference boat logged at 1 Hz going north at 2 m/s from 30 m ahead, put in the run's frame through each
     tick's world origin. Track 7 then 8 sits 0.3 m behind it; track 99 is another boat, not a false positive."""
