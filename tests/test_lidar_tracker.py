@@ -10,7 +10,7 @@ import pytest
 
 from tests.lidar_synthetic import SyntheticObject, scan_objects
 from tracker.lidar import LidarTracker, LidarTrackerConfig
-from tracker.lidar.config import EkfConfig, ShapeConfig
+from tracker.lidar.config import AssociationConfig, EkfConfig, ShapeConfig
 from tracker.types import ShapeKind, Track
 
 DT = 0.1  # s, the VLP-16 at 10 Hz
@@ -805,11 +805,11 @@ def test_a_buoy_whose_returns_join_a_boats_cluster_keeps_its_track() -> None:
     assert len(confirmed) == 1 and confirmed[0].length > 9.5
 
 
-def _bow_and_stern_under_way(in_line_gap_m: float, stern_speed: float) -> list[int]:
+def _bow_and_stern_under_way(in_line_gap_m: float, stern_speed: float, apart_m: float = 12.0) -> list[int]:
     """A ship 40 m north running east at 4 m/s, broadside, of which the beams return only the bow and the stern
-    (6 x 4 m each, their centres 12 m apart: the middle's low freeboard lies in a blind band); the stern piece runs at
-    ``stern_speed``, 12 m astern of the bow at 6 s. The number of confirmed tracks in each of the last 4 s of scans
-    (of 8 s)."""
+    (6 x 4 m each, their centres ``apart_m`` apart: the middle's low freeboard lies in a blind band); the stern piece
+    runs at ``stern_speed``, ``apart_m`` astern of the bow at 6 s. The number of confirmed tracks in each of the last
+    4 s of scans (of 8 s)."""
     config = LidarTrackerConfig()
     config.association.duplicate_in_line_gap_m = in_line_gap_m
     tracker = LidarTracker(config)
@@ -818,7 +818,7 @@ def _bow_and_stern_under_way(in_line_gap_m: float, stern_speed: float) -> list[i
     for k in range(80):
         t = k * DT
         bow = SyntheticObject((40.0, 4.0 * t), math.pi / 2, 6.0, 4.0, 2.0, ShapeKind.BOX)
-        stern_east = 4.0 * 6.0 - 12.0 + stern_speed * (t - 6.0)
+        stern_east = 4.0 * 6.0 - apart_m + stern_speed * (t - 6.0)
         stern = SyntheticObject((40.0, stern_east), math.pi / 2, 6.0, 4.0, 2.0, ShapeKind.BOX)
         tracks = tracker.step(scan_objects([bow, stern], ORIGIN, range_noise=0.02, rng=rng), t, ORIGIN, 0.0)
         counts.append(sum(1 for tr in tracks if tr.confirmed))
@@ -833,3 +833,11 @@ def test_bow_and_stern_of_one_hull_under_way_are_one_vessel() -> None:
     assert _bow_and_stern_under_way(8.0, 4.0) == [1] * 40
     assert _bow_and_stern_under_way(0.0, 4.0) == [2] * 40
     assert _bow_and_stern_under_way(8.0, 5.0) == [2] * 40
+
+
+def test_bow_and_stern_9_m_apart_are_one_vessel_at_the_default_gap() -> None:
+    """The default duplicate_in_line_gap_m (12 m) joins a ship's bow and stern pieces with 9 m of unseen hull
+    between them (their centres 15 m apart; tuning seed 59's ship at 100 m); the earlier 8 m left them two."""
+    default = AssociationConfig().duplicate_in_line_gap_m
+    assert _bow_and_stern_under_way(default, 4.0, apart_m=15.0) == [1] * 40
+    assert _bow_and_stern_under_way(8.0, 4.0, apart_m=15.0) == [2] * 40
