@@ -9,7 +9,7 @@ import numpy as np
 from drivers.frames import RadarFrame
 from tests.test_pipeline_radar_outlines import MOUNTED, FixedRadarTracks, water_scan
 from tracker.obstacle_map import UNKNOWN
-from tracker.persistent_returns import PersistenceRule, PersistentReturns
+from tracker.persistent_returns import CellRule, PersistenceRule, PersistentReturns, RecurringCells
 from tracker.pipeline import PerceptionPipeline
 
 
@@ -49,6 +49,38 @@ def test_wandering_clutter_does_not_persist() -> None:
     rng = np.random.default_rng(11)
     frames = [np.column_stack([rng.uniform(30, 90, 5), rng.uniform(-30, 30, 5)]) for _ in range(200)]
     assert sum(int(m.sum()) for m in persistent_after(frames)) == 0
+
+
+def recurring_after(frames: list[np.ndarray], rule: CellRule | None = None) -> list[np.ndarray]:
+    """RecurringCells' mask per frame, frames (n, 2) world north/east fed in order from a sensor at the origin."""
+    history = RecurringCells(rule or CellRule())
+    return [history.add(f, np.hypot(f[:, 0], f[:, 1])) for f in frames]
+
+
+def test_a_lidar_return_in_the_same_cell_in_four_of_five_revolutions_recurs() -> None:
+    # a buoy's face 18 m off: 12 returns along 1 m of it every revolution, 2 cm of range noise
+    rng = np.random.default_rng(5)
+    face = np.column_stack([np.full(12, 18.0), np.linspace(-0.5, 0.5, 12)])
+    frames = [face + rng.normal(0.0, 0.02, face.shape) for _ in range(6)]
+    frames[2] = np.empty((0, 2))  # one revolution missed it
+    masks = recurring_after(frames)
+    assert [int(m.sum()) for m in masks[:5]] == [0, 0, 0, 0, 0]  # the fifth has only 3 of 4 before it
+    # the sixth has 4 of the 5 before: all but returns whose 2 cm of noise crossed a cell's edge since
+    assert masks[5].sum() >= 9
+
+
+def test_a_crest_running_two_metres_a_second_does_not_recur() -> None:
+    """The place one beam meets a crest moves 0.2 m or more a revolution: 40 such lines, 100 revolutions."""
+    rng = np.random.default_rng(8)
+    start = np.column_stack([rng.uniform(12, 60, 40), rng.uniform(-30, 30, 40)])
+    frames = [start + np.array([0.2 * k, 0.0]) + rng.normal(0.0, 0.02, start.shape) for k in range(100)]
+    assert sum(int(m.sum()) for m in recurring_after(frames)) == 0
+
+
+def test_a_lidar_return_nearer_than_12_m_never_recurs() -> None:
+    still = [np.array([[11.9, 0.1], [12.1, 0.1]])] * 6
+    assert recurring_after(still)[-1].tolist() == [False, True]
+    assert recurring_after(still, CellRule(beyond_m=5.0))[-1].tolist() == [True, True]
 
 
 def test_a_return_nearer_than_beyond_m_never_persists() -> None:

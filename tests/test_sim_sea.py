@@ -140,3 +140,21 @@ def test_a_hull_in_rain_and_a_rough_sea_is_the_only_obstacle() -> None:
         np.testing.assert_allclose(d[18] / 100.0, 10.0, atol=0.15)
     assert pipeline.last_preprocess.n_isolated > 500  # the rain was seen, and dropped
     assert pipeline.last_preprocess.water.measured
+
+
+def test_a_low_buoy_inside_the_sea_margin_is_an_obstacle_once_it_recurs() -> None:
+    """A 0.6 m buoy 18 m ahead in a chop whose crests stand 0.3 m: the sea margin rises above the buoy's top, so by
+    height its returns are neither water nor solid. It returns at one place every revolution and the crests, running
+    at metres a second, do not: from the ninth revolution on its bin holds it within tolerance, and no other bin
+    holds an obstacle (the rule: settings.lidar_margin_persistence)."""
+    sea = Sea.state(3, seed=2)
+    buoy = Vessel("buoy", 1.15, 1.15, 0.6, Trajectory.stationary((18.0, 0.0), 0.0), hull="buoy")
+    distances, pipeline = _run_pipeline(_scene(sea, [buoy], roll_deg=5.0, heave=0.2), 2.0)
+    assert len(distances) >= 18
+    assert pipeline.last_preprocess.water.margin > 0.6  # the premise: the buoy's top is inside the margin
+    near_face = 18.0 - 1.15 / 2
+    for d in distances[8:]:
+        # bin 0 spans +-2.5 deg: the buoy's 1.15 m at 17.4 m; the tolerance is the evaluator's, max(0.5 m, 5 %)
+        assert abs(d[0] / 100.0 - near_face) <= max(0.5, 0.05 * near_face)
+    for d in distances:
+        assert set(np.flatnonzero(d <= 10000).tolist()) <= {71, 0, 1}

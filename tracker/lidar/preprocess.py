@@ -46,6 +46,9 @@ class PreprocessResult:
     # waterline_gate_range), not alone in the range image and beyond the spray range: a crest's top or a hull's
     # lower strakes or waterline; only a known hull around them can tell which
     within_margin_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    # (L,) bool: whether each came back on a laser whose sea the grazing-line rule judged sparse (empty where that
+    # rule did not judge: a calm sea, or no range image)
+    within_margin_sparse: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     # (F, 3) world NED: returns within the sea margin on a line along one laser with a kept return (config
     # solid_line_min_run): a solid's foot for the obstacle array, not evidence for the tracker, which the kept part
     # of the line already gives (counted under n_water)
@@ -251,6 +254,7 @@ def preprocess(
         solid |= foot
     # Rain and spray: alone in the range image (no firing beside it returned at its range).
     isolated = grazing_face = short_lines = None
+    sparse_sea = None  # (16,) by ring: the lasers whose sea the grazing-line rule judged sparse; None: not judged
     if image is not None and cfg.continuity_min_neighbours > 0:
         need = cfg.continuity_min_neighbours + (r2_kept < cfg.continuity_near_range**2)
         alone = solid & (neighbours < need)
@@ -281,7 +285,7 @@ def preprocess(
             solid |= rescued
         elif cfg.grazing_line_min_run > 0 and estimate.measured:  # an unmeasured sea: its lines are not judged
             bins_kept = kept(bins) if bins is not None else bearing_bins(np.column_stack([bx, by]))
-            line, short_lines = _grazing_lines(
+            line, short_lines, sparse_sea = _grazing_lines(
                 image, idx, horizontal, height, in_band, (estimate, beams), r2_kept, bins_kept, rings, cfg
             )
             line &= ~solid  # a foot on a face is solid already
@@ -368,6 +372,9 @@ def preprocess(
         n_grazing=n_grazing,
         water=estimate,
         within_margin_world=_stack_where(undecided, north, east, down),
+        within_margin_sparse=(
+            sparse_sea[rings[undecided]] if sparse_sea is not None and rings is not None else np.ones(0, dtype=bool)
+        ),
         feet_world=_stack_where(feet, north, east, down),
         reason=reason,
     )
@@ -384,10 +391,11 @@ def _grazing_lines(
     bins: np.ndarray,
     rings: np.ndarray,
     cfg: PreprocessConfig,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(K,) each over the kept returns: those within the sea margin that are a solid's face met at grazing
     incidence, and those in runs of grazing_line_array_run firings or more, short of grazing_line_min_run, on
-    lasers whose sea is sparser still (grazing_line_array_max_sporadic), for the obstacle array only.
+    lasers whose sea is sparser still (grazing_line_array_max_sporadic), for the obstacle array only; and (16,) by
+    ring, the lasers whose sea is sparse (below).
 
     A returning sea still draws no lines far out: beyond grazing_line_min_range its returns come a firing or two at
     a time along a ring, while the strakes of a low hull at 20-60 m under the crests' margin, met by one beam,
@@ -419,7 +427,7 @@ def _grazing_lines(
     far = wet & (r2_kept >= cfg.grazing_line_min_range**2)
     far_idx = np.flatnonzero(far)
     if far_idx.size == 0:
-        return far, far.copy()
+        return far, far.copy(), np.ones(RINGS, dtype=bool)
     firings_per_bin = image.n_sequences / N_BINS
     reach = float(np.sqrt(r2_kept.max()))
     far_rings = rings[far_idx].astype(np.int64)
@@ -446,7 +454,7 @@ def _grazing_lines(
     if 0 < cfg.grazing_line_array_run < cfg.grazing_line_min_run:
         sparser = sporadic_sea & (sporadic <= cfg.grazing_line_array_max_sporadic)
         short[far_idx[alone & (runs >= cfg.grazing_line_array_run) & sparser[far_rings]]] = True
-    return line, short
+    return line, short, sporadic_sea
 
 
 def _fill_below(fill: np.ndarray, wet_bins: np.ndarray) -> np.ndarray:
