@@ -10,6 +10,7 @@ body origin sits ``origin_height`` above the mean water (world z = -origin_heigh
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -132,6 +133,26 @@ def chop(north: np.ndarray, east: np.ndarray) -> np.ndarray:
         + 0.10 * np.sin(-0.35 * north + 0.80 * east + 2.0)
         + 0.05 * np.sin(1.30 * north - 0.90 * east + 1.1)
     )
+
+
+def travelling_chop(t: float) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """``chop`` at time t, its trains travelling at the deep-water phase speed sqrt(g / k) (4.0, 3.4 and 2.5 m/s) as a
+    sea's do: where a beam meets a crest or a trough moves from one revolution to the next. Frozen within the
+    revolution (a crest moves 0.4 m at most in its 0.1 s)."""
+
+    def elevation(north: np.ndarray, east: np.ndarray) -> np.ndarray:
+        total = np.zeros(np.broadcast(north, east).shape)
+        for amplitude, k_north, k_east, phase in _CHOP_TRAINS:
+            omega = math.sqrt(G * math.hypot(k_north, k_east))
+            total = total + amplitude * np.sin(k_north * north + k_east * east - omega * t + phase)
+        return total
+
+    return elevation
+
+
+G = 9.81  # m/s^2
+# chop's trains: amplitude (m), wavenumber north and east (rad/m), phase (rad)
+_CHOP_TRAINS = ((0.15, 0.52, 0.31, 0.4), (0.10, -0.35, 0.80, 2.0), (0.05, 1.30, -0.90, 1.1))
 
 
 class SteadyEgo:

@@ -15,7 +15,7 @@ import pytest
 
 import tracker.lidar.preprocess as preprocess_module
 from drivers.mount import Mount
-from tests.sea_geometry import SteadyEgo, chop, lidar_pipeline, revolution_over_water, scan_of
+from tests.sea_geometry import SteadyEgo, chop, lidar_pipeline, revolution_over_water, scan_of, travelling_chop
 from tracker.lidar.preprocess import REASON_NAMES
 from tracker.obstacle_map import UNKNOWN
 from tracker.pipeline import PerceptionOutput, PerceptionPipeline
@@ -174,6 +174,32 @@ def test_a_sea_returning_part_of_its_firings_gives_no_obstacle_over_ten_revoluti
     for k in range(10):
         ret = revolution_over_water(
             MOUNT, attitude, yaw=YAW, origin_height=0.2, elevation=chop, t0=0.1 * k, water_share=(share, k)
+        )
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+        assert pipeline.last_preprocess.water.measured
+        assert np.flatnonzero(out.distances_cm <= 10000).tolist() == [], f"revolution {k}"
+        assert out.tracks == []
+
+
+@pytest.mark.parametrize(("attitude", "revolutions"), [(steady, 15), (rolling, 35)], ids=["listing", "rolling"])
+def test_a_travelling_sea_returning_a_third_of_its_firings_gives_no_obstacle(attitude, revolutions: int) -> None:
+    """The chop travelling as a sea does (tests/sea_geometry.py travelling_chop), 30 % of the firings meeting it
+    returning. Listing, the -11 deg laser comes down through the margin at 14-25 m on the high side, and only the
+    troughs take it beyond 20 m: its 7-27 returns a revolution there were counted against all the firings of every
+    bin they lay in, a rate of a few per cent, "sparse", and five trough returns in a row at 20.3-20.5 m were a
+    line, an obstacle in bins 61-62 from revolution 8, held for ten revolutions; rolling, in bins 12-13 from
+    revolution 29. A bin's firings now count as met beyond 20 m in the share of its water returns lying there."""
+    pipeline = lidar_pipeline(MOUNT)
+    ego = SteadyEgo(attitude, YAW)
+    for k in range(revolutions):
+        ret = revolution_over_water(
+            MOUNT,
+            attitude,
+            yaw=YAW,
+            origin_height=0.2,
+            elevation=travelling_chop(0.1 * k),
+            t0=0.1 * k,
+            water_share=(0.3, k),
         )
         out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
         assert pipeline.last_preprocess.water.measured

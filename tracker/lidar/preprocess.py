@@ -442,7 +442,15 @@ def _grazing_lines(
         met_wet |= hi >= np.maximum(lo, cfg.water.fit_min_range)
     runs = image.ring_runs(idx[far_idx], horizontal[idx[far_idx]], cfg.continuity_abs_tol, cfg.continuity_rel_tol)
     alone = runs < cfg.grazing_line_min_run
-    met_firings = np.maximum(np.count_nonzero(met, axis=1) * firings_per_bin, 1.0)
+    # Of a cell's firings, only those whose water lay beyond the range judged count as met there. Where the laser
+    # comes down through the margin across that range, its troughs alone reach beyond it: the share of the cell's
+    # water returns lying beyond is that of its firings. Counted whole, such cells made a sea returning 30 % of
+    # its firings look sparse, and five trough returns in a row were a line (a listing boat over a travelling chop,
+    # tests/test_sea_state.py).
+    n_wet = _cell_counts(wet_rings, bins[wet_idx]).astype(float)
+    n_far = _cell_counts(far_rings, bins[far_idx])
+    met_share = np.where(n_wet > 0, np.minimum(n_far / np.maximum(n_wet, 1.0), 1.0), met)
+    met_firings = np.maximum(met_share.sum(axis=1) * firings_per_bin, 1.0)
     sporadic = np.bincount(far_rings[alone], minlength=RINGS) / met_firings
     wet_bins = np.count_nonzero(met_wet, axis=1)
     wet_firings = np.maximum(wet_bins * firings_per_bin, 1.0)
@@ -500,8 +508,12 @@ def _feet_of_solid_lines(
 
 def _cells(ring: np.ndarray, bins: np.ndarray) -> np.ndarray:
     """(16, 72) bool by ring and bin: some of these returns (their laser and obstacle-array bin) lie there."""
-    cell = ring * N_BINS + bins
-    return np.bincount(cell, minlength=RINGS * N_BINS).reshape(RINGS, N_BINS) > 0
+    return _cell_counts(ring, bins) > 0
+
+
+def _cell_counts(ring: np.ndarray, bins: np.ndarray) -> np.ndarray:
+    """(16, 72) by ring and bin: how many of these returns (their laser and obstacle-array bin) lie there."""
+    return np.bincount(ring * N_BINS + bins, minlength=RINGS * N_BINS).reshape(RINGS, N_BINS)
 
 
 def _laser_in_sea_margin(
