@@ -207,6 +207,29 @@ def test_a_travelling_sea_returning_a_third_of_its_firings_gives_no_obstacle(att
         assert out.tracks == []
 
 
+def test_chance_runs_in_a_sparse_travelling_sea_are_not_lines() -> None:
+    """The travelling chop returning 10 % of the firings under the listing boat: sparse by the grazing-line rule's
+    rates, yet over some thousand firings a run of 5 comes by chance (n p**5), and in revolution 32 five trough
+    returns in a row 23.4-23.7 m off were a line, an obstacle in bins 20-21 and a track. The run a line needs grows
+    with the laser's sporadic rate until chance gives one in a thousand revolutions (grazing_line_chance)."""
+    pipeline = lidar_pipeline(MOUNT)
+    ego = SteadyEgo(steady, YAW)
+    for k in range(40):
+        ret = revolution_over_water(
+            MOUNT,
+            steady,
+            yaw=YAW,
+            origin_height=0.2,
+            elevation=travelling_chop(0.1 * k),
+            t0=0.1 * k,
+            water_share=(0.1, 100 + k),
+        )
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+        assert pipeline.last_preprocess.water.measured
+        assert np.flatnonzero(out.distances_cm <= 10000).tolist() == [], f"revolution {k}"
+        assert out.tracks == []
+
+
 def higher_chop(north: np.ndarray, east: np.ndarray) -> np.ndarray:
     """The chop above with crests 1.5 times as high: +-0.45 m, still within sea state 3."""
     return 1.5 * chop(north, east)
