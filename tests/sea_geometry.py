@@ -126,13 +126,14 @@ def revolution_over_water(
     return WaterReturns(xyz_body, t[hit], RING_OF_LASER[laser[hit]], xyz_world, wall[hit])
 
 
+G = 9.81  # m/s^2
+# chop's trains: amplitude (m), wavenumber north and east (rad/m), phase (rad)
+_CHOP_TRAINS = ((0.15, 0.52, 0.31, 0.4), (0.10, -0.35, 0.80, 2.0), (0.05, 1.30, -0.90, 1.1))
+
+
 def chop(north: np.ndarray, east: np.ndarray) -> np.ndarray:
     """Three wave trains standing still, crests up to +-0.3 m about the mean water (the simulator's sea state 3)."""
-    return (
-        0.15 * np.sin(0.52 * north + 0.31 * east + 0.4)
-        + 0.10 * np.sin(-0.35 * north + 0.80 * east + 2.0)
-        + 0.05 * np.sin(1.30 * north - 0.90 * east + 1.1)
-    )
+    return travelling_chop(0.0)(north, east)
 
 
 def travelling_chop(t: float) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
@@ -148,11 +149,6 @@ def travelling_chop(t: float) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
         return total
 
     return elevation
-
-
-G = 9.81  # m/s^2
-# chop's trains: amplitude (m), wavenumber north and east (rad/m), phase (rad)
-_CHOP_TRAINS = ((0.15, 0.52, 0.31, 0.4), (0.10, -0.35, 0.80, 2.0), (0.05, 1.30, -0.90, 1.1))
 
 
 class SteadyEgo:

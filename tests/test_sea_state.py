@@ -8,6 +8,7 @@ the revolution comes from plain geometry (tests/sea_geometry.py), not from the s
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -155,6 +156,34 @@ def test_a_hulls_waterline_below_the_calm_floor_is_offered_to_the_hull_gate_beyo
     assert near.size >= 20 and np.all(near > floor)
 
 
+def _assert_no_obstacle_over(
+    attitude: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    elevation_at: Callable[[float], Callable[[np.ndarray, np.ndarray], np.ndarray]],
+    share: float,
+    revolutions: int,
+    first_seed: int = 0,
+) -> None:
+    """Revolutions from the boat 0.2 m over the sea ``elevation_at(t)``, ``share`` of the firings meeting it
+    returning (drawn afresh each revolution): the water is fitted every revolution, and no bin holds an obstacle and
+    no track forms in any of them."""
+    pipeline = lidar_pipeline(MOUNT)
+    ego = SteadyEgo(attitude, YAW)
+    for k in range(revolutions):
+        ret = revolution_over_water(
+            MOUNT,
+            attitude,
+            yaw=YAW,
+            origin_height=0.2,
+            elevation=elevation_at(0.1 * k),
+            t0=0.1 * k,
+            water_share=(share, first_seed + k),
+        )
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+        assert pipeline.last_preprocess.water.measured
+        assert np.flatnonzero(out.distances_cm <= 10000).tolist() == [], f"revolution {k}"
+        assert out.tracks == []
+
+
 @pytest.mark.parametrize(
     ("attitude", "share"),
     [(steady, 0.3), (steady, 0.6), (rolling, 0.3), (rolling, 0.6)],
@@ -169,16 +198,7 @@ def test_a_sea_returning_part_of_its_firings_gives_no_obstacle_over_ten_revoluti
     still, so its returns recur at one place: the rule that makes margin returns recurring in one cell obstacles
     (PipelineSettings.lidar_margin_persistence), applied on every laser, put obstacles at 14-39 m here from the
     fourth revolution; it applies on lasers whose sea is sparse only."""
-    pipeline = lidar_pipeline(MOUNT)
-    ego = SteadyEgo(attitude, YAW)
-    for k in range(10):
-        ret = revolution_over_water(
-            MOUNT, attitude, yaw=YAW, origin_height=0.2, elevation=chop, t0=0.1 * k, water_share=(share, k)
-        )
-        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
-        assert pipeline.last_preprocess.water.measured
-        assert np.flatnonzero(out.distances_cm <= 10000).tolist() == [], f"revolution {k}"
-        assert out.tracks == []
+    _assert_no_obstacle_over(attitude, lambda t: chop, share, 10)
 
 
 @pytest.mark.parametrize(("attitude", "revolutions"), [(steady, 15), (rolling, 35)], ids=["listing", "rolling"])
@@ -189,22 +209,7 @@ def test_a_travelling_sea_returning_a_third_of_its_firings_gives_no_obstacle(att
     bin they lay in, a rate of a few per cent, "sparse", and five trough returns in a row at 20.3-20.5 m were a
     line, an obstacle in bins 61-62 from revolution 8, held for ten revolutions; rolling, in bins 12-13 from
     revolution 29. A bin's firings now count as met beyond 20 m in the share of its water returns lying there."""
-    pipeline = lidar_pipeline(MOUNT)
-    ego = SteadyEgo(attitude, YAW)
-    for k in range(revolutions):
-        ret = revolution_over_water(
-            MOUNT,
-            attitude,
-            yaw=YAW,
-            origin_height=0.2,
-            elevation=travelling_chop(0.1 * k),
-            t0=0.1 * k,
-            water_share=(0.3, k),
-        )
-        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
-        assert pipeline.last_preprocess.water.measured
-        assert np.flatnonzero(out.distances_cm <= 10000).tolist() == [], f"revolution {k}"
-        assert out.tracks == []
+    _assert_no_obstacle_over(attitude, travelling_chop, 0.3, revolutions)
 
 
 def test_chance_runs_in_a_sparse_travelling_sea_are_not_lines() -> None:
@@ -212,22 +217,7 @@ def test_chance_runs_in_a_sparse_travelling_sea_are_not_lines() -> None:
     rates, yet over some thousand firings a run of 5 comes by chance (n p**5), and in revolution 32 five trough
     returns in a row 23.4-23.7 m off were a line, an obstacle in bins 20-21 and a track. The run a line needs grows
     with the laser's sporadic rate until chance gives one in a thousand revolutions (grazing_line_chance)."""
-    pipeline = lidar_pipeline(MOUNT)
-    ego = SteadyEgo(steady, YAW)
-    for k in range(40):
-        ret = revolution_over_water(
-            MOUNT,
-            steady,
-            yaw=YAW,
-            origin_height=0.2,
-            elevation=travelling_chop(0.1 * k),
-            t0=0.1 * k,
-            water_share=(0.1, 100 + k),
-        )
-        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
-        assert pipeline.last_preprocess.water.measured
-        assert np.flatnonzero(out.distances_cm <= 10000).tolist() == [], f"revolution {k}"
-        assert out.tracks == []
+    _assert_no_obstacle_over(steady, travelling_chop, 0.1, 40, first_seed=100)
 
 
 def higher_chop(north: np.ndarray, east: np.ndarray) -> np.ndarray:
