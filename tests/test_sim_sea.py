@@ -15,7 +15,7 @@ from drivers.mount import Mount
 from drivers.vlp16.decoder import ScanAssembler
 from drivers.vlp16.packet import encode_data_packet
 from simulator.lidar_model import ELEVATION_DEG, VERTICAL_OFFSET_M, Vlp16Model
-from simulator.scene import LABEL_RAIN, LABEL_WATER, OwnBoat, Scene, Trajectory, Vessel
+from simulator.scene import LABEL_RAIN, LABEL_WATER, OwnBoat, Quay, Scene, Trajectory, Vessel
 from simulator.sea import Sea, WaveTrain
 
 MOUNT = Mount(z=-1.6)
@@ -158,3 +158,26 @@ def test_a_low_buoy_inside_the_sea_margin_is_an_obstacle_once_it_recurs() -> Non
         assert abs(d[0] / 100.0 - near_face) <= max(0.5, 0.05 * near_face)
     for d in distances:
         assert set(np.flatnonzero(d <= 10000).tolist()) <= {71, 0, 1}
+
+
+@pytest.mark.parametrize("face_m", [45.0, 55.0])
+def test_a_far_quays_deck_met_by_the_rolling_lowest_beam_is_no_vessel(face_m: float) -> None:
+    """A quay 0.8 m high, its face 45 or 55 m off, the boat rolling 5 deg and pitching 1 deg in calm water: only
+    the -1 deg beam reaches it, meeting the face, then, where it passes over the edge, the deck behind. Face and
+    deck made one boat-sized cluster, and a confirmed "vessel" 15 x 7.6 m centred 4 m behind the face (before the
+    level-deck rule, tracker.lidar.level_returns). A 6 m boat 21 m off is tracked throughout."""
+    own = OwnBoat(
+        Trajectory.stationary((0.0, 0.0), 0.0),
+        roll_amplitude=math.radians(5.0),
+        roll_period=4.0,
+        pitch_amplitude=math.radians(1.0),
+        pitch_period=5.0,
+    )
+    quay = Quay(np.array([(face_m, -60.0), (face_m, 60.0)]), height=0.8, land_side="port", depth=8.0)
+    boat = Vessel("boat", 6.0, 2.5, 1.2, Trajectory.stationary((-20.0, 5.0), 0.0))
+    scene = Scene("quay", own, [boat], [quay], lidar_mount=MOUNT, sea=Sea())
+    _, pipeline = _run_pipeline(scene, 3.0)
+    confirmed = [tr for tr in pipeline.lidar_tracker.tracks() if tr.confirmed]
+    assert [tr.id for tr in confirmed if tr.position[0] > face_m - 10.0] == []
+    boats = [tr for tr in confirmed if np.hypot(tr.position[0] + 20.0, tr.position[1] - 5.0) < 0.5]
+    assert len(boats) == 1

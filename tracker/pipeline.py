@@ -20,7 +20,7 @@ import numpy as np
 
 from drivers.frames import EgoPose, LidarScan, RadarFrame
 from drivers.mount import Mount
-from tracker.ego import body_to_world_2d, sample_poses, world_to_body_2d
+from tracker.ego import body_to_world, body_to_world_2d, sample_poses, world_to_body_2d
 from tracker.fusion import PublishedIds, fuse_track_groups, report_second_tracks_tentative
 from tracker.lidar.coverage import (
     BIN_CENTRES,
@@ -767,7 +767,12 @@ class PerceptionPipeline:
         if self.lidar_tracker is not None and track_points is not None and self._may_track("lidar"):
             t0 = time.perf_counter()
             self._lidar_tracks = self.lidar_tracker.step(
-                track_points, scan.stamp, own_pos, own_yaw, point_times=scan.t[pre.keep]
+                track_points,
+                scan.stamp,
+                own_pos,
+                own_yaw,
+                point_times=scan.t[pre.keep],
+                sensor_ned=_sensor_ned(own, self.settings.lidar_mount),
             )
             self._cost["lidar"].measured(time.perf_counter() - t0)
         tracking = self.lidar_tracker is not None and track_points is not None
@@ -959,6 +964,14 @@ def _turned_since(at: tuple[np.ndarray, float] | None, own: tuple[np.ndarray, fl
         return 0.0
     turned = float(np.angle(np.exp(1j * (own[3] - at[1]))))
     return turned if np.isfinite(turned) else 0.0
+
+
+def _sensor_ned(own: tuple[np.ndarray, float, float, float] | None, mount: Mount) -> np.ndarray | None:
+    """The LiDAR's origin in the world (NED, m) at the tick's pose (body origin, roll, pitch, yaw); None unknown."""
+    if own is None:
+        return None
+    pos, roll, pitch, yaw = own
+    return body_to_world(np.asarray(mount.translation, float)[None, :], np.asarray(pos, float), roll, pitch, yaw)[0]
 
 
 def _pose_now(ego: EgoSource | None, ego_ok: bool, t: float) -> tuple[np.ndarray, float, float, float] | None:

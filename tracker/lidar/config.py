@@ -610,6 +610,9 @@ class StructureConfig:
     # none: MOTA 0.9360 -> 0.9363, false positives 6,433 -> 6,332, worst scene 0.797 -> 0.798; 7 scenes better, 2
     # worse.
     flat_thin_min_length_m: float = 5.0
+    # A cluster whose top is a horizontal surface met by one descending beam (its top returns level over this much
+    # range, or on an arc round the sensor; tracker.lidar.level_returns) is a quay's deck: structure. 0 turns it off.
+    level_min_range_span_m: float = 6.0
 
     def __post_init__(self) -> None:
         positive(self, "lid_bin_m")
@@ -633,6 +636,7 @@ class StructureConfig:
             "flat_max_height_m",
             "flat_thin_min_length_m",
             "run_min_pieces",
+            "level_min_range_span_m",
             allow_zero=True,
         )
         positive(self, "moored_min_length_m", "moored_gap_m", "moored_min_extent_m")

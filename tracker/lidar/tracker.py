@@ -32,6 +32,7 @@ from tracker.lidar.ekf import (
     measurement_noises,
     visibility,
 )
+from tracker.lidar.level_returns import LevelRule, horizontal_tops
 from tracker.lidar.moored import carve_moored_hulls
 from tracker.lidar.shape_fit import (
     DegenerateClusterError,
@@ -96,7 +97,12 @@ class LidarTracker:
     # -- detection ---------------------------------------------------------------------------------------------
 
     def detect(
-        self, points_world: np.ndarray, t: float, own_position: np.ndarray, point_times: np.ndarray | None = None
+        self,
+        points_world: np.ndarray,
+        t: float,
+        own_position: np.ndarray,
+        point_times: np.ndarray | None = None,
+        sensor_ned: np.ndarray | None = None,
     ) -> list[Detection]:
         """Cluster and fit one scan: one :class:`Detection` per vessel-sized cluster, nearest first.
 
@@ -104,6 +110,8 @@ class LidarTracker:
         ``point_times`` (N,) s, optional: each point's firing time; a detection's ``t`` is then the mean time its
         cluster was swept, else ``t``. Also sets :attr:`last_clusters` (every cluster, structure included) for the
         obstacle map, and :attr:`last_structure`. Does not touch the tracks; remembers where structure was seen.
+        ``sensor_ned``: the LiDAR's origin (world NED) for the level-deck rule (tracker.lidar.level_returns); None
+        leaves that rule out.
         """
         own = np.asarray(own_position, dtype=float)[:2]
         result = cluster_points(points_world, own, self.config.cluster)
@@ -125,6 +133,13 @@ class LidarTracker:
         self._detection_clusters = []
         swept = self._sweep_times(result, point_times, t)
         self.last_structure = self._structure(result, t, own)
+        if sensor_ned is not None and self.config.structure.level_min_range_span_m > 0:
+            carved = result.carved if result.carved is not None else np.zeros(len(result.clusters), dtype=bool)
+            rest = np.flatnonzero(~self.last_structure & ~carved)
+            if rest.size:
+                rule = LevelRule(min_range_span_m=self.config.structure.level_min_range_span_m)
+                decks = horizontal_tops([result.clusters[k] for k in rest], np.asarray(sensor_ned, float), rule)
+                self.last_structure[rest[decks]] = True
         vessels = np.flatnonzero(~self.last_structure)
         footprints = [result.footprints[k] for k in vessels]
         shape = self.config.shape
@@ -547,6 +562,7 @@ class LidarTracker:
         own_position: np.ndarray,
         own_yaw: float = 0.0,
         point_times: np.ndarray | None = None,
+        sensor_ned: np.ndarray | None = None,
     ) -> list[Track]:
         """Process one scan taken at ``t`` (s); returns every live track (``Track.confirmed`` tells which count).
 
@@ -556,7 +572,7 @@ class LidarTracker:
         kept points): a moving boat's detection is then moved by its track's velocity from when it was swept to
         ``t`` (``EkfConfig.compensate_sweep``); without them the whole revolution counts as seen at ``t``, which
         puts a 5 m/s boat up to 0.5 m behind. A scan older than the previous one is ignored (counted in
-        ``stats["out_of_order"]``).
+        ``stats["out_of_order"]``). ``sensor_ned``: the LiDAR's origin, world NED (see :meth:`detect`).
         """
         if self._t is not None and t < self._t:
             self.stats["out_of_order"] += 1
@@ -568,7 +584,7 @@ class LidarTracker:
         own = np.asarray(own_position, dtype=float)[:2]
 
         self.bank.predict(dt)
-        detections = self._split_shared_detections(self.detect(points_world, t, own, point_times), own)
+        detections = self._split_shared_detections(self.detect(points_world, t, own, point_times, sensor_ned), own)
         detections = self._merge_split_detections(detections, t, own)
         self.last_detections = detections
         margin, result = self.config.cluster.occlusion_margin, self._cluster_result
