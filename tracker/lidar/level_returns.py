@@ -36,7 +36,7 @@ import numpy as np
 class LevelRule:
     height_tolerance_m: float = 0.02
     min_depression_rad: float = math.radians(0.3)
-    min_range_span_m: float = 4.0
+    min_range_span_m: float = 6.0
     face_change_ratio: float = 2.5
     arc_max_ratio: float = 0.4
     arc_min_sagitta_m: float = 0.15
