@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -189,30 +188,3 @@ def test_returns_under_the_band_do_not_break_a_solid_lines_run_of_feet() -> None
     feet_north_east = res.feet_world[:, :2] - POS[:2]
     expected = (body[6:, :2])[np.argsort(body[6:, 1])]
     np.testing.assert_allclose(feet_north_east[np.argsort(feet_north_east[:, 1])], expected, atol=1e-9)
-
-
-def test_in_calm_water_a_waterline_line_reaches_the_array_only_and_a_mirror_image_nothing() -> None:
-    """Calm water returns nothing; one laser (ring 6) meets three things 34 m off, twelve firings each: a hull's
-    side 0.05 m above the surface (solid: the tracker's), a hull's waterline 0.02 m under it (the attitude's tenth
-    of a degree is 6 cm there: the obstacle array's only, as seed 54's low USV in the -3/-1 deg beams' gap needed)
-    and a mirror image 0.2 m under it (a firing reflected off the glassy water onto a hull: nothing)."""
-    from tracker.lidar.range_image import FIRING_S, LASER_OF_RING, SEQUENCE_S
-
-    cfg = PreprocessConfig(origin_height_above_water=0.5)
-    assert cfg.foot_min_height == -0.05
-    heights = {0: 0.05, 100: -0.02, 200: -0.2}  # first firing (0.2 deg steps) -> height above the water
-    seq = np.concatenate([start + np.arange(12) for start in heights])
-    height = np.repeat(list(heights.values()), 12)
-    bearing = np.radians(0.2) * seq
-    body = np.column_stack([34.0 * np.cos(bearing), 34.0 * np.sin(bearing), 0.5 - height])  # FRD: z down
-    ring = np.full(seq.size, 6)
-    point_t = seq * SEQUENCE_S + LASER_OF_RING[ring] * FIRING_S
-    res = preprocess(body, POS, 0.0, 0.0, 0.0, cfg, ring=ring, point_t=point_t)
-    # each line's two end firings have one neighbour in the range image, and a foot needs two: ten of each (the
-    # side's two ends are the feet of its solid line)
-    np.testing.assert_allclose(np.sort(res.points_world[:, 1] - POS[1]), np.sort(body[1:11, 1]), atol=1e-9)
-    feet = body[[0, 11, *range(13, 23)], 1]
-    np.testing.assert_allclose(np.sort(res.feet_world[:, 1] - POS[1]), np.sort(feet), atol=1e-9)
-    # with the floor at the surface the waterline was water, and its bins went out unknown
-    old = preprocess(body, POS, 0.0, 0.0, 0.0, replace(cfg, foot_min_height=0.0), ring=ring, point_t=point_t)
-    assert old.feet_world.shape[0] == 2 and old.points_world.shape[0] == 10

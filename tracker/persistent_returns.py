@@ -30,7 +30,9 @@ class PersistenceRule:
 
     Until ``hits`` frames have been seen (the start, or the world frame reset), a return persists when every one of
     the frames before it, at least ``startup_frames`` of them, held it: the same evidence, none of it missed.
-    Without it a hull the radar alone returned at 40 m went out unknown for the daemon's first 0.5 s."""
+    Without it a buoy the radar alone returned at 40 m went out unknown for the daemon's first half second. Held out
+    (random:1001-1050) against waiting for 4 frames: radar alone false-clear bins 8,309 -> 8,206 (33 scenes better,
+    none worse), false-obstacle bins +13; fused 165 -> 162 and +10 (6,221); tracking unchanged."""
 
     hits: int = 4
     frames: int = 5

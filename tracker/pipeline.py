@@ -238,7 +238,8 @@ class PipelineSettings:
     # went out unknown. None turns it off. Ours; tuning seeds 45-52 against off: fused false-clear bins 58 -> 50,
     # false-obstacle bins 606 -> 619; radar alone 100,635 -> 100,294 and 2,743 -> 2,736 (tentative radar tracks of
     # 2 hits instead, fused: 53 and 1,860). Held out (random:1001-1050) against off: fused false-clear bins 449 ->
-    # 359 (18 scenes better, none worse), false-obstacle bins 0.270 -> 0.273 %; radar alone 202 -> 166 a scene.
+    # 359 (18 scenes better, none worse), false-obstacle bins 0.270 -> 0.273 %; radar alone 202 -> 166 a scene. From
+    # the start, every frame so far (at least 2) until there are 4: see PersistenceRule.
     radar_persistence: PersistenceRule | None = field(default_factory=PersistenceRule)
     # A LiDAR return within the sea margin (neither water nor solid by height: preprocess's within_margin_world)
     # that the LiDAR gave in the same 0.3 m cell (world frame) in 4 of its previous 5 revolutions, 12 m or more off,

@@ -253,7 +253,7 @@ def preprocess(
         n_water -= n_grazing
         solid |= foot
     # Rain and spray: alone in the range image (no firing beside it returned at its range).
-    isolated = grazing_face = short_lines = waterline = None
+    isolated = grazing_face = short_lines = None
     sparse_sea = None  # (16,) by ring: the lasers whose sea the grazing-line rule judged sparse; None: not judged
     if image is not None and cfg.continuity_min_neighbours > 0:
         need = cfg.continuity_min_neighbours + (r2_kept < cfg.continuity_near_range**2)
@@ -278,11 +278,7 @@ def preprocess(
         # as such, 1,000 drops a revolution made a glassy sea look rough and no foot was kept in rain.
         calm = not estimate.measured and not sea_returning
         if cfg.foot_min_neighbours > 0 and calm:
-            footing = in_band & ~solid & (neighbours >= cfg.foot_min_neighbours)
-            rescued = footing & (height > 0.0)
-            # At the surface or just under it (the attitude's tenth of a degree is 6 cm at 34 m): a hull's waterline
-            # met by one beam, for the obstacle array only; as tracking evidence it drew tracks out along it.
-            waterline = footing & ~rescued & (height > cfg.foot_min_height)
+            rescued = in_band & ~solid & (height > 0.0) & (neighbours >= cfg.foot_min_neighbours)
             n_rescued = int(np.count_nonzero(rescued))
             n_grazing += n_rescued
             n_water -= n_rescued
@@ -345,8 +341,6 @@ def preprocess(
     )
     if grazing_face is not None:
         feet |= grazing_face
-    if waterline is not None:
-        feet |= waterline
     if short_lines is not None:
         feet |= short_lines
     if everything:
