@@ -288,3 +288,44 @@ def test_both_trackers_configs_raise_the_one_tracker_config_error() -> None:
     with pytest.raises(ConfigError, match="EkfConfig"):
         EkfConfig(inflation_form="sideways")  # type: ignore[arg-type]
     assert issubclass(DaemonConfigError, ConfigError) and issubclass(ConfigError, ValueError)
+
+
+def near_sides(centre: np.ndarray, heading: float, size: tuple[float, float], n: int, rng: np.random.Generator):
+    """``n`` returns on the sides of a hull (length along ``heading``) that face a radar at the origin."""
+    c, s = math.cos(heading), math.sin(heading)
+    fwd, beam = np.array([c, s]), np.array([-s, c])
+    half_l, half_w = size[0] / 2, size[1] / 2
+    to_radar = -centre / np.linalg.norm(centre)
+    side_f = np.sign(fwd @ to_radar) or 1.0  # the end facing the radar
+    side_b = np.sign(beam @ to_radar) or 1.0  # the side facing it
+    k = n // 2
+    along = rng.uniform(-half_l, half_l, n - k)[:, None] * fwd + side_b * half_w * beam
+    across = side_f * half_l * fwd + rng.uniform(-half_w, half_w, k)[:, None] * beam
+    return centre + np.concatenate([along, across])
+
+
+def test_a_hull_under_way_is_published_along_its_course() -> None:
+    """A 5 x 2 m hull 25 m off on a course of 45 deg at 3 m/s, the radar seeing its near side and end: the track
+    points along the course with the hull's length and beam (the filter's own box is north/east extents, near a
+    square here, which the track published with heading 0 before). A hull at rest keeps heading 0 and those
+    extents."""
+    rng = np.random.default_rng(5)
+    tracker, still = RadarTracker(CFG), RadarTracker(CFG)
+    own = OwnBoat(position=np.zeros(2))
+    course = math.radians(45.0)
+    v = 3.0 * np.array([math.cos(course), math.sin(course)])
+    for k in range(60):
+        t = 0.1 * k
+        hull = near_sides(np.array([10.0, -22.0]) + t * v, course, (5.0, 2.0), 12, rng)
+        pts, dop = observe(own, hull, v, rng, 0.05)
+        tracks = tracker.step(pts, dop, None, t, own.position, 0.0, np.zeros(2), 0.0)
+        pts, dop = observe(own, near_sides(np.array([20.0, 15.0]), course, (5.0, 2.0), 12, rng), np.zeros(2), rng, 0.05)
+        rest = still.step(pts, dop, None, t, own.position, 0.0, np.zeros(2), 0.0)
+    (tr,) = [tr for tr in tracks if tr.confirmed and tr.part_of is None]  # a piece of its hull names it
+    assert math.degrees(tr.heading) == pytest.approx(45.0, abs=5.0)
+    # the extents of its returns of the last second along and across the course: the side seen whole, the end too
+    assert tr.length == pytest.approx(5.0, abs=1.5)
+    assert tr.width == pytest.approx(2.0, abs=1.0)
+    (at_rest,) = [tr for tr in rest if tr.confirmed and tr.part_of is None]
+    assert at_rest.heading == 0.0
+    assert min(at_rest.length, at_rest.width) > 2.5  # north and east extents of the sides seen of a hull at 45 deg

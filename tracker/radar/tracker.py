@@ -33,6 +33,10 @@ from tracker.radar.velocity_profile import VelocityStatus
 from tracker.radar.visible_side import spreads, visible_side_centre
 from tracker.types import Detection, MotionState, ShapeKind, Track
 
+# A radar track this fast (m/s) is published along its course (RadarTrackState._box); slower, the filter's velocity
+# (0.1-0.3 m/s of noise on a hull at rest) gives no course to speak of.
+_COURSE_MIN_SPEED_MPS = 0.5
+
 log = logging.getLogger(__name__)
 
 _GATE = 2.0  # costs: 1 - IoU in [0, 1) for overlapping boxes, 1 + distance / gate in [1, 2] for the fallback
@@ -96,15 +100,16 @@ class RadarTrackState:
         if cfg.motion.enabled:
             motion = self.motion.state
             v = self.motion.velocity(v)
+        heading, length, width = self._box(v, cfg)
         return Track(
             id=self.life.id,
             t=self.t,
             position=x[kalman.POS].copy(),
             velocity=v,
-            heading=0.0,  # the box is world-axis-aligned (length = north extent); course is atan2(v_e, v_n)
+            heading=heading,
             yaw_rate=kalman.turn_rate(self.kf)[0],  # the coordinated turn's estimate; 0 for the cv and ca models
-            length=float(x[6]),
-            width=float(x[7]),
+            length=length,
+            width=width,
             height=0.0,
             shape=ShapeKind.BOX if len(self.points) >= 3 else ShapeKind.POINT,
             confirmed=self.life.confirmed,
@@ -115,6 +120,30 @@ class RadarTrackState:
             age=self.life.age,
             time_since_update=self.life.time_since_update,
         )
+
+    def _box(self, velocity: np.ndarray, cfg: RadarTrackerConfig) -> tuple[float, float, float]:
+        """(heading rad, length m, width m) of the published box. The filter's box is world-axis-aligned (north and
+        east extents): heading 0. A hull under way points along its course, so a track moving at
+        _COURSE_MIN_SPEED_MPS or more is published along its course, its length and width the extents of its returns
+        of the last ``visible_side.shape_window_s`` along and across it, measured as the filter's box is (the q to
+        1 - q quantile spread over 1 - 2q, ``visible_side.outline_size_quantile``), with the same floor. Without
+        returns to measure, the box is a square that holds the filter's box in any orientation."""
+        x = self.kf.x[:, 0]
+        north, east = float(x[6]), float(x[7])
+        speed = math.hypot(float(velocity[0]), float(velocity[1]))
+        if not speed >= _COURSE_MIN_SPEED_MPS:  # NaN (unsettled) too
+            return 0.0, north, east
+        heading = math.atan2(float(velocity[1]), float(velocity[0]))
+        floor = cfg.clustering.min_box_size_m
+        if sum(len(g) for _, g in self.shape) < 3:
+            side = max(math.hypot(north, east), floor)
+            return heading, side, side
+        rel = np.concatenate([g for _, g in self.shape])
+        c, s = math.cos(heading), math.sin(heading)
+        q = cfg.visible_side.outline_size_quantile
+        along_across = np.column_stack([rel[:, 0] * c + rel[:, 1] * s, rel[:, 1] * c - rel[:, 0] * s])
+        extent = spreads(along_across, q) / (1.0 - 2.0 * q)
+        return heading, max(float(extent[0]), floor), max(float(extent[1]), floor)
 
 
 class RadarTracker:
