@@ -5,6 +5,7 @@ vouch for are not."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from drivers.frames import RadarFrame
 from tests.test_pipeline_radar_outlines import MOUNTED, FixedRadarTracks, water_scan
@@ -140,3 +141,8 @@ def test_a_persistent_return_where_the_lidars_beams_vouch_stays_out() -> None:
 def test_with_the_lidar_blind_a_persistent_return_is_an_obstacle_anywhere_beyond_30_m() -> None:
     assert bin0_each_tick(40.0, lidar=False) == [UNKNOWN] * 2 + [4000] * 4
     assert bin0_each_tick(20.0, lidar=False) == [UNKNOWN] * 6  # nearer, clutter persists too: not this rule's
+
+
+def test_a_warm_up_longer_than_the_rule_is_refused() -> None:
+    with pytest.raises(ValueError, match="startup_frames"):
+        PersistenceRule(startup_frames=5)

@@ -40,6 +40,10 @@ class PersistenceRule:
     beyond_m: float = 30.0
     startup_frames: int = 2
 
+    def __post_init__(self) -> None:
+        if not (0 < self.startup_frames <= self.hits <= self.frames and self.radius_m > 0):
+            raise ValueError(f"PersistenceRule: need 0 < startup_frames <= hits <= frames and radius_m > 0; got {self}")
+
 
 class PersistentReturns:
     """The last frames of one sensor's returns in the world frame, and which of a new frame's returns persist."""

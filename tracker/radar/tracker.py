@@ -34,7 +34,9 @@ from tracker.radar.visible_side import spreads, visible_side_centre
 from tracker.types import Detection, MotionState, ShapeKind, Track
 
 # A radar track this fast (m/s) is published along its course (RadarTrackState._box); slower, the filter's velocity
-# (0.1-0.3 m/s of noise on a hull at rest) gives no course to speak of.
+# (0.1-0.3 m/s of noise on a hull at rest) gives no course to speak of. Ours; held out (random:1001-1050) against
+# heading 0 for every radar track: radar alone MOTA 0.4989 -> 0.5006, false-clear bins 8,206 -> 8,056 (false-obstacle
+# 0.46 -> 0.54 %); fused MOTA 0.94461 -> 0.94462.
 _COURSE_MIN_SPEED_MPS = 0.5
 
 log = logging.getLogger(__name__)
