@@ -163,9 +163,10 @@ def test_radar_only_leaves_uncovered_bearings_unknown() -> None:
             # the radar (fov 120 deg about the bow) covers bins 60..71 and 0..12
             assert np.all(d[13:60] == 65535), d[13:60]
             # The box at 30 deg, seen by the radar 1.2 m forward of the body origin, reaches the array as a confirmed
-            # radar track. ROTracker's state has no heading, so its box is north/east-aligned: each obstacle bin lies
-            # between the nearest point of the hull's axis-aligned bounding box (minus 30 cm of radar noise) and the
-            # farthest point of the hull (plus 25 cm): never farther than the hull, possibly nearer (cautious side).
+            # radar track. A radar track at rest is published north/east-aligned (its filter's box; only one under
+            # way is turned to its course): each obstacle bin lies between the nearest point of the hull's
+            # axis-aligned bounding box (minus 30 cm of radar noise) and the farthest point of the hull (plus 25 cm):
+            # never farther than the hull, possibly nearer (cautious side).
             obstacle_bins = np.flatnonzero(d <= 4000)
             assert set(obstacle_bins) <= {3, 4, 5, 6, 7, 8, 9}, obstacle_bins
             assert 6 in obstacle_bins

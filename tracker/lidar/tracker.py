@@ -91,6 +91,7 @@ class LidarTracker:
         self._cluster_result: ClusterResult | None = None
         self._detection_clusters: list[list[int]] = []  # cluster indices behind each detection
         self.structure = StructureMemory(self.config.structure)
+        self._level_rule = LevelRule(min_range_span_m=self.config.structure.level_min_range_span_m)
         self.last_structure = np.zeros(0, dtype=bool)  # per cluster of the last scan: structure, not a vessel
         self._long_hulls: set[int] = set()  # ids of tracks that lost an in-line piece of their hull (_duplicates)
 
@@ -137,8 +138,9 @@ class LidarTracker:
             carved = result.carved if result.carved is not None else np.zeros(len(result.clusters), dtype=bool)
             rest = np.flatnonzero(~self.last_structure & ~carved)
             if rest.size:
-                rule = LevelRule(min_range_span_m=self.config.structure.level_min_range_span_m)
-                decks = horizontal_tops([result.clusters[k] for k in rest], np.asarray(sensor_ned, float), rule)
+                decks = horizontal_tops(
+                    [result.clusters[k] for k in rest], np.asarray(sensor_ned, float), self._level_rule
+                )
                 self.last_structure[rest[decks]] = True
         vessels = np.flatnonzero(~self.last_structure)
         footprints = [result.footprints[k] for k in vessels]
