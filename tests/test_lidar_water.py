@@ -57,3 +57,31 @@ def test_an_estimate_holds_for_its_memory_then_the_waterline_returns() -> None:
     assert surface.update(empty, empty, empty, t=11.9).offset == pytest.approx(0.3, abs=0.03)
     after = surface.update(empty, empty, empty, t=12.1)
     assert not after.measured and after.offset == 0.0 and after.margin == 0.15
+
+
+def test_the_floor_is_not_raised_beyond_the_water_the_fit_saw() -> None:
+    """A tilt measured on water 6-30 m out is not carried on to 63 m where it would rise: there a 0.5 m hull, met
+    by the -1 deg beam, stood under the plane plus the sea margin and its bin was reported clear."""
+    rng = np.random.default_rng(4)
+    bearing = rng.uniform(-math.pi, math.pi, 4000)
+    r = rng.uniform(6.0, 30.0, 4000)
+    x, y = r * np.cos(bearing), r * np.sin(bearing)
+    h = 0.05 + 0.007 * x + 0.03 * np.sin(1.3 * x + 0.7 * y)  # 0.4 deg up towards the bow, a 3 cm chop
+    est = WaterSurface().update(x, y, h, t=1.0)
+    assert est.measured and est.slope_x == pytest.approx(0.007, abs=0.001)
+    # uniform in range over 6-30 m: 95 % of the water lies within 28.8 m
+    assert est.reach == pytest.approx(28.8, abs=0.5)
+    ahead, astern = np.array([63.0, -63.0]), np.zeros(2)
+    floor = est.floor(ahead, astern)
+    plane = est.surface(ahead, astern)
+    # ahead the plane rises to 0.49 m; the floor stays where the fit's water ended (0.25 m)
+    assert plane[0] == pytest.approx(0.05 + 0.007 * 63, abs=0.07)
+    assert floor[0] == pytest.approx(est.surface(np.array([est.reach]), np.zeros(1))[0], abs=1e-9)
+    assert floor[0] < plane[0] - 0.2
+    # astern it falls: followed, since a lower floor only keeps more returns solid
+    assert floor[1] == pytest.approx(plane[1], abs=1e-12)
+    hull_top = 0.05 + 0.5  # above the level water at the boat
+    assert hull_top - floor[0] > est.margin > hull_top - plane[0]
+    # within the reach the floor is the plane
+    near = np.array([10.0, -3.0]), np.array([4.0, 20.0])
+    assert np.allclose(est.floor(*near), est.surface(*near))

@@ -226,7 +226,7 @@ def preprocess(
     )
     sea_returning = not estimate.measured and _sea_returning(height, r2_kept, vertical, cfg)
     if estimate.measured:
-        height = height - estimate.surface(bx, by)
+        height = height - estimate.floor(bx, by)
     elif water is not None and sea_returning:
         # The sea returns, yet no surface could be fitted to it (rougher than the fit takes, or no fit yet): the
         # calm floor would make its crests obstacles all round the boat. Nothing up to margin_max is a solid until
