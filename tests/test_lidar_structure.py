@@ -251,3 +251,34 @@ def test_a_boats_side_pointing_across_a_quay_is_no_piece_of_it(flank_m: float, p
     assert detections_near(tracker, points, 5.0, -20.0, 3.0) == (1 if piece_is_vessel else 0)
     # A piece further along the quay's own line, water on one flank, stays wall with the flank test.
     assert detections_near(tracker, wall(45.0, 47.0), 6.0, 46.0, 16.0) == 0
+
+
+@pytest.mark.parametrize("corner_reach_m, end_is_vessel", [(5.0, False), (0.0, True)])
+def test_a_quays_end_face_seen_from_beyond_the_end_is_structure(corner_reach_m: float, end_is_vessel: bool) -> None:
+    """The end face of a quay, seen from out beyond its end, runs from the remembered front face's last corner
+    into the land: 6 m of thin wall beside the memory, not on it nor on its line. Tracked, it was a "vessel" at the
+    quay's end for the rest of the run (tuning seed 38: 220 false track-frames)."""
+    tracker = LidarTracker(LidarTrackerConfig(structure=StructureConfig(corner_reach_m=corner_reach_m)))
+    assert tracker.detect(wall(-40.0, 40.0), 0.0, OWN) == []
+    beyond = np.array([52.0, 14.5])  # 12 m past the end, 1.5 m off the face's line on the water side
+    end_face = line_of_returns(np.array([40.0, 16.0]), np.array([0.0, 1.0]), 6.0)
+    dets = tracker.detect(end_face, 5.0, beyond)
+    assert sum(1 for d in dets if abs(d.center[0] - 40.0) < 1.0 and abs(d.center[1] - 19.0) < 1.5) == (
+        1 if end_is_vessel else 0
+    )
+
+
+@pytest.mark.parametrize("side_margin_m, stern_is_vessel", [(2.0, True), (100.0, False)])
+def test_a_moored_boats_stern_against_the_end_of_the_wall_seen_is_a_vessel(
+    side_margin_m: float, stern_is_vessel: bool
+) -> None:
+    """A boat moored alongside hides the wall behind it, so the memory's wall ends at its stern, and the stern
+    meets it end-on just as a quay's end face does; but it stands in front of the wall, on the own boat's side."""
+    cfg = StructureConfig(corner_side_margin_m=side_margin_m)
+    tracker = LidarTracker(LidarTrackerConfig(structure=cfg))
+    assert tracker.detect(wall(-50.0, 20.0), 0.0, OWN) == []
+    stern = line_of_returns(np.array([20.0, 12.0]), np.array([0.0, 1.0]), 3.7)  # a 3.7 m beam, 0.3 m fenders
+    dets = tracker.detect(stern, 5.0, np.array([5.0, 5.0]))
+    assert sum(1 for d in dets if abs(d.center[0] - 20.0) < 1.0 and abs(d.center[1] - 13.85) < 1.0) == (
+        1 if stern_is_vessel else 0
+    )

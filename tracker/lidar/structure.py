@@ -46,6 +46,9 @@ _RUN_MAX_ANGLE_RAD = math.radians(5.0)
 _RUN_MAX_OFFSET_M = 1.0
 # A line followed along a wall: on its emptier flank at most this share of what lies on the line itself.
 _FLANK_MAX_RATIO = 0.5
+# A wall's end met end-on by a thin piece (StructureMemory.wall_ends): past the corner, at most this share of what
+# lies along the wall.
+_CORNER_FAR_MAX_RATIO = 0.25
 
 
 def structure_lids(clusters: list[np.ndarray], own_ne: np.ndarray, bin_m: float) -> np.ndarray:
@@ -292,6 +295,59 @@ class StructureMemory:
             along[piece, side] = on_flank.min(axis=1) <= _FLANK_MAX_RATIO * on_line[piece, side]
         out[idx] = along.any(axis=1)
         lids[idx] = self.lids_at(t, samples.reshape(-1, 2)).reshape(p_count, -1).min(axis=1)
+        return out, lids
+
+    def wall_ends(self, t: float, footprints: list[np.ndarray], own_ne: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(k,) bool: each footprint is a thin straight piece meeting remembered structure end-on where that
+        structure ends, across it; and (k,) the highest lid of the structure it met (inf for the others).
+
+        A quay's end face, seen from beyond the end: the front face is remembered (seen from the water side before),
+        the end face runs from its last corner into the land, and from out there it is all the sensor sees, a thin
+        wall 4-8 m long. Its line does not run on along the wall (``continues``), its footprint lies beside the
+        remembered cells rather than on them, and tracked it was a "vessel" standing at the quay's end for the rest
+        of the run (the largest class of false track-frames on tuning scenes 1-100). Tested at each end of the
+        piece: remembered structure within ``corner_touch_m`` beyond it, and on the line across the piece through
+        that end (``corner_reach_m`` each way, from 1 m) remembered structure on one side and, at most a quarter as
+        much, on the other: the wall ends there. A boat moored bow-on to a wall has the wall on both sides."""
+        cfg = self.cfg
+        k = len(footprints)
+        out, lids = np.zeros(k, dtype=bool), np.full(k, np.inf)
+        if self.origin is None or k == 0 or cfg.corner_reach_m <= 0 or not self._remembers_any(t):
+            return out, lids
+        idx, mean, axis, lo, hi = thin_pieces(footprints, cfg.line_max_thickness_m, cfg.short_line_min_length_m)
+        if idx.size == 0:
+            return out, lids
+        p_count = idx.size
+        ends = np.stack([mean + lo[:, None] * axis, mean + hi[:, None] * axis], axis=1)  # (P, 2 ends, 2)
+        outward = np.stack([-axis, axis], axis=1)  # (P, 2, 2)
+        touch_steps = np.arange(0.0, cfg.corner_touch_m + 1e-9, cfg.cell_m)
+        touch = ends[:, :, None, :] + touch_steps[None, None, :, None] * outward[:, :, None, :]
+        touching = self.known(t, touch.reshape(-1, 2)).reshape(p_count, 2, -1).any(axis=2)  # (P, 2)
+        piece, end = np.nonzero(touching)
+        if piece.size == 0:
+            return out, lids
+        normal = np.column_stack([-axis[piece, 1], axis[piece, 0]])  # (C, 2)
+        steps = np.arange(1.0, cfg.corner_reach_m + 1e-9, cfg.cell_m)  # (S,)
+        across = np.concatenate([steps, -steps])[None, :, None] * normal[:, None, :]  # (C, 2S, 2)
+        samples = ends[piece, end][:, None, :] + across
+        on = self.known(t, samples.reshape(-1, 2)).reshape(piece.size, 2, steps.size).mean(axis=2)  # (C, 2 sides)
+        wall, far = on.max(axis=1), on.min(axis=1)
+        corner = (wall >= cfg.line_min_share) & (far <= _CORNER_FAR_MAX_RATIO * wall)
+        # Behind the wall's line, not in front of it: the end or stern of a boat moored alongside meets the wall
+        # end-on too, where its own shadow left the wall unseen on one side; but it stands on the water, on the own
+        # boat's side of the wall. Within corner_side_margin_m of the line the own boat is beyond the wall's end
+        # (short of it, it would be aground), and which side is which is not told.
+        touch_pt = ends[piece, end]
+        far_pt = ends[piece, 1 - end]
+        own_side = np.einsum("ij,ij->i", np.asarray(own_ne, dtype=float)[:2] - touch_pt, axis[piece])
+        far_side = np.einsum("ij,ij->i", far_pt - touch_pt, axis[piece])
+        corner &= (own_side * far_side < 0.0) | (np.abs(own_side) <= cfg.corner_side_margin_m)
+        if not corner.any():
+            return out, lids
+        found = idx[piece[corner]]
+        out[found] = True
+        met = self.lids_at(t, touch[piece[corner], end[corner]].reshape(-1, 2)).reshape(int(corner.sum()), -1)
+        np.minimum.at(lids, found, met.min(axis=1))
         return out, lids
 
 

@@ -253,6 +253,16 @@ class LidarTracker:
                 big[walls] = True
                 self._remember_structure(t, result, walls, own, line_lids[on_line])
         rest = np.flatnonzero(~big & ~carved)
+        if rest.size:
+            at_end, end_lids = self.structure.wall_ends(t, [result.footprints[k] for k in rest], own)
+            candidates = np.flatnonzero(at_end)
+            if candidates.size and cfg.taller_margin_m >= 0:  # a boat's side standing above the wall is no wall
+                at_end[candidates] = ~self._above(result, rest[candidates], end_lids[candidates])
+            walls = rest[at_end]
+            if walls.size:
+                big[walls] = True
+                self._remember_structure(t, result, walls, own, end_lids[at_end])
+        rest = np.flatnonzero(~big & ~carved)
         if cfg.run_min_pieces > 0 and rest.size >= cfg.run_min_pieces:  # a wall in pieces the memory did not place
             runs = collinear_runs(
                 [result.footprints[k] for k in rest],
