@@ -254,7 +254,23 @@ class StructureMemory:
         hull = np.any((np.take(self.hull_seen.ravel(), flat) >= since) & on_grid, axis=1)  # nothing is known
         return structure & ~hull
 
-    def continues(self, t: float, footprints: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    def _thin_pieces_to_test(
+        self, t: float, footprints: list[np.ndarray], enabled: bool
+    ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...] | None]:
+        """For the wall rules: (k,) all False and (k,) all inf to fill in, and the thin pieces among the footprints
+        (:func:`thin_pieces`), or None when there is nothing to test: the rule off, no footprint, no structure
+        remembered, or no thin piece (only a thin piece can be a piece of wall; the others need no lookup)."""
+        cfg = self.cfg
+        k = len(footprints)
+        out, lids = np.zeros(k, dtype=bool), np.full(k, np.inf)
+        if not enabled or self.origin is None or k == 0 or not self._remembers_any(t):
+            return out, lids, None
+        pieces = thin_pieces(footprints, cfg.line_max_thickness_m, cfg.short_line_min_length_m)
+        return out, lids, (pieces if pieces[0].size else None)
+
+    def continues(
+        self, t: float, footprints: list[np.ndarray], own_ne: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """(k,) bool: each footprint is a thin straight piece whose own line runs on into remembered structure; and
         (k,) the highest lid of the structure its line met (inf for the others).
 
@@ -263,16 +279,13 @@ class StructureMemory:
         boat moored against the wall shows its near side, a beam's width off that line. Tested by sampling the
         piece's principal axis beyond both ends (``line_reach_m`` each way, one sample a cell) and asking whether
         at least ``line_min_share`` of one side's samples fall on remembered structure; for a piece shorter than
-        ``line_min_length_m`` (down to ``short_line_min_length_m``), ``short_line_min_share``."""
+        ``line_min_length_m`` (down to ``short_line_min_length_m``), ``short_line_min_share``. ``own_ne`` is not
+        needed (the signature is :meth:`wall_ends`'s)."""
         cfg = self.cfg
-        k = len(footprints)
-        out, lids = np.zeros(k, dtype=bool), np.full(k, np.inf)
-        if self.origin is None or k == 0 or cfg.line_reach_m <= 0 or not self._remembers_any(t):
+        out, lids, pieces = self._thin_pieces_to_test(t, footprints, cfg.line_reach_m > 0)
+        if pieces is None:
             return out, lids
-        # Only a thin piece can continue a wall: the others' lines need not be looked up.
-        idx, mean, axis, lo, hi = thin_pieces(footprints, cfg.line_max_thickness_m, cfg.short_line_min_length_m)
-        if idx.size == 0:
-            return out, lids
+        idx, mean, axis, lo, hi = pieces
         length = hi - lo
         steps = np.arange(1, int(cfg.line_reach_m / cfg.cell_m) + 1) * cfg.cell_m + cfg.line_gap_m  # (S,)
         s_count = steps.size
@@ -310,13 +323,10 @@ class StructureMemory:
         that end (``corner_reach_m`` each way, from 1 m) remembered structure on one side and, at most a quarter as
         much, on the other: the wall ends there. A boat moored bow-on to a wall has the wall on both sides."""
         cfg = self.cfg
-        k = len(footprints)
-        out, lids = np.zeros(k, dtype=bool), np.full(k, np.inf)
-        if self.origin is None or k == 0 or cfg.corner_reach_m <= 0 or not self._remembers_any(t):
+        out, lids, pieces = self._thin_pieces_to_test(t, footprints, cfg.corner_reach_m > 0)
+        if pieces is None:
             return out, lids
-        idx, mean, axis, lo, hi = thin_pieces(footprints, cfg.line_max_thickness_m, cfg.short_line_min_length_m)
-        if idx.size == 0:
-            return out, lids
+        idx, mean, axis, lo, hi = pieces
         p_count = idx.size
         ends = np.stack([mean + lo[:, None] * axis, mean + hi[:, None] * axis], axis=1)  # (P, 2 ends, 2)
         outward = np.stack([-axis, axis], axis=1)  # (P, 2, 2)

@@ -242,26 +242,18 @@ class LidarTracker:
             if on_structure.size and cfg.taller_margin_m >= 0:
                 big[on_structure] = ~self._above(result, on_structure, self._lids_under(t, result, on_structure))
             big[self._on_deck(result, small[~big[small]], t, own)] = True
-        rest = np.flatnonzero(~big & ~carved)
-        if rest.size:
-            on_line, line_lids = self.structure.continues(t, [result.footprints[k] for k in rest])
-            candidates = np.flatnonzero(on_line)
-            if candidates.size and cfg.taller_margin_m >= 0:  # a boat's side standing above the wall is no wall
-                on_line[candidates] = ~self._above(result, rest[candidates], line_lids[candidates])
-            walls = rest[on_line]
-            if walls.size:  # remembered in turn, so a wall seen piece by piece is followed along its length
-                big[walls] = True
-                self._remember_structure(t, result, walls, own, line_lids[on_line])
-        rest = np.flatnonzero(~big & ~carved)
-        if rest.size:
-            at_end, end_lids = self.structure.wall_ends(t, [result.footprints[k] for k in rest], own)
-            candidates = np.flatnonzero(at_end)
-            if candidates.size and cfg.taller_margin_m >= 0:  # a boat's side standing above the wall is no wall
-                at_end[candidates] = ~self._above(result, rest[candidates], end_lids[candidates])
-            walls = rest[at_end]
-            if walls.size:
-                big[walls] = True
-                self._remember_structure(t, result, walls, own, end_lids[at_end])
+        # A thin piece continuing a remembered wall along its line, then one meeting a wall's end across it (a
+        # quay's end face): each found wall is remembered in turn, so a wall seen piece by piece is followed.
+        for wall_rule in (self.structure.continues, self.structure.wall_ends):
+            rest = np.flatnonzero(~big & ~carved)
+            if rest.size:
+                walls, wall_lids = wall_rule(t, [result.footprints[k] for k in rest], own)
+                candidates = np.flatnonzero(walls)
+                if candidates.size and cfg.taller_margin_m >= 0:  # a boat's side standing above the wall is no wall
+                    walls[candidates] = ~self._above(result, rest[candidates], wall_lids[candidates])
+                if walls.any():
+                    big[rest[walls]] = True
+                    self._remember_structure(t, result, rest[walls], own, wall_lids[walls])
         rest = np.flatnonzero(~big & ~carved)
         if cfg.run_min_pieces > 0 and rest.size >= cfg.run_min_pieces:  # a wall in pieces the memory did not place
             runs = collinear_runs(

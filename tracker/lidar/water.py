@@ -70,9 +70,10 @@ class WaterEstimate:
         high and swallows a low hull there. Where the plane falls away it is followed: the lower floor only lets
         more returns count as solid."""
         rise = self.slope_x * x + self.slope_y * y
-        r = np.hypot(x, y)
-        beyond = (rise > 0.0) & (r > self.reach)
-        rise = np.where(beyond, rise * (self.reach / np.where(beyond, r, 1.0)), rise)
+        r2 = x * x + y * y
+        beyond = (rise > 0.0) & (r2 > self.reach * self.reach)
+        if beyond.any():  # a square root only for those few, on the 10 Hz path
+            rise[beyond] *= self.reach / np.sqrt(r2[beyond])
         return self.offset + rise
 
 
