@@ -768,17 +768,18 @@ def test_a_thin_line_of_one_beam_shorter_than_structure_is_no_vessel_even_while_
 
 
 def _buoy_off_an_anchored_boats_stern(split_small_max_m: float) -> tuple[list[Track], SyntheticObject, int]:
-    """An 8 x 3 m boat at anchor broadside 30 m east, and a 1.5 m round buoy 0.85 m off its stern. For 6 s the boat's
-    after 2 m return nothing (a dark stern), so the two lie 3 m apart and are tracked apart; then the whole hull
-    comes back, and the 1.1 m between their returns, under the clustering's 1.55 m reach at 30 m, joins them in one
-    cluster for 4 s. The confirmed tracks at the end, the buoy, and how many detections were split."""
+    """An 8 x 3 m boat at anchor broadside 30 m east, and a 1.5 m round buoy 0.6 m off its stern. For 6 s the boat's
+    after 2 m return nothing (a dark stern), so the two lie 2.6 m apart and are tracked apart; then the whole hull
+    comes back, and the gap between their returns, under the clustering's 1.13 m reach across the line of sight at
+    30 m, joins them in one cluster for 4 s. The confirmed tracks at the end, the buoy, and how many detections were
+    split."""
     config = LidarTrackerConfig()
     config.association.split_small_max_m = split_small_max_m
     tracker = LidarTracker(config)
     rng = np.random.default_rng(7)
     lit = SyntheticObject((1.0, 30.0), 0.0, 6.0, 3.0, 1.5, ShapeKind.BOX)
     whole = SyntheticObject((0.0, 30.0), 0.0, 8.0, 3.0, 1.5, ShapeKind.BOX)
-    buoy = SyntheticObject((-5.6, 29.5), 0.0, 1.5, 1.5, 1.0, ShapeKind.ELLIPSE)
+    buoy = SyntheticObject((-5.35, 29.5), 0.0, 1.5, 1.5, 1.0, ShapeKind.ELLIPSE)
     tracks: list[Track] = []
     for k in range(100):
         t = k * DT
@@ -841,3 +842,38 @@ def test_bow_and_stern_9_m_apart_are_one_vessel_at_the_default_gap() -> None:
     default = AssociationConfig().duplicate_in_line_gap_m
     assert _bow_and_stern_under_way(default, 4.0, apart_m=15.0) == [1] * 40
     assert _bow_and_stern_under_way(8.0, 4.0, apart_m=15.0) == [2] * 40
+
+
+def _moored_boat_joined_by_a_neighbour(settled_cut_margin_m: float) -> tuple[list[int], list[float]]:
+    """A 14 x 4.5 m boat moored broadside 40 m north, tracked alone for 3 s; then a 10 m boat lies 0.6 m off its
+    stern (come out of a shadow), closer than the clustering's reach there: one cluster 24.6 m long from then on.
+    Per scan from 3 s: the ids of the confirmed tracks on the first boat, and their lengths."""
+    boat = SyntheticObject((40.0, 0.0), math.pi / 2, 14.0, 4.5, 2.0, ShapeKind.BOX)
+    neighbour = SyntheticObject((40.0, 12.6), math.pi / 2, 10.0, 3.5, 2.0, ShapeKind.BOX)
+    config = LidarTrackerConfig()
+    config.structure.settled_cut_margin_m = settled_cut_margin_m
+    tracker = LidarTracker(config)
+    ids: list[int] = []
+    lengths: list[float] = []
+    for k in range(60):
+        t = k * DT
+        objects = [boat, neighbour] if t >= 3.0 else [boat]
+        tracks = tracker.step(scan_objects(objects, ORIGIN), t, ORIGIN, 0.0)
+        if t >= 3.0:
+            on_boat = [tr for tr in tracks if tr.confirmed and abs(tr.position[1]) < 3.0]
+            ids += [tr.id for tr in on_boat]
+            lengths += [tr.length for tr in on_boat]
+    return ids, lengths
+
+
+def test_a_still_boat_joined_by_a_neighbour_keeps_its_track_and_its_length() -> None:
+    """Cut out of the joined cluster by its predicted box, the boat keeps one track at its length for 3 s."""
+    ids, lengths = _moored_boat_joined_by_a_neighbour(0.25)
+    assert len(ids) == 30 and len(set(ids)) == 1
+    assert np.allclose(lengths, 14.0, atol=0.5)
+
+
+def test_without_the_cut_the_joined_boat_becomes_quay() -> None:
+    """Its track takes the joined cluster's 24.6 m, and the static rule ends it as structure."""
+    ids, _ = _moored_boat_joined_by_a_neighbour(-1.0)
+    assert len(ids) < 15

@@ -2,8 +2,11 @@
 
 Two returns are neighbours when their horizontal distance is within a tolerance that grows with range, because the
 VLP-16's beams fan out: a hull at 60 m is sampled every ~2 m vertically where at 5 m it is every 0.2 m. A fixed
-tolerance either merges nearby boats or shatters distant ones. Clusters are the connected components of the
-neighbour graph. Work is 2-D (north, east); z rides along for height.
+tolerance either merges nearby boats or shatters distant ones. That spread lies along the line of sight (rings
+meeting a sloped or oblique face at different ranges); across it one hull's returns are an azimuth step apart, 0.2 deg
+at 10 Hz, so the tolerance there grows more slowly (``across_per_metre``) and the neighbour test is an ellipse: two
+boats moored end to end 85 m off, 2.7 m apart across the line of sight, stay two. Clusters are the connected
+components of the neighbour graph. Work is 2-D (north, east); z rides along for height.
 
 For speed, returns are pooled twice. First into small fixed grid cells (``grid_cell``): a vertical hull stacks all
 16 rings onto the same horizontal spot, so a cell often holds dozens of returns, and the cell centroids are the
@@ -19,7 +22,7 @@ mostly downwards: two hulls at 60 m (tolerance 2.6 m) now stay apart from a gap 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -110,8 +113,25 @@ def shadows(
 
 
 def range_tolerance(range_m: np.ndarray, config: ClusterConfig) -> np.ndarray:
-    """Neighbour distance tolerance at a given horizontal range, m."""
+    """Neighbour distance tolerance along the line of sight at a given horizontal range, m (the larger one)."""
     return np.minimum(config.base_tolerance + config.tolerance_per_metre * range_m, config.max_tolerance)
+
+
+def across_tolerance(range_m: np.ndarray, config: ClusterConfig) -> np.ndarray:
+    """Neighbour distance tolerance across the line of sight at a given horizontal range, m."""
+    return np.minimum(config.base_tolerance + config.across_per_metre * range_m, range_tolerance(range_m, config))
+
+
+def neighbours(
+    dx: np.ndarray, dy: np.ndarray, mid_x: np.ndarray, mid_y: np.ndarray, range_m: np.ndarray, config: ClusterConfig
+) -> np.ndarray:
+    """Whether the separations (dx, dy) of pairs (north, east, m) are within the tolerance at range ``range_m``: an
+    ellipse, the radial tolerance along the line of sight to the pair's midpoint (mid_x, mid_y from the own boat)
+    and the across tolerance across it."""
+    sight = np.maximum(np.hypot(mid_x, mid_y), 1e-9)
+    along = (dx * mid_x + dy * mid_y) / sight
+    across = (dx * mid_y - dy * mid_x) / sight
+    return (along / range_tolerance(range_m, config)) ** 2 + (across / across_tolerance(range_m, config)) ** 2 <= 1.0
 
 
 _LINK_BAND_RATIO = 1.5  # tolerance growth across one band of link cells
@@ -178,8 +198,9 @@ def link_cells(cell_xy: np.ndarray, cell_weight: np.ndarray, own: np.ndarray, cf
     links = pool_link_cells(cell_xy, cell_weight, own, cfg)
     lx, ly, link_range = links.x, links.y, links.range_m
     a, c = candidate_pairs(links, cfg)
-    d = np.hypot(np.take(lx, a) - np.take(lx, c), np.take(ly, a) - np.take(ly, c))
-    ok = d <= range_tolerance(0.5 * (np.take(link_range, a) + np.take(link_range, c)), cfg)
+    ax, ay, cx, cy = np.take(lx, a), np.take(ly, a), np.take(lx, c), np.take(ly, c)
+    pair_range = 0.5 * (np.take(link_range, a) + np.take(link_range, c))
+    ok = neighbours(ax - cx, ay - cy, 0.5 * (ax + cx) - own[0], 0.5 * (ay + cy) - own[1], pair_range, cfg)
     _, link_label = connected_components(_pair_graph(a[ok], c[ok], lx.size), directed=False)
     return link_label[links.of_cell]
 
@@ -329,4 +350,53 @@ def cluster_points(
         centre[candidates],
         span_lo[candidates],
         span_hi[candidates],
+    )
+
+
+def reordered_nearest_first(
+    result: ClusterResult,
+    clusters: list[np.ndarray],
+    footprints: list[np.ndarray],
+    oversized: np.ndarray,
+    labels: np.ndarray,
+    own: np.ndarray,
+    changed: list[int],
+    carved: np.ndarray,
+) -> ClusterResult:
+    """The ``changed`` clusters' ranges, extents and bearing spans recomputed (a handful a scan), all sorted nearest
+    first."""
+    n = len(clusters)
+    pad = n - len(result.clusters)
+    nearest = np.concatenate([result.min_range, np.zeros(pad)])
+    extent = np.concatenate([result.extent, np.zeros(pad)])
+    spans = [
+        np.concatenate([b if b is not None else np.zeros(len(result.clusters)), np.zeros(pad)])
+        for b in (result.bearing, result.bearing_lo, result.bearing_hi)
+    ]
+    centre, lo, hi = spans
+    for k in changed:
+        c = clusters[k]
+        dn, de = c[:, 0] - own[0], c[:, 1] - own[1]
+        nearest[k] = float(np.sqrt(np.min(dn * dn + de * de)))
+        extent[k] = float(np.hypot(np.ptp(c[:, 0]), np.ptp(c[:, 1])))
+        centre[k] = float(np.arctan2(de.sum(), dn.sum()))
+        off = np.arctan2(de, dn) - centre[k]
+        off -= (2.0 * np.pi) * np.floor((off + np.pi) * (0.5 / np.pi))
+        lo[k], hi[k] = float(off.min()), float(off.max())
+    order = np.argsort(nearest, kind="stable")
+    rank = np.empty(n, dtype=np.int64)
+    rank[order] = np.arange(n)
+    new_labels = np.where(labels >= 0, rank[np.maximum(labels, 0)], -1)
+    return replace(
+        result,
+        clusters=[clusters[k] for k in order],
+        footprints=[footprints[k] for k in order],
+        min_range=nearest[order],
+        oversized=oversized[order],
+        extent=extent[order],
+        labels=new_labels,
+        bearing=centre[order],
+        bearing_lo=lo[order],
+        bearing_hi=hi[order],
+        carved=carved[order],
     )

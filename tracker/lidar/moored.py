@@ -33,11 +33,11 @@ against the main face alone: MOTA 0.9381 -> 0.9393, worst scene 0.601 -> 0.608, 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from tracker.lidar.clustering import ClusterResult
+from tracker.lidar.clustering import ClusterResult, reordered_nearest_first
 
 FACE_HALF_WIDTH_M = 0.5  # m each side of the face line: a wall's face with the VLP-16's range noise
 COARSE_CELLS = 256  # cells the coarse direction search looks at (evenly strided)
@@ -248,55 +248,8 @@ def carve_moored_hulls(
     carved = np.arange(len(clusters)) >= first_new
     if result.carved is not None:
         carved[:first_new] |= result.carved
-    return _nearest_first(result, clusters, footprints, np.array(oversized, dtype=bool), labels, own, changed, carved)
-
-
-def _nearest_first(
-    result: ClusterResult,
-    clusters: list[np.ndarray],
-    footprints: list[np.ndarray],
-    oversized: np.ndarray,
-    labels: np.ndarray,
-    own: np.ndarray,
-    changed: list[int],
-    carved: np.ndarray,
-) -> ClusterResult:
-    """The ``changed`` clusters' ranges, extents and bearing spans recomputed (a handful a scan), all sorted nearest
-    first."""
-    n = len(clusters)
-    pad = n - len(result.clusters)
-    nearest = np.concatenate([result.min_range, np.zeros(pad)])
-    extent = np.concatenate([result.extent, np.zeros(pad)])
-    spans = [
-        np.concatenate([b if b is not None else np.zeros(len(result.clusters)), np.zeros(pad)])
-        for b in (result.bearing, result.bearing_lo, result.bearing_hi)
-    ]
-    centre, lo, hi = spans
-    for k in changed:
-        c = clusters[k]
-        dn, de = c[:, 0] - own[0], c[:, 1] - own[1]
-        nearest[k] = float(np.sqrt(np.min(dn * dn + de * de)))
-        extent[k] = float(np.hypot(np.ptp(c[:, 0]), np.ptp(c[:, 1])))
-        centre[k] = float(np.arctan2(de.sum(), dn.sum()))
-        off = np.arctan2(de, dn) - centre[k]
-        off -= (2.0 * np.pi) * np.floor((off + np.pi) * (0.5 / np.pi))
-        lo[k], hi[k] = float(off.min()), float(off.max())
-    order = np.argsort(nearest, kind="stable")
-    rank = np.empty(n, dtype=np.int64)
-    rank[order] = np.arange(n)
-    new_labels = np.where(labels >= 0, rank[np.maximum(labels, 0)], -1)
-    return replace(
-        result,
-        clusters=[clusters[k] for k in order],
-        footprints=[footprints[k] for k in order],
-        min_range=nearest[order],
-        oversized=oversized[order],
-        extent=extent[order],
-        labels=new_labels,
-        bearing=centre[order],
-        bearing_lo=lo[order],
-        bearing_hi=hi[order],
-        carved=carved[order],
+    return reordered_nearest_first(
+        result, clusters, footprints, np.array(oversized, dtype=bool), labels, own, changed, carved
     )
 
 

@@ -34,6 +34,7 @@ from tracker.lidar.ekf import (
 )
 from tracker.lidar.level_returns import LevelRule, horizontal_tops
 from tracker.lidar.moored import carve_moored_hulls
+from tracker.lidar.settled import cut_settled_hulls
 from tracker.lidar.shape_fit import (
     DegenerateClusterError,
     ShapeFit,
@@ -87,6 +88,7 @@ class LidarTracker:
             "duplicates": 0,
             "reacquired": 0,
             "split_detections": 0,
+            "settled_cuts": 0,
         }
         self._cluster_result: ClusterResult | None = None
         self._detection_clusters: list[list[int]] = []  # cluster indices behind each detection
@@ -128,6 +130,18 @@ class LidarTracker:
             self.config.cluster.grid_cell,
             s.moored_min_extent_m,
         )
+        if s.settled_cut_margin_m >= 0 and self._lives:
+            cut = cut_settled_hulls(
+                result,
+                points_world,
+                own,
+                self._settled_boxes(),
+                s.settled_cut_margin_m,
+                s.static_min_length_m,
+                self.config.cluster.min_points,
+            )
+            self.stats["settled_cuts"] += len(cut.clusters) - len(result.clusters)
+            result = cut
         self._cluster_result = result
         self.last_clusters = result.clusters
         self.last_cluster_track = [None] * len(result.clusters)
@@ -732,6 +746,24 @@ class LidarTracker:
                         t, self._cluster_result, ks, own, self._lids_under(t, self._cluster_result, ks)
                     )
         return out
+
+    def _settled_boxes(self) -> np.ndarray:
+        """(B, 5) predicted boxes (north, east, heading, length, width) of the confirmed tracks lying still
+        (``static_max_speed_mps``) for ``static_min_age_s``, at least ``settled_cut_min_length_m`` and less than
+        ``static_min_length_m`` long: vessels whose hull does not grow (tracker.lidar.settled)."""
+        cfg = self.config.structure
+        x = self.bank.states()
+        still = (
+            ~self._structure_sized(x)
+            & (np.maximum(x[:, LEN], x[:, WID]) >= cfg.settled_cut_min_length_m)
+            & (np.hypot(x[:, VN], x[:, VE]) <= cfg.static_max_speed_mps)
+        )
+        settled = [
+            i
+            for i in np.flatnonzero(still).tolist()
+            if self._lives[i].confirmed and self._lives[i].age >= cfg.static_min_age_s
+        ]
+        return x[settled][:, [PN, PE, PSI, LEN, WID]]
 
     def _structure_sized(self, x: np.ndarray) -> np.ndarray:
         """(T,) bool for states ``x`` (T, DIM_X): at least ``static_min_length_m`` long or wide."""
