@@ -353,7 +353,50 @@ def cluster_points(
     )
 
 
-def reordered_nearest_first(
+def with_pieces(
+    result: ClusterResult,
+    points_world: np.ndarray,
+    own: np.ndarray,
+    kept: dict[int, tuple[np.ndarray, np.ndarray, bool]],
+    pieces: list[tuple[np.ndarray, np.ndarray]],
+    pieces_carved: bool,
+) -> ClusterResult:
+    """``result`` with pieces cut out of its clusters (tracker.lidar.moored, tracker.lidar.settled): each cluster k
+    of ``kept`` reduced to (indices into ``points_world`` of the returns it keeps, its footprint cells, oversized),
+    each piece (return indices, footprint cells) a cluster of its own, not oversized, carved as ``pieces_carved``
+    says. Clusters stay nearest first and ``labels`` follows them."""
+    if not kept:
+        return result
+    pts = np.asarray(points_world, dtype=float).reshape(-1, 3)
+    clusters, footprints = list(result.clusters), list(result.footprints)
+    oversized = np.asarray(result.oversized, dtype=bool).copy()
+    for k, (idx, cells, big) in kept.items():
+        clusters[k], footprints[k], oversized[k] = pts[idx], cells, big
+    first_new = len(result.clusters)
+    labels = result.labels.copy()
+    for j, (idx, cells) in enumerate(pieces):
+        labels[idx] = first_new + j
+        clusters.append(pts[idx])
+        footprints.append(cells)
+    carved = np.concatenate(
+        [
+            result.carved if result.carved is not None else np.zeros(first_new, dtype=bool),
+            np.full(len(pieces), pieces_carved),
+        ]
+    )
+    return _reordered_nearest_first(
+        result,
+        clusters,
+        footprints,
+        np.concatenate([oversized, np.zeros(len(pieces), dtype=bool)]),
+        labels,
+        own,
+        sorted(kept) + list(range(first_new, len(clusters))),
+        carved,
+    )
+
+
+def _reordered_nearest_first(
     result: ClusterResult,
     clusters: list[np.ndarray],
     footprints: list[np.ndarray],

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tracker.lidar.clustering import ClusterResult, reordered_nearest_first
+from tracker.lidar.clustering import ClusterResult, with_pieces
 
 FACE_HALF_WIDTH_M = 0.5  # m each side of the face line: a wall's face with the VLP-16's range noise
 COARSE_CELLS = 256  # cells the coarse direction search looks at (evenly strided)
@@ -202,16 +202,14 @@ def carve_moored_hulls(
     if big.size == 0:
         return result
     pts = np.asarray(points_world, dtype=float).reshape(-1, 3)
-    labels = result.labels.copy()
-    clusters, footprints = list(result.clusters), list(result.footprints)
-    oversized = list(result.oversized)
-    new_points: list[np.ndarray] = []
-    for k in big:
-        fp = footprints[k]
+    kept: dict[int, tuple[np.ndarray, np.ndarray, bool]] = {}
+    pieces: list[tuple[np.ndarray, np.ndarray]] = []
+    for k in big.tolist():
+        fp = result.footprints[k]
         groups = hull_cells(fp, own, min_offset_m, min_length_m, gap_m, face_min_share)
         if not groups:
             continue
-        members = np.flatnonzero(labels == k)
+        members = np.flatnonzero(result.labels == k)
         mean = fp.mean(axis=0)
         rel = pts[members, :2] - mean
         taken = np.zeros(members.size, dtype=bool)
@@ -232,25 +230,9 @@ def carve_moored_hulls(
             found.append((members[mine], fp[g]))
         if not found or taken.all():  # nothing carved, or nothing left of a "wall" that was hulls' sides
             continue
-        clusters[k] = pts[members[~taken]]
-        footprints[k] = fp[~taken_cells]
-        for idx, cells in found:
-            new_points.append(idx)
-            clusters.append(pts[idx])
-            footprints.append(cells)
-            oversized.append(False)
-    if not new_points:
-        return result
-    first_new = len(result.clusters)
-    for j, idx in enumerate(new_points):
-        labels[idx] = first_new + j
-    changed = sorted({int(k) for k in big} | set(range(first_new, len(clusters))))
-    carved = np.arange(len(clusters)) >= first_new
-    if result.carved is not None:
-        carved[:first_new] |= result.carved
-    return reordered_nearest_first(
-        result, clusters, footprints, np.array(oversized, dtype=bool), labels, own, changed, carved
-    )
+        kept[k] = (members[~taken], fp[~taken_cells], bool(result.oversized[k]))
+        pieces += found
+    return with_pieces(result, pts, own, kept, pieces, pieces_carved=True)
 
 
 def _densest_strip(rel: np.ndarray, angles: np.ndarray) -> tuple[float, float, int]:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tracker.lidar.clustering import ClusterResult, reordered_nearest_first
+from tracker.lidar.clustering import ClusterResult, with_pieces
 
 _MIN_CELLS = 3  # footprint cells on each side of a cut: the fits need three
 
@@ -55,18 +55,15 @@ def cut_settled_hulls(
         return result
     boxes = np.asarray(boxes, dtype=float).reshape(-1, 5)
     pts = np.asarray(points_world, dtype=float).reshape(-1, 3)
-    labels = result.labels.copy()
-    clusters, footprints = list(result.clusters), list(result.footprints)
-    oversized = list(result.oversized)
-    new_points: list[np.ndarray] = []
-    changed: list[int] = []
+    kept: dict[int, tuple[np.ndarray, np.ndarray, bool]] = {}
+    pieces: list[tuple[np.ndarray, np.ndarray]] = []
     for k in grown.tolist():  # few: clusters the size of a quay stretch
-        fp = footprints[k]
+        fp = result.footprints[k]
         cell_depth = box_depths(fp[:, :2], boxes, margin_m)
         cell_owner = _owners(cell_depth)
         if not (cell_owner >= 0).any():
             continue
-        members = np.flatnonzero(labels == k)
+        members = np.flatnonzero(result.labels == k)
         point_depth = box_depths(pts[members, :2], boxes, margin_m)
         point_owner = _owners(point_depth)
         owners = [
@@ -88,33 +85,9 @@ def cut_settled_hulls(
             rest_points[:] = False
         cuts = [(members[point_owner == o], fp[cell_owner == o]) for o in owners]
         if rest_points.any():
-            clusters[k] = pts[members[rest_points]]
-            footprints[k] = fp[rest_cells]
+            kept[k] = (members[rest_points], fp[rest_cells], bool(result.oversized[k]))
         else:  # the first hull takes the cluster's place
-            (idx, cells), cuts = cuts[0], cuts[1:]
-            clusters[k], footprints[k] = pts[idx], cells
-            oversized[k] = False
-        changed.append(k)
-        for idx, cells in cuts:
-            new_points.append(idx)
-            clusters.append(pts[idx])
-            footprints.append(cells)
-            oversized.append(False)
-    if not changed:
-        return result
-    first_new = len(result.clusters)
-    for j, idx in enumerate(new_points):
-        labels[idx] = first_new + j
-    carved = np.zeros(len(clusters), dtype=bool)
-    if result.carved is not None:
-        carved[:first_new] = result.carved
-    return reordered_nearest_first(
-        result,
-        clusters,
-        footprints,
-        np.array(oversized, dtype=bool),
-        labels,
-        own,
-        changed + list(range(first_new, len(clusters))),
-        carved,
-    )
+            kept[k] = (*cuts[0], False)
+            cuts = cuts[1:]
+        pieces += cuts
+    return with_pieces(result, pts, own, kept, pieces, pieces_carved=False)
