@@ -2,11 +2,8 @@
 
 Two returns are neighbours when their horizontal distance is within a tolerance that grows with range, because the
 VLP-16's beams fan out: a hull at 60 m is sampled every ~2 m vertically where at 5 m it is every 0.2 m. A fixed
-tolerance either merges nearby boats or shatters distant ones. That spread lies along the line of sight (rings
-meeting a sloped or oblique face at different ranges); across it one hull's returns are an azimuth step apart, 0.2 deg
-at 10 Hz, so the tolerance there grows more slowly (``across_per_metre``) and the neighbour test is an ellipse: two
-boats moored end to end 85 m off, 2.7 m apart across the line of sight, stay two. Clusters are the connected
-components of the neighbour graph. Work is 2-D (north, east); z rides along for height.
+tolerance either merges nearby boats or shatters distant ones. Clusters are the connected components of the
+neighbour graph. Work is 2-D (north, east); z rides along for height.
 
 For speed, returns are pooled twice. First into small fixed grid cells (``grid_cell``): a vertical hull stacks all
 16 rings onto the same horizontal spot, so a cell often holds dozens of returns, and the cell centroids are the
@@ -113,25 +110,8 @@ def shadows(
 
 
 def range_tolerance(range_m: np.ndarray, config: ClusterConfig) -> np.ndarray:
-    """Neighbour distance tolerance along the line of sight at a given horizontal range, m (the larger one)."""
+    """Neighbour distance tolerance at a given horizontal range, m."""
     return np.minimum(config.base_tolerance + config.tolerance_per_metre * range_m, config.max_tolerance)
-
-
-def across_tolerance(range_m: np.ndarray, config: ClusterConfig) -> np.ndarray:
-    """Neighbour distance tolerance across the line of sight at a given horizontal range, m."""
-    return np.minimum(config.base_tolerance + config.across_per_metre * range_m, range_tolerance(range_m, config))
-
-
-def neighbours(
-    dx: np.ndarray, dy: np.ndarray, mid_x: np.ndarray, mid_y: np.ndarray, range_m: np.ndarray, config: ClusterConfig
-) -> np.ndarray:
-    """Whether the separations (dx, dy) of pairs (north, east, m) are within the tolerance at range ``range_m``: an
-    ellipse, the radial tolerance along the line of sight to the pair's midpoint (mid_x, mid_y from the own boat)
-    and the across tolerance across it."""
-    sight = np.maximum(np.hypot(mid_x, mid_y), 1e-9)
-    along = (dx * mid_x + dy * mid_y) / sight
-    across = (dx * mid_y - dy * mid_x) / sight
-    return (along / range_tolerance(range_m, config)) ** 2 + (across / across_tolerance(range_m, config)) ** 2 <= 1.0
 
 
 _LINK_BAND_RATIO = 1.5  # tolerance growth across one band of link cells
@@ -198,9 +178,8 @@ def link_cells(cell_xy: np.ndarray, cell_weight: np.ndarray, own: np.ndarray, cf
     links = pool_link_cells(cell_xy, cell_weight, own, cfg)
     lx, ly, link_range = links.x, links.y, links.range_m
     a, c = candidate_pairs(links, cfg)
-    ax, ay, cx, cy = np.take(lx, a), np.take(ly, a), np.take(lx, c), np.take(ly, c)
-    pair_range = 0.5 * (np.take(link_range, a) + np.take(link_range, c))
-    ok = neighbours(ax - cx, ay - cy, 0.5 * (ax + cx) - own[0], 0.5 * (ay + cy) - own[1], pair_range, cfg)
+    d = np.hypot(np.take(lx, a) - np.take(lx, c), np.take(ly, a) - np.take(ly, c))
+    ok = d <= range_tolerance(0.5 * (np.take(link_range, a) + np.take(link_range, c)), cfg)
     _, link_label = connected_components(_pair_graph(a[ok], c[ok], lx.size), directed=False)
     return link_label[links.of_cell]
 

@@ -230,23 +230,13 @@ class PreprocessConfig:
 class ClusterConfig:
     """Sec. 2.1 "modified Euclidean clustering": a distance tolerance that grows with range (numbers are ours).
 
-    tolerance(r) = base_tolerance + tolerance_per_metre * r along the line of sight, base_tolerance +
-    across_per_metre * r across it (never more than along). The VLP-16's beams are 2 deg apart vertically and 0.2 deg
-    horizontally at 10 Hz: neighbouring returns on one hull drift apart roughly as r * tan(2 deg) = 0.035 r in range,
-    where the rings meet a sloped or oblique face, and an azimuth step apart across.
+    tolerance(r) = base_tolerance + tolerance_per_metre * r. The VLP-16's beams are 2 deg apart vertically and
+    0.2 deg horizontally at 10 Hz: neighbouring returns on one hull drift apart roughly as r * tan(2 deg) = 0.035 r.
     """
 
     base_tolerance: float = 0.5  # m at zero range
     tolerance_per_metre: float = 0.035  # m per m of range: tan(2 deg), the VLP-16's ring spacing
     max_tolerance: float = 3.0  # m, so two boats moored 3 m apart at 100 m stay two objects
-    # Across the line of sight the returns of one hull lie an azimuth step apart (0.2 deg at 10 Hz), not a ring
-    # spacing: the tolerance there grows as base_tolerance + across_per_metre * r (never beyond the radial one).
-    # tan(1.2 deg), six azimuth steps, ours: on tuning seed 27 two boats moored end to end 80-90 m off, 1.9 m apart,
-    # were one 27 m "quay" under the radial 3 m (the seed's MOTA 0.779 -> 0.875). Tuning seeds 1-100 (fused) against
-    # tolerance_per_metre (a circle): MOTA 0.96127 -> 0.96274; tan(0.8 deg) shattered hulls (0.96141, 41 scenes
-    # worse). Held out (random:1001-1050, fused) alone: MOTA 0.94728 -> 0.94524, worst 0.633 -> 0.670; with
-    # StructureConfig.settled_cut_* (which needs it): 0.94704, worst 0.715, IDF1 0.939 -> 0.947.
-    across_per_metre: float = 0.021
     grid_cell: float = 0.15  # m, 2-D cells that stand in for their points in the neighbour search (speed)
     min_points: int = 3  # smaller clusters are noise (the fits need 3 points)
     max_clusters: int = 64  # per scan, the nearest kept: a cap on the cycle's cost in a cluttered harbour
@@ -263,7 +253,7 @@ class ClusterConfig:
         positive(
             self, "base_tolerance", "max_tolerance", "grid_cell", "max_clusters", "max_extent", "occluder_min_points"
         )
-        positive(self, "tolerance_per_metre", "across_per_metre", "occlusion_margin", allow_zero=True)
+        positive(self, "tolerance_per_metre", "occlusion_margin", allow_zero=True)
         if self.min_points < 1:
             raise ConfigError(f"ClusterConfig.min_points: must be >= 1, got {self.min_points}")
         if self.grid_cell >= self.base_tolerance:
