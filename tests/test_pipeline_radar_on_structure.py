@@ -30,14 +30,19 @@ def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def run(
-    radar_north_east: tuple[float, float], gate_m: float = 3.0, then: Track | None = None
+    radar_north_east: tuple[float, float], gate_m: float = 3.0, then: Track | None = None, behind: bool = True
 ) -> tuple[np.ndarray, list[str]]:
     """Three revolutions with one radar track at ``radar_north_east``; with ``then``, a fourth with that track."""
     config = Config()
     config.lidar.mount.z = MOUNT.z
     pipeline = pipeline_for(config)
     pipeline.settings = type(pipeline.settings)(
-        **{**pipeline.settings.__dict__, "lidar_mount": MOUNT, "radar_on_structure_gate_m": gate_m}
+        **{
+            **pipeline.settings.__dict__,
+            "lidar_mount": MOUNT,
+            "radar_on_structure_gate_m": gate_m,
+            "radar_behind_structure": behind,
+        }
     )
     pipeline.radar_tracker = FixedRadarTracks([radar_track(*radar_north_east)])
     ego = SteadyEgo(level, 0.0)
@@ -63,6 +68,18 @@ def test_a_radar_track_against_the_quay_is_an_obstacle_and_no_vessel() -> None:
 
 def test_a_radar_track_in_open_water_in_the_gap_is_still_a_vessel() -> None:
     _, sources = run((-40.0, 0.0))  # astern, 40 m: nothing the LiDAR saw is within 80 m of it
+    assert sources == ["radar"]
+
+
+def test_a_radar_track_behind_the_quay_is_a_ghost_and_no_vessel() -> None:
+    # 13 m behind the face (42 m north), 10 m beyond the gate: the quay's mirror image of a hull, which the radar,
+    # below the quay's top, could not see directly. Its line of sight crosses the remembered face.
+    _, sources = run((55.0, 10.0))
+    assert sources == []
+    _, sources = run((55.0, 10.0), behind=False)
+    assert sources == ["radar"]
+    # Past the quay's end (its line of sight crosses the face's line 9 m beyond the end): a vessel.
+    _, sources = run((50.0, 55.0))
     assert sources == ["radar"]
 
 

@@ -128,6 +128,9 @@ class FixedLidarTracks:
     def on_structure(self, t: float, points_ne: np.ndarray, radius_m: float) -> np.ndarray:
         return np.zeros(len(points_ne), dtype=bool)  # no quay in these scenes
 
+    def behind_structure(self, t: float, points_ne: np.ndarray, sensor_ne: np.ndarray) -> np.ndarray:
+        return np.zeros(len(points_ne), dtype=bool)
+
 
 def test_a_boat_stays_an_obstacle_when_the_lidar_goes_silent() -> None:
     lidar_track = Track(7, 0.0, np.array([30.0, 0.0]), np.zeros(2), 0.0, 0.0, 2.0, 2.0, 1.0, confirmed=True)

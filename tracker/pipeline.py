@@ -136,6 +136,11 @@ class PipelineSettings:
     # Negative turns it off. Ours, the LiDAR fusion gate's 3 m; held out (random:1001-1050, fused) against off: MOTA
     # 0.798 -> 0.810, false track-frames 10.5 -> 8.7 % of matches, 16 scenes better and none worse; bins unchanged.
     radar_on_structure_gate_m: float = 3.0
+    # A radar track no LiDAR track holds, seen through structure the LiDAR saw (its line of sight from the boat crosses
+    # a remembered quay), is a ghost: the chirps of a hull reflected off the quay face come back from behind it, and
+    # the radar, mounted below the quay's top, cannot see a hull there. Treated as on structure (an outline, no
+    # vessel). Ours (tuning seeds 85, 75: radar-only "vessels" 12-16 m behind a quay face).
+    radar_behind_structure: bool = True
     # While the LiDAR delivers, a radar-only track younger than this (s), or whose motion the discriminator has not
     # yet settled (velocity NaN: state "wait"), keeps its outline in the obstacle array but is not sent as a vessel:
     # clutter that happens to confirm is gone within a second, a hull in the LiDAR's gap stays. Negative or 0 turns
@@ -468,6 +473,8 @@ class PerceptionPipeline:
                 # carved for a moored hull or not yet refreshed. A boat leaving a quay is the LiDAR's to report.
                 # Tuning seeds 45-68, fused: MOTA 0.9569 -> 0.9573 (50 and 60 better, none worse), bins unchanged.
                 on = self.lidar_tracker.on_structure(t, world, s.radar_on_structure_gate_m)
+                if s.radar_behind_structure:
+                    on |= self.lidar_tracker.behind_structure(t, world, own[0][:2])
                 self._radar_on_structure &= {tr.id for tr in self._radar_tracks}
                 self._radar_on_structure |= {tr.id for tr, q in zip(alone, on, strict=True) if q}
                 no_vessel |= np.array([tr.id in self._radar_on_structure for tr in alone])

@@ -920,6 +920,15 @@ class LidarTracker:
         (north, east) point, as remembered at ``t``."""
         return self.structure.near(t, points_ne, radius_m)
 
+    def behind_structure(self, t: float, points_ne: np.ndarray, sensor_ne: np.ndarray) -> np.ndarray:
+        """(n,) bool: the line of sight from ``sensor_ne`` to each world (north, east) point crosses structure the
+        LiDAR saw (its own cell left out), as remembered at ``t``."""
+        pts = np.asarray(points_ne, dtype=float).reshape(-1, 2)
+        if not len(pts):
+            return np.zeros(0, dtype=bool)
+        depth = float(np.hypot(*(pts - np.asarray(sensor_ne, dtype=float)[:2]).T).max())
+        return np.isfinite(self.structure.lid_in_front(t, pts, sensor_ne, depth))
+
     def tracks(self) -> list[Track]:
         """Every live track, from the bank's states and covariances stacked once (not read filter by filter)."""
         if not self._lives:
