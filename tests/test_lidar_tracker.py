@@ -770,9 +770,8 @@ def test_a_thin_line_of_one_beam_shorter_than_structure_is_no_vessel_even_while_
 def _buoy_off_an_anchored_boats_stern(split_small_max_m: float) -> tuple[list[Track], SyntheticObject, int]:
     """An 8 x 3 m boat at anchor broadside 30 m east, and a 1.5 m round buoy 0.6 m off its stern. For 6 s the boat's
     after 2 m return nothing (a dark stern), so the two lie 2.6 m apart and are tracked apart; then the whole hull
-    comes back, and the gap between their returns, under the clustering's 1.13 m reach across the line of sight at
-    30 m, joins them in one cluster for 4 s. The confirmed tracks at the end, the buoy, and how many detections were
-    split."""
+    comes back, and the gap between their returns, under the clustering's 1.55 m reach at 30 m, joins them in one
+    cluster for 4 s. The confirmed tracks at the end, the buoy, and how many detections were split."""
     config = LidarTrackerConfig()
     config.association.split_small_max_m = split_small_max_m
     tracker = LidarTracker(config)
