@@ -581,6 +581,32 @@ def test_two_boats_at_anchor_that_come_into_line_as_the_own_boat_moves_stay_two(
     assert len([tr for tr in off[-1] if tr.confirmed]) == 1
 
 
+def test_a_boat_at_anchor_in_anothers_shadow_from_the_start_gets_a_track_after_5_s() -> None:
+    """The two boats of the test above, the own boat still at the origin from the start: the far boat's cabin lies
+    10 m beyond the near hull's centre on its line of sight from the first scan, and every track started on it
+    ended in the near hull's shadow before it could grow old. A place that keeps starting tracks ended that way for
+    duplicate_shadow_settled_s is a boat of its own: the far boat is tracked, confirmed and under one id, from 6 s
+    on, and the near boat keeps its track. Before, the far boat had no confirmed track in 20 s."""
+    tracker = LidarTracker()
+    rng = np.random.default_rng(11)
+    far_ids: set[int] = set()
+    near_ids: set[int] = set()
+    for k in range(200):
+        t = k * DT
+        cabin = np.column_stack([rng.uniform(38.5, 41.5, 40), rng.uniform(-1.0, 1.0, 40), rng.uniform(-2.2, -1.2, 40)])
+        pts = np.concatenate([scan_objects([ANCHORED_NEAR], ORIGIN, range_noise=0.02, rng=rng), cabin])
+        tracks = tracker.step(pts, t, ORIGIN, 0.0)
+        on_far = [tr for tr in tracks if tr.confirmed and np.hypot(*(tr.position - ANCHORED_FAR_CABIN)) < 2.0]
+        on_near = near(tracks, ANCHORED_NEAR, 1.0)
+        if t >= 1.0:
+            assert len(on_near) == 1, f"t = {t:.1f} s"
+            near_ids.add(on_near[0].id)
+        if t >= 6.0:
+            assert len(on_far) == 1, f"t = {t:.1f} s"
+            far_ids.add(on_far[0].id)
+    assert len(near_ids) == 1 and len(far_ids) == 1
+
+
 def test_an_old_piece_that_drifts_into_an_old_hulls_footprint_still_goes() -> None:
     """A 10 x 3 m boat broadside 30 m north (only its near face at 28.5 m returns) and, from 1.5 s, a clump of
     returns 1 m up at 31 m north, 9 m east: off the hull's end and out of its shadow, a track of its own. From 8 s

@@ -60,6 +60,11 @@ _SPLIT_BOX_GROW_M = 0.3
 _SPLIT_MIN_CELLS = 5
 _SPLIT_MIN_GAP_M = 0.5
 _MIN_HALF_M = 0.1  # m; a box's half-size below this is taken as this, so a degenerate box has a depth scale
+# A track ended in another's shadow (duplicate_shadow_m) whose place keeps starting tracks, each ended the same
+# way at most _SHADOW_BIRTH_GAP_S after the last, within _SHADOW_BIRTH_RADIUS_M of it, for duplicate_shadow_settled_s
+# is a hull of its own lying there, not a piece of the other (LidarTracker._note_shadow_births).
+_SHADOW_BIRTH_GAP_S = 1.0
+_SHADOW_BIRTH_RADIUS_M = 1.5
 _IN_LINE_MAX_SPEED_DIFF = 0.5  # m/s: two pieces of one hull in line (duplicate_in_line_gap_m) move as one
 
 log = logging.getLogger(__name__)
@@ -96,6 +101,8 @@ class LidarTracker:
         self._level_rule = LevelRule(min_range_span_m=self.config.structure.level_min_range_span_m)
         self.last_structure = np.zeros(0, dtype=bool)  # per cluster of the last scan: structure, not a vessel
         self._long_hulls: set[int] = set()  # ids of tracks that lost an in-line piece of their hull (_duplicates)
+        # places where tracks ended in another's shadow: north, east, first and last time (_duplicates)
+        self._shadow_births = np.zeros((0, 4))
 
     # -- detection ---------------------------------------------------------------------------------------------
 
@@ -781,7 +788,9 @@ class LidarTracker:
         detections between them and both live on as two "vessels" in one place. Either can come first: a piece of
         a far hull (its end, its cabin) is often tracked before the whole hull comes back around it. A piece is
         caught within seconds of its birth, so two tracks both older than ``duplicate_shadow_settled_s`` are no
-        pair by the shadow or the touch alone (two boats at anchor that the own boat's motion brings into line)."""
+        pair by the shadow or the touch alone (two boats at anchor that the own boat's motion brings into line).
+        Where tracks started at one place have kept ending in an old track's shadow for that long, the next one
+        there counts as old for the shadow test: a boat at anchor beyond another."""
         cfg = self.config.association
         n = len(self._lives)
         if cfg.duplicate_margin < 0 or n < 2:
@@ -795,7 +804,6 @@ class LidarTracker:
         across = np.abs(rel[..., 1] * c - rel[..., 0] * s)
         beside = across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin  # within the host's beam, plus the margin
         inside = (along <= 0.5 * x[:, [LEN]] + cfg.duplicate_margin) & beside
-        overlap = inside | inside.T
         velocity = x[:, [VN, VE]]
         speed = np.hypot(velocity[:, 0], velocity[:, 1])
         moving = known & (speed >= cfg.duplicate_end_min_speed_mps)
@@ -803,6 +811,7 @@ class LidarTracker:
         half = 0.5 * np.maximum(x[:, LEN], x[:, WID])
         old = np.array([life.age >= cfg.duplicate_shadow_settled_s for life in self._lives])
         settled = old[:, None] & old[None, :] if cfg.duplicate_shadow_settled_s > 0 else np.zeros((n, n), dtype=bool)
+        overlap = inside | inside.T
         if cfg.duplicate_piece_max_half_m > 0:  # a piece whose footprint touches the host's, its centre outside
             touch = (along <= 0.5 * x[:, [LEN]] + half[None, :] + cfg.duplicate_margin) & (
                 across <= 0.5 * x[:, [WID]] + half[None, :] + cfg.duplicate_margin
@@ -829,9 +838,17 @@ class LidarTracker:
             self._long_hulls &= {life.id for life in self._lives}
             long_hull = np.array([life.id in self._long_hulls for life in self._lives])
             overlap |= piece | (in_line & long_hull[:, None] & ~known[None, :])
+        by_other = overlap.copy()
+        shadow = np.zeros((n, n), dtype=bool)
         if cfg.duplicate_shadow_m > 0:
             centres = x[:, [PN, PE]]
             shadow = in_shadow(centres, half, centres, own, cfg.duplicate_shadow_m, cfg.duplicate_margin)
+            # A boat at anchor beyond another, where every new track ended in the other's shadow at once, never grew
+            # old enough for the settled exemption (tuning seed 22: a 7.2 m boat 6 m beyond a 9 m one, untracked for
+            # 25 s while a track was started and ended there every other scan).
+            if cfg.duplicate_shadow_settled_s > 0:
+                recurring = self._recurring_shadow_births(centres, cfg.duplicate_shadow_settled_s)
+                settled = settled | (old[:, None] & recurring[None, :])
             shadow &= ~settled
             overlap |= shadow | shadow.T
         same_motion = (dv <= cfg.duplicate_max_speed_diff) | ~(known[:, None] & known[None, :])
@@ -847,8 +864,35 @@ class LidarTracker:
         hosts = np.flatnonzero((pair & piece & alive_host[:, None]).any(axis=1))
         self._long_hulls |= {self._lives[i].id for i in hosts.tolist()}
         out = [int(i) for i in losers if int(i) not in dying]
+        in_shadow_only = [i for i in out if not (pair[:, i] & (by_other[:, i] | by_other[i, :])).any()]
+        self._note_shadow_births(x[in_shadow_only][:, [PN, PE]])
         self.stats["duplicates"] += len(out)
         return out
+
+    def _note_shadow_births(self, places: np.ndarray) -> None:
+        """Remember ``places`` (north, east) of tracks ended in another's shadow this scan: each continues a place
+        within _SHADOW_BIRTH_RADIUS_M whose last such end is at most _SHADOW_BIRTH_GAP_S old, or starts one."""
+        births = self._shadow_births[self._shadow_births[:, 3] >= self._t - _SHADOW_BIRTH_GAP_S]
+        for p in places:  # few: the tracks ended this scan
+            d = np.hypot(births[:, 0] - p[0], births[:, 1] - p[1])
+            j = int(np.argmin(d)) if d.size else -1
+            if j >= 0 and d[j] <= _SHADOW_BIRTH_RADIUS_M:
+                births[j, :2], births[j, 3] = p, self._t
+            else:
+                births = np.vstack([births, [p[0], p[1], self._t, self._t]])
+        self._shadow_births = births
+
+    def _recurring_shadow_births(self, centres: np.ndarray, settled_s: float) -> np.ndarray:
+        """(T,) bool: the track lies at a place that has kept starting tracks ended in another's shadow for
+        ``settled_s``; such a place stays remembered while a track lives on it."""
+        births = self._shadow_births
+        live = births[:, 3] >= self._t - _SHADOW_BIRTH_GAP_S
+        if not live.any() or len(centres) == 0:
+            return np.zeros(len(centres), dtype=bool)
+        d = np.hypot(centres[:, None, 0] - births[None, :, 0], centres[:, None, 1] - births[None, :, 1])
+        at = (d <= _SHADOW_BIRTH_RADIUS_M) & live[None, :]
+        births[at.any(axis=0), 3] = self._t  # a track living there keeps the place
+        return (at & (births[None, :, 3] - births[None, :, 2] >= settled_s)).any(axis=1)
 
     def _unproven_structure(self, x: np.ndarray, velocities: np.ndarray) -> np.ndarray:
         """(T,) bool: tracks shaped like structure that have not shown a speed above ``static_max_speed_mps``
