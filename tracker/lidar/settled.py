@@ -18,13 +18,14 @@ from tracker.lidar.clustering import ClusterResult, with_pieces
 _MIN_CELLS = 3  # footprint cells on each side of a cut: the fits need three
 
 
-def box_depths(points_ne: np.ndarray, boxes: np.ndarray, margin_m: float) -> np.ndarray:
+def box_depths(points_ne: np.ndarray, boxes: np.ndarray, margin_m: float, min_half_m: float = 0.0) -> np.ndarray:
     """(P, B): how deep each of the (P, 2) points (north, east) lies in each box (rows north, east, heading rad,
-    length, width; m) grown by ``margin_m``: max(|along| / half-length, |across| / half-width), at most 1 inside."""
+    length, width; m) grown by ``margin_m``: max(|along| / half-length, |across| / half-width), at most 1 inside.
+    A grown half-size under ``min_half_m`` is taken as that, so that a degenerate box has a depth scale."""
     rel = points_ne[:, None, :2] - boxes[None, :, :2]
     c, s = np.cos(boxes[:, 2])[None, :], np.sin(boxes[:, 2])[None, :]
-    along = np.abs(rel[..., 0] * c + rel[..., 1] * s) / (0.5 * boxes[None, :, 3] + margin_m)
-    across = np.abs(rel[..., 1] * c - rel[..., 0] * s) / (0.5 * boxes[None, :, 4] + margin_m)
+    along = np.abs(rel[..., 0] * c + rel[..., 1] * s) / np.maximum(0.5 * boxes[None, :, 3] + margin_m, min_half_m)
+    across = np.abs(rel[..., 1] * c - rel[..., 0] * s) / np.maximum(0.5 * boxes[None, :, 4] + margin_m, min_half_m)
     return np.maximum(along, across)
 
 

@@ -34,7 +34,7 @@ from tracker.lidar.ekf import (
 )
 from tracker.lidar.level_returns import LevelRule, horizontal_tops
 from tracker.lidar.moored import carve_moored_hulls
-from tracker.lidar.settled import cut_settled_hulls
+from tracker.lidar.settled import box_depths, cut_settled_hulls
 from tracker.lidar.shape_fit import (
     DegenerateClusterError,
     ShapeFit,
@@ -1010,13 +1010,9 @@ class LidarTracker:
 
 
 def box_depth(points_ne: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """(P, T): how deep each of the (P, 2) points (north, east) lies in each of the T tracks' boxes (states ``x``):
-    max(|along| / half-length, |across| / half-width), at most 1 inside the box."""
-    rel = points_ne[:, None, :] - x[None, :, [PN, PE]]
-    c, s = np.cos(x[:, PSI])[None, :], np.sin(x[:, PSI])[None, :]
-    along = np.abs(rel[..., 0] * c + rel[..., 1] * s) / np.maximum(0.5 * x[None, :, LEN], _MIN_HALF_M)
-    across = np.abs(rel[..., 1] * c - rel[..., 0] * s) / np.maximum(0.5 * x[None, :, WID], _MIN_HALF_M)
-    return np.maximum(along, across)
+    """(P, T): how deep each of the (P, 2) points (north, east) lies in each of the T tracks' boxes (states ``x``),
+    as :func:`tracker.lidar.settled.box_depths` measures it."""
+    return box_depths(points_ne, x[:, [PN, PE, PSI, LEN, WID]], 0.0, min_half_m=_MIN_HALF_M)
 
 
 def _least_gap(a: np.ndarray, b: np.ndarray) -> float:
