@@ -804,6 +804,7 @@ class LidarTracker:
         across = np.abs(rel[..., 1] * c - rel[..., 0] * s)
         beside = across <= 0.5 * x[:, [WID]] + cfg.duplicate_margin  # within the host's beam, plus the margin
         inside = (along <= 0.5 * x[:, [LEN]] + cfg.duplicate_margin) & beside
+        overlap = inside | inside.T
         velocity = x[:, [VN, VE]]
         speed = np.hypot(velocity[:, 0], velocity[:, 1])
         moving = known & (speed >= cfg.duplicate_end_min_speed_mps)
@@ -811,7 +812,6 @@ class LidarTracker:
         half = 0.5 * np.maximum(x[:, LEN], x[:, WID])
         old = np.array([life.age >= cfg.duplicate_shadow_settled_s for life in self._lives])
         settled = old[:, None] & old[None, :] if cfg.duplicate_shadow_settled_s > 0 else np.zeros((n, n), dtype=bool)
-        overlap = inside | inside.T
         if cfg.duplicate_piece_max_half_m > 0:  # a piece whose footprint touches the host's, its centre outside
             touch = (along <= 0.5 * x[:, [LEN]] + half[None, :] + cfg.duplicate_margin) & (
                 across <= 0.5 * x[:, [WID]] + half[None, :] + cfg.duplicate_margin
@@ -838,8 +838,7 @@ class LidarTracker:
             self._long_hulls &= {life.id for life in self._lives}
             long_hull = np.array([life.id in self._long_hulls for life in self._lives])
             overlap |= piece | (in_line & long_hull[:, None] & ~known[None, :])
-        by_other = overlap.copy()
-        shadow = np.zeros((n, n), dtype=bool)
+        by_other = overlap.copy()  # before the shadow test: which ends were by the shadow alone
         if cfg.duplicate_shadow_m > 0:
             centres = x[:, [PN, PE]]
             shadow = in_shadow(centres, half, centres, own, cfg.duplicate_shadow_m, cfg.duplicate_margin)
