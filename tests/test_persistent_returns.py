@@ -4,6 +4,8 @@ vouch for are not."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -141,6 +143,44 @@ def test_a_persistent_return_where_the_lidars_beams_vouch_stays_out() -> None:
 def test_with_the_lidar_blind_a_persistent_return_is_an_obstacle_anywhere_beyond_30_m() -> None:
     assert bin0_each_tick(40.0, lidar=False) == [UNKNOWN] * 2 + [4000] * 4
     assert bin0_each_tick(20.0, lidar=False) == [UNKNOWN] * 6  # nearer, clutter persists too: not this rule's
+
+
+def wall_bin0_each_tick(recurrence: CellRule | None, ticks: int = 12) -> list[int]:
+    """Bin 0 over ``ticks`` ticks with the ``recurrence`` rule: a quay face 45 m ahead near the radar's range edge,
+    returned once a frame at alternate ends of 1.6 m of it (never within a metre of the frame before), the LiDAR's
+    revolutions returning only water; no radar track."""
+    settings = replace(MOUNTED, radar_recurrence=recurrence)
+    p = PerceptionPipeline(settings, radar_tracker_factory=lambda: FixedRadarTracks([]))
+    out = []
+    for k in range(ticks):
+        t = 1.0 + 0.1 * k
+        face = np.array([[45.0, 0.2 if k % 2 == 0 else 1.8]])
+        d = p.step(t, water_scan(t - 0.05), [radar_frame(t - 0.05, face)], None)
+        out.append(int(d.distances_cm[0]))
+    return out
+
+
+def test_a_sparse_wall_whose_returns_wander_along_it_becomes_an_obstacle_on_the_ninth_frame() -> None:
+    """The wall's returns never stand within 1 m in 4 frames of 5 (radar_persistence's test), but they fall in
+    the same 2 m cell every frame: with 8 of the frames before it holding the cell, the ninth frame's return is an
+    obstacle (45 m, the -3 and -1 deg beams' gap: the LiDAR cannot vouch there)."""
+    assert MOUNTED.radar_recurrence == CellRule(hits=8, frames=20, cell_m=2.0, edge_m=0.5, beyond_m=40.0)
+    assert wall_bin0_each_tick(MOUNTED.radar_recurrence) == [UNKNOWN] * 8 + [4500, 4504, 4500, 4504]
+    assert wall_bin0_each_tick(None) == [UNKNOWN] * 12
+
+
+def test_clutter_at_the_radars_range_edge_does_not_recur() -> None:
+    """8 clutter returns a frame over 40-51 m in the radar's 120 deg (the tuning scenes' rate there, 0.007 per m^2),
+    fresh places every frame, 600 frames (a minute): none falls in a cell held in 8 of the 20 frames before it."""
+    rng = np.random.default_rng(21)
+    history = RecurringCells(CellRule(hits=8, frames=20, cell_m=2.0, edge_m=0.5, beyond_m=40.0))
+    recurred = 0
+    for _ in range(600):
+        r = np.sqrt(rng.uniform(40.0**2, 51.0**2, 8))
+        bearing = rng.uniform(-np.pi / 3, np.pi / 3, 8)
+        frame = np.column_stack([r * np.cos(bearing), r * np.sin(bearing)])
+        recurred += int(history.add(frame, r).sum())
+    assert recurred == 0
 
 
 def test_a_warm_up_longer_than_the_rule_is_refused() -> None:
