@@ -85,3 +85,17 @@ def test_the_floor_is_not_raised_beyond_the_water_the_fit_saw() -> None:
     # within the reach the floor is the plane
     near = np.array([10.0, -3.0]), np.array([4.0, 20.0])
     assert np.allclose(est.floor(*near), est.surface(*near))
+
+
+def test_the_fits_quantile_is_numpys_to_the_bit() -> None:
+    """The water fit's crest and reach quantiles (water._quantile) are np.quantile's linear interpolation exactly,
+    at the fit's sizes and the quantiles it takes, ties and the ends included."""
+    from tracker.lidar.water import _quantile
+
+    rng = np.random.default_rng(7)
+    for n in (1, 2, 3, 10, 99, 2500):
+        for q in (0.0, 0.05, 0.5, 0.95, 0.995, 1.0):
+            values = np.abs(rng.normal(0.0, 0.2, n))
+            assert _quantile(values.copy(), q) == float(np.quantile(values, q))
+            rounded = np.round(values, 2)  # ties
+            assert _quantile(rounded.copy(), q) == float(np.quantile(rounded, q))

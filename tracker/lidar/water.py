@@ -185,9 +185,9 @@ class WaterSurface:
             layer = np.abs(res) <= max(cfg.crest_sigmas * sigma, 0.05)
         # The returns under-sample the crests (a beam meets a crest's face, seldom its top), so the sea's own spread
         # sets a floor: a Gaussian sea's crests reach about 3 sigma (Rayleigh crests: 1 in 100 above 3 sigma).
-        crest = max(float(np.quantile(np.abs(res[layer]), cfg.margin_quantile)), cfg.margin_sigmas * sigma)
+        crest = max(_quantile(np.abs(res[layer]), cfg.margin_quantile), cfg.margin_sigmas * sigma)
         margin = min(max(crest + cfg.margin_pad, cfg.margin_floor), cfg.margin_max)
-        reach = float(np.quantile(np.hypot(cx[inlier], cy[inlier]), 0.95))
+        reach = _quantile(np.hypot(cx[inlier], cy[inlier]), 0.95)
         self.estimate = WaterEstimate(float(coef[0]), float(coef[1]), float(coef[2]), margin, t, n_in, sigma, reach)
         self.accepted += 1
         return self.estimate
@@ -205,3 +205,18 @@ def _median(values: np.ndarray) -> float:
         return float(np.partition(values, half)[half])
     part = np.partition(values, (half - 1, half))
     return float((part[half - 1] + part[half]) / 2.0)
+
+
+def _quantile(values: np.ndarray, q: float) -> float:
+    """np.quantile (its default, linear interpolation) of a non-empty 1-D array of finite values, ``q`` in [0, 1],
+    without its generic machinery (about 0.1 ms a call on a fit's returns, twice a revolution): the same two order
+    statistics, and numpy's own interpolation, which measures from the nearer of the two."""
+    n = values.size
+    pos = (n - 1) * q
+    if pos >= n - 1:
+        return float(values.max())
+    lo = math.floor(pos)
+    part = np.partition(values, (lo, lo + 1))
+    a, b = part[lo], part[lo + 1]
+    t = pos - lo
+    return float(b - (b - a) * (1 - t) if t >= 0.5 else a + (b - a) * t)

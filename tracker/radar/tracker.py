@@ -602,14 +602,21 @@ class RadarTracker:
         if len(fresh) < 2 or cfg.association.merge_gap_m <= 0:
             return fresh
         boxes = np.array([c.box() for c in fresh])
-        dop = np.array([np.nanmedian(c.doppler_world) if np.isfinite(c.doppler_world).any() else np.nan for c in fresh])
+        dop = np.array([small_median(c.doppler_world[np.isfinite(c.doppler_world)]) for c in fresh])
         close = box_gap_matrix(boxes, boxes) <= cfg.association.merge_gap_m
         close &= ~(
             np.abs(dop[:, None] - dop[None, :]) > cfg.association.merge_doppler_tolerance_mps
         )  # NaN: cannot tell apart
         a, b = np.nonzero(np.triu(close, 1))
-        comp = component_labels(len(fresh), a, b)
-        return [self.detector.merge_clusters([fresh[i] for i in np.flatnonzero(comp == c)]) for c in np.unique(comp)]
+        if a.size == 0:
+            return fresh
+        # Each component under its lowest member's index, in that order, its members in theirs: in rough water a
+        # frame's fresh clusters are mostly clutter, one apiece, and a scan of all labels per component cost more
+        # than the rest of the merge.
+        members: dict[int, list[RadarCluster]] = {}
+        for cl, label in zip(fresh, component_labels(len(fresh), a, b).tolist(), strict=True):
+            members.setdefault(label, []).append(cl)
+        return [self.detector.merge_clusters(parts) for parts in members.values()]
 
     def _near_clutter(self, cl: RadarCluster) -> bool:
         """Too few returns, too near the radar, to start a track (``births.near_min_points``)."""
