@@ -169,18 +169,22 @@ def test_a_sparse_wall_whose_returns_wander_along_it_becomes_an_obstacle_on_the_
     assert wall_bin0_each_tick(None) == [UNKNOWN] * 12
 
 
-def test_clutter_at_the_radars_range_edge_does_not_recur() -> None:
+def test_clutter_at_the_radars_range_edge_seldom_recurs() -> None:
     """8 clutter returns a frame over 40-51 m in the radar's 120 deg (the tuning scenes' rate there, 0.007 per m^2),
-    fresh places every frame, 600 frames (a minute): none falls in a cell held in 8 of the 20 frames before it."""
+    fresh places every frame, for 10 minutes (6,000 frames, 48,000 returns): about 1 in 20,000 falls by chance in a
+    cell held in 8 of the 20 frames before it (0-3 in seeds tried), against about 60 with 6 of 20."""
     rng = np.random.default_rng(21)
-    history = RecurringCells(CellRule(hits=8, frames=20, cell_m=2.0, edge_m=0.5, beyond_m=40.0))
-    recurred = 0
-    for _ in range(600):
+    rule = CellRule(hits=8, frames=20, cell_m=2.0, edge_m=0.5, beyond_m=40.0)
+    history, looser = RecurringCells(rule), RecurringCells(replace(rule, hits=6))
+    recurred = looser_recurred = 0
+    for _ in range(6000):
         r = np.sqrt(rng.uniform(40.0**2, 51.0**2, 8))
         bearing = rng.uniform(-np.pi / 3, np.pi / 3, 8)
         frame = np.column_stack([r * np.cos(bearing), r * np.sin(bearing)])
         recurred += int(history.add(frame, r).sum())
-    assert recurred == 0
+        looser_recurred += int(looser.add(frame, r).sum())
+    assert recurred <= 6
+    assert looser_recurred >= 30  # the test tells the rules apart
 
 
 def test_a_warm_up_longer_than_the_rule_is_refused() -> None:
