@@ -65,3 +65,31 @@ def test_a_coasting_track_reaches_back_to_where_it_was_last_measured() -> None:
     assert on_tracked_hulls(far_side, [buoy], 0.5, coast_drift_cap_m=3.0).tolist() == [False, False]
     buoy.time_since_update, buoy.velocity = 2.0, np.full(2, math.nan)
     assert on_tracked_hulls(far_side, [buoy], 0.5, coast_drift_cap_m=3.0).tolist() == [False, False]
+
+
+def test_a_rough_seas_thousands_of_returns_pair_with_the_hulls_exactly_as_every_pair_tested_does(monkeypatch) -> None:
+    """5,000 margin returns over 200 x 200 m (hulls on their edges and corners among them) and 20 hulls: the pairs
+    found through the raster of the hulls' squares are those of testing every point against every hull, in the
+    same order, with the same distances; and a hull 7 km off (too large a raster) leaves every point tested."""
+    import tracker.lidar.hull_gate as gate
+
+    rng = np.random.default_rng(12)
+    hulls = [
+        _track(*rng.uniform(-100, 100, 2), rng.uniform(0, 360), rng.uniform(2, 30), rng.uniform(1, 8), True)
+        for _ in range(20)
+    ]
+    corners = np.concatenate(
+        [h.position[:2] + rng.normal(0.0, (h.length + h.width) / 2, (40, 2)) for h in hulls]  # near every box
+    )
+    points = np.concatenate([rng.uniform(-100, 100, (5000 - len(corners), 2)), corners])
+    far = [*hulls, _track(5000.0, 5000.0, 0.0, 10.0, 3.0, True)]
+    for tracks in (hulls, far):
+        fast = gate._pairs_inside(points, tracks, 0.5)
+        monkeypatch.setattr(gate, "_RASTER_FROM", 10**12)
+        every = gate._pairs_inside(points, tracks, 0.5)
+        monkeypatch.undo()
+        assert fast[0].size > 250  # the test pairs plenty of points with hulls (318)
+        for a, b in zip(fast, every, strict=True):
+            np.testing.assert_array_equal(a, b)
+    assert gate._near_some_square(points, np.array([[0.0, 0.0], [5000.0, 5000.0]]), np.array([10.0, 10.0])) is None
+    assert gate._near_some_square(points, np.array([[0.0, 0.0]]), np.array([10.0])).size < 200  # of 5,000

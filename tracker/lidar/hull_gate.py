@@ -53,8 +53,9 @@ def _pairs_inside(
     ``tracks``), as (K,) arrays of l and t sorted by l then t, and each pair's squared distance to the track's
     centre; a track without a finite size or heading counts as none.
 
-    Work is (points x confirmed tracks) for a square around each box (its half-diagonal either way), then the box
-    test on the few pairs within it: a revolution's margin returns lie mostly far from any hull."""
+    Work is a raster lookup per point, then (points near some box x confirmed tracks) for a square around each box
+    (its half-diagonal either way), then the box test on the few pairs within it: a revolution's margin returns lie
+    mostly far from any hull."""
     which = np.array([i for i, t in enumerate(tracks) if t.confirmed and _finite_box(t)], dtype=np.int64)
     if pts.shape[0] == 0 or not which.size:
         empty = np.zeros(0, dtype=np.int64)
@@ -66,6 +67,9 @@ def _pairs_inside(
     half_len = np.array([t.length for t in hull]) / 2 + grow
     half_wid = np.array([t.width for t in hull]) / 2 + grow
     reach = np.hypot(half_len, half_wid) * (1.0 + 1e-9) + 1e-9  # a little over: never closer than the box test
+    near = _near_some_square(pts, centre, reach) if pts.shape[0] * which.size >= _RASTER_FROM else None
+    if near is not None:
+        pts = pts[near]
     # (L, T) per coordinate: an (L, T, 2) difference array cost as much as all the rest
     dn = pts[:, 0, None] - centre[None, :, 0]
     de = pts[:, 1, None] - centre[None, :, 1]
@@ -76,7 +80,34 @@ def _pairs_inside(
     across = de * c - dn * s
     inside = (np.abs(along) <= half_len[k]) & (np.abs(across) <= half_wid[k])
     dn, de = dn[inside], de[inside]
-    return point[inside], which[k[inside]], dn * dn + de * de
+    point = point[inside] if near is None else near[point[inside]]
+    return point, which[k[inside]], dn * dn + de * de
+
+
+_RASTER_CELL_M = 2.0
+_RASTER_MAX_CELLS = 250_000  # 1 km x 1 km at 2 m: beyond, a far track's square is not worth a raster
+# From this many (point, track) pairs the raster pays for its fixed cost. A rough sea's margin returns number in the
+# thousands a revolution, nearly all of them far from any hull; against 20 tracks (one core), 1,000 / 1,500 / 3,000 /
+# 6,000 returns took 0.27 / 0.33 / 0.87 / 1.42 ms testing every pair and 0.30 / 0.32 / 0.49 / 0.70 ms through it.
+_RASTER_FROM = 30_000
+
+
+def _near_some_square(pts: np.ndarray, centre: np.ndarray, reach: np.ndarray) -> np.ndarray | None:
+    """Indices (ascending) of the points lying in a cell of a coarse raster that some track's square (centre +-
+    reach) touches, grown by a cell each way so that rounding never drops a point the exact test keeps; None when
+    the squares span too large a raster (then every point is tested). One lookup per point, one slice per track."""
+    lo = np.floor((centre - reach[:, None]) / _RASTER_CELL_M).astype(np.int64) - 1
+    hi = np.floor((centre + reach[:, None]) / _RASTER_CELL_M).astype(np.int64) + 1
+    origin = lo.min(axis=0)
+    shape = hi.max(axis=0) - origin + 1
+    if shape[0] * shape[1] > _RASTER_MAX_CELLS:
+        return None
+    raster = np.zeros(tuple(shape), dtype=bool)
+    for (a0, a1), (b0, b1) in zip(lo - origin, hi - origin, strict=True):
+        raster[a0 : b0 + 1, a1 : b1 + 1] = True
+    cell = np.floor(pts / _RASTER_CELL_M).astype(np.int64) - origin
+    inside = np.flatnonzero(np.all((cell >= 0) & (cell < shape), axis=1))
+    return inside[raster[cell[inside, 0], cell[inside, 1]]]
 
 
 def _finite_box(track: Track) -> bool:
