@@ -358,10 +358,12 @@ class PerceptionPipeline:
         self._radar_returns: Placed = (np.empty((0, 2)), None)
         # the newest radar frame's persistent returns (tracker/persistent_returns.py), placed like its returns
         self._radar_persistent: Placed = (np.empty((0, 2)), None)
-        rule = self.settings.radar_persistence
-        self._radar_history = PersistentReturns(rule) if rule is not None else None
-        recurrence = self.settings.radar_recurrence
-        self._radar_recurring = RecurringCells(recurrence) if recurrence is not None else None
+        # the rules that keep the radar's recent frames to find the returns that stay put (none: nothing kept)
+        rule, recurrence = self.settings.radar_persistence, self.settings.radar_recurrence
+        self._radar_memories: list[PersistentReturns | RecurringCells] = [
+            *([PersistentReturns(rule)] if rule is not None else []),
+            *([RecurringCells(recurrence)] if recurrence is not None else []),
+        ]
         cells = self.settings.lidar_margin_persistence
         self._lidar_margin_history = RecurringCells(cells) if cells is not None else None
         self._radar_tracked = True  # the newest radar frame went through the tracker (not: no pose for it)
@@ -412,7 +414,7 @@ class PerceptionPipeline:
         self._radar_solid = _into_own_body(self._radar_solid)
         self._radar_returns = _into_own_body(self._radar_returns)
         self._radar_persistent = _into_own_body(self._radar_persistent)
-        for history in (self._radar_history, self._radar_recurring, self._lidar_margin_history):
+        for history in (*self._radar_memories, self._lidar_margin_history):
             if history is not None:
                 history.reset()
 
@@ -548,7 +550,7 @@ class PerceptionPipeline:
                 shore = self.radar_tracker.shore_points()
                 if len(shore):
                     solid.append(self._radar_speaks(world_to_body_2d(shore, own[0][:2], own[3]), lidar_fresh))
-            if radar_fresh and self._radar_tracked and self._remembers_radar:
+            if radar_fresh and self._radar_tracked and self._radar_memories:
                 solid.append(self._radar_speaks(_at_tick(self._radar_persistent, own), lidar_fresh))
 
         radar_vouches = radar_fresh and self._radar_tracked
@@ -620,11 +622,6 @@ class PerceptionPipeline:
             tracking_skipped=tuple(dict.fromkeys(self._skipped)),
             pose_known=not (ego_ok and own is None),
         )
-
-    @property
-    def _remembers_radar(self) -> bool:
-        """Whether a rule keeps the radar's recent frames to find the returns that stay put."""
-        return self._radar_history is not None or self._radar_recurring is not None
 
     def _structure_lookup(self, t: float) -> Callable[[np.ndarray], np.ndarray] | None:
         """For the obstacle memory: which world (north, east) points lie on structure the LiDAR remembers (within
@@ -846,16 +843,15 @@ class PerceptionPipeline:
         returns_body = frame.xyz[finite][:, :2]
         at = None if pose is None else (np.asarray(pose.position, float)[:2], float(pose.yaw))
         returns = (returns_body, None) if at is None else (body_to_world_2d(returns_body, *at), at)
-        if self._remembers_radar:
+        if self._radar_memories:
             # Persistence is judged in the world frame (with no autopilot at all, the body frame is the world, as
             # for the trackers); a frame whose pose is lost cannot be compared with the last and adds nothing.
             self._radar_persistent = (np.empty((0, 2)), None)
             if at is not None or not ego_ok:
                 ranges = np.hypot(returns_body[:, 0], returns_body[:, 1])
                 keep = np.zeros(len(ranges), dtype=bool)
-                for history in (self._radar_history, self._radar_recurring):
-                    if history is not None:
-                        keep |= history.add(returns[0], ranges)
+                for history in self._radar_memories:
+                    keep |= history.add(returns[0], ranges)
                 self._radar_persistent = (returns[0][keep], at)
         if self.radar_tracker is None:
             return returns, returns
