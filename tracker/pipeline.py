@@ -246,7 +246,7 @@ class PipelineSettings:
     # false-obstacle bins 606 -> 619; radar alone 100,635 -> 100,294 and 2,743 -> 2,736 (tentative radar tracks of
     # 2 hits instead, fused: 53 and 1,860). Held out (random:1001-1050) against off: fused false-clear bins 449 ->
     # 359 (18 scenes better, none worse), false-obstacle bins 0.270 -> 0.273 %; radar alone 202 -> 166 a scene. From
-    # the start, every frame so far (at least 2) until there are 4: see PersistenceRule.
+    # the start, every frame so far (at least 1) until there are 4: see PersistenceRule.
     radar_persistence: PersistenceRule | None = field(default_factory=PersistenceRule)
     # A radar return 40 m or more off whose 2 m world cell (grown by 0.5 m) held a radar return in 8 of the previous
     # 20 frames is an obstacle where the LiDAR's beams do not vouch, as radar_persistence's returns are
