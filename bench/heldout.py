@@ -36,6 +36,9 @@ from bench._common import save
 
 MODES = {"lidar": ("lidar",), "radar": ("radar",), "fused": ("lidar", "radar")}
 HELD_OUT = range(1001, 1051)
+# A confirmed track whose centre lies on a quay, or this close off its face (m), is on the quay: a boat moored against
+# it lies 0.3 m off the face (simulator/random_scene.py), so even a 1 m wide one has its centre 0.8 m out.
+QUAY_MARGIN_M = 0.5
 TRAINING = range(1, 101)
 SECONDS = 60.0
 
@@ -98,6 +101,7 @@ def run_scene(seed: int, seconds: float, modes: tuple[str, ...] = tuple(MODES)) 
                 "false_obstacle_share": bins.get("false_obstacle", 0) / max(bins.get("bins_scored", 0), 1),
                 "replay_s": replay_s,
                 "by_hull": _by_hull(scene, r["visibility"]["per_vessel"]),
+                "on_quay": tracks_on_quays(scene.quays, d / f"tracks-{mode}.jsonl"),
             }
             # Each mode above is scored on what its own sensors returned, so fused answers for more vessels than
             # either sensor alone. "Does the second sensor help?" needs one truth for all three: every vessel
@@ -107,6 +111,27 @@ def run_scene(seed: int, seconds: float, modes: tuple[str, ...] = tuple(MODES)) 
             out[mode]["mota_all_returned"] = _num(tr["mota"])
             out[mode]["idf1_all_returned"] = _num(tr["idf1"])
     return out
+
+
+def tracks_on_quays(quays: list[Any], tracks_path: Path, margin_m: float = QUAY_MARGIN_M) -> dict[str, int]:
+    """Confirmed track-ticks whose centre lies on a quay (the wall and the land strip behind it, ``Quay.blocks``) or
+    within ``margin_m`` off it, and how many tracks those were: issue 12's goal is none. No vessel's centre can be
+    there, so each is a piece of quay published as an object, whether or not the evaluator matched it."""
+    from evaluation.geometry import distance_to_polygon
+    from evaluation.ticks import read_ticks
+
+    blocks = [b for q in quays for b in q.blocks()]
+    ticks, ids = 0, set()
+    if not blocks:
+        return {"track_ticks": 0, "tracks": 0}
+    for tick in read_ticks(tracks_path):
+        if not len(tick.tracks):
+            continue
+        d = np.min([distance_to_polygon(tick.tracks.position, b) for b in blocks], axis=0)
+        on = d <= margin_m
+        ticks += int(on.sum())
+        ids.update(tick.tracks.ids[on].tolist())
+    return {"track_ticks": ticks, "tracks": len(ids)}
 
 
 def _hull_group(vessel: Any) -> str:
@@ -201,6 +226,22 @@ def false_clear_line(rows: list[dict[str, Any]], mode: str = "fused") -> str:
     )
 
 
+def on_quay_line(rows: list[dict[str, Any]], mode: str = "fused") -> str:
+    """Pooled confirmed tracks on a quay (``tracks_on_quays``) and the scenes that had any."""
+    ticks = sum(r[mode]["on_quay"]["track_ticks"] for r in rows)
+    tracks = sum(r[mode]["on_quay"]["tracks"] for r in rows)
+    worst = sorted(rows, key=lambda r: -r[mode]["on_quay"]["track_ticks"])[:3]
+    named = ", ".join(
+        f"{r['seed']} ({r[mode]['on_quay']['track_ticks']})" for r in worst if r[mode]["on_quay"]["tracks"]
+    )
+    scenes = sum(1 for r in rows if r[mode]["on_quay"]["tracks"])
+    return (
+        f"Confirmed tracks on a quay ({mode}, pooled; centre on the quay or within {QUAY_MARGIN_M} m off its face): "
+        f"{tracks} tracks, {ticks} track-ticks, in {scenes} of {len(rows)} scenes"
+        + (f"; most in {named}." if named else ".")
+    )
+
+
 def same_truth(rows: list[dict[str, Any]]) -> str:
     """Each mode's MOTA and IDF1 on one truth (every vessel either sensor returned) and the scenes where fused is
     above and below each sensor alone: whether fusing helps, which the per-mode table cannot say."""
@@ -251,7 +292,7 @@ def main() -> None:
             cells = [
                 f"{m} MOTA {f['mota']:.3f} IDF1 {f['idf1']:.3f} FP/match {f['false_track_frames']:.1%} "
                 f"false clear {f['false_clear_bins']} false obstacle {f['false_obstacle_share']:.2%} "
-                f"id switches {f['id_switches']}"
+                f"id switches {f['id_switches']} on quay {f['on_quay']['track_ticks']}"
                 for m, f in ((m, r[m]) for m in modes)
             ]
             print(f"seed {r['seed']}: " + " | ".join(cells) + f" | {r['description']}", flush=True)
@@ -262,6 +303,7 @@ def main() -> None:
         print(same_truth(rows))
     for mode in modes:
         print(false_clear_line(rows, mode))
+        print(on_quay_line(rows, mode))
         print(by_hull_line(rows, mode))
     print(f"{len(rows)} scenes in {time.perf_counter() - t0:.0f} s")
     if held_out:
@@ -285,11 +327,14 @@ def markdown(summary: dict[str, Any], rows: list[dict[str, Any]], seconds: float
         "",
         " ".join(false_clear_line(rows, mode) for mode in MODES),
         "",
+        " ".join(on_quay_line(rows, mode) for mode in MODES),
+        "",
         "Per scene (fused; LiDAR-only and radar-only MOTA beside):",
         "",
         "| seed | MOTA | IDF1 | false track-frames | false-clear bins (sent clear) / with a solid | "
-        "false-obstacle bins | held obstacle bins on an unreturned solid | LiDAR MOTA | radar MOTA | the day |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "false-obstacle bins | held obstacle bins on an unreturned solid | track-ticks on a quay (tracks) | "
+        "LiDAR MOTA | radar MOTA | the day |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         f = r["fused"]
@@ -298,6 +343,7 @@ def markdown(summary: dict[str, Any], rows: list[dict[str, Any]], seconds: float
             f"{f['false_clear_bins']} ({f['false_clear_sent_clear']}) / {f['bins_with_solid']} | "
             f"{f['false_obstacle_bins']} | "
             f"{f['obstacle_unreturned_bins']} | "
+            f"{f['on_quay']['track_ticks']} ({f['on_quay']['tracks']}) | "
             f"{r['lidar']['mota']:.3f} | {r['radar']['mota']:.3f} | {r['description'].removeprefix('day: ')} |"
         )
     return "\n".join(lines)
