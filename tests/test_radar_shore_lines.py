@@ -142,3 +142,41 @@ def test_lone_static_returns_stay_out_of_the_map() -> None:
     np.testing.assert_array_equal(out.line_static, [True, True, True])
     off = RadarDetector(cfg.replaced(shore={"map_min_neighbours": 0}))
     assert off.detect(xyz, dop, None, 0.0, own.position, 0.0, np.zeros(2)).static.all()
+
+
+def _rough_sea_window(sl: ShoreLines, rng: np.random.Generator, with_wall: bool) -> tuple[np.ndarray, np.ndarray]:
+    """2 s of frames (10 Hz): 150 clutter returns a frame over 70 x 70 m round the radar (a rough sea's, enough to
+    link everything within 2 m into one blob), and with ``with_wall`` a 20 m wall 35 m north whose scatterers, every
+    0.5 m, each return in a third of the frames (0.3 m scatter). Adds 19 frames; returns the 20th's wall and
+    clutter."""
+    places = np.column_stack([np.full(41, 35.0), np.linspace(-10.0, 10.0, 41)])
+
+    def frame() -> tuple[np.ndarray, np.ndarray]:
+        wall = places[rng.random(len(places)) < 1 / 3] if with_wall else np.empty((0, 2))
+        return wall + rng.normal(0.0, 0.3, wall.shape), rng.uniform(-35.0, 35.0, (150, 2))
+
+    for k in range(19):
+        sl.add(0.1 * k, np.concatenate(frame()))
+    return frame()
+
+
+def test_in_a_rough_sea_a_wall_linked_into_the_clutter_is_found_from_its_recurring_returns() -> None:
+    rng = np.random.default_rng(4)
+
+    def shore_lines(min_frames: int) -> ShoreLines:
+        return ShoreLines(2.0, 2.0, 10.0, 1.0, sensor_ne=np.zeros(2), min_frames=min_frames, recheck_min_range_m=15.0)
+
+    plain, recheck = shore_lines(1), shore_lines(2)
+    for sl in (plain, recheck):
+        wall, clutter = _rough_sea_window(sl, np.random.default_rng(5), with_wall=True)
+        on = sl.mark(1.9, np.concatenate([wall, clutter]))
+        if sl is plain:  # the window's 3,000 clutter returns swallow the wall: one blob, no line
+            assert not on.any()
+        else:
+            assert on[: len(wall)].all()
+            # clutter returns count only where they fall within the 2 m link of the wall
+            near_wall = (np.abs(clutter[:, 0] - 35.0) < 2.5) & (np.abs(clutter[:, 1]) < 12.5)
+            assert not on[len(wall) :][~near_wall].any()
+    sea_only = shore_lines(2)
+    wall, clutter = _rough_sea_window(sea_only, rng, with_wall=False)
+    assert not sea_only.mark(1.9, clutter).any()  # clutter alone recurs too seldom to draw a line

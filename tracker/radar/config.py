@@ -124,6 +124,12 @@ class ShoreConfig:
     line_window_s: float = 2.0
     line_link_m: float = 2.0
     line_max_thickness_m: float = 1.0
+    # Not in the paper: a structure as long as a line but too thick for one (walls linked by a rough sea's clutter)
+    # is searched again, only its returns at least line_recheck_min_range_m from the radar in places (line_link_m / 4
+    # cells) that returned in line_min_frames frames of the window or more (ShoreLines._recurring): sea clutter
+    # lands somewhere new each frame, except next to the boat. line_min_frames = 1: no second search.
+    line_min_frames: int = 2
+    line_recheck_min_range_m: float = 15.0
 
     def __post_init__(self) -> None:
         no_nan(self)
@@ -148,10 +154,11 @@ class ShoreConfig:
             "update_interval_s",
             "line_window_s",
             "line_link_m",
+            "line_recheck_min_range_m",
             allow_zero=True,
             allow_inf=True,
         )
-        at_least_one(self, "submap_cells")
+        at_least_one(self, "submap_cells", "line_min_frames")
         share(self, "on_fraction")
         if self.submaps_across < 1 or self.submaps_across % 2 == 0:
             raise ConfigError("ShoreConfig.submaps_across must be odd (the boat's sub-map in the middle)")

@@ -173,6 +173,8 @@ class RadarDetector:
             config.shore.line_max_thickness_m,
             config.shore.update_interval_s,
             config.kalman.position_std_per_m,
+            min_frames=config.shore.line_min_frames,
+            recheck_min_range_m=config.shore.line_recheck_min_range_m,
         )
         self.multipath = config.multipath
         self.profile = config.velocity.settings()

@@ -36,6 +36,8 @@ class ShoreLines:
         interval_s: float = 0.0,
         thickness_per_m: float = 0.0,
         sensor_ne: np.ndarray | None = None,
+        min_frames: int = 1,
+        recheck_min_range_m: float = 0.0,
     ) -> None:
         self.window_s = float(window_s)
         self.thickness_per_m = float(thickness_per_m)
@@ -44,6 +46,8 @@ class ShoreLines:
         self.min_extent_m = float(min_extent_m)
         self.max_thickness_m = float(max_thickness_m)
         self.interval_s = float(interval_s)
+        self.min_frames = int(min_frames)
+        self.recheck_min_range_m = float(recheck_min_range_m)
         self._frames: deque[tuple[float, np.ndarray]] = deque()
         self._t_lines = -np.inf
         self._line_tree: cKDTree | None = None  # returns found on lines at the last full search
@@ -91,6 +95,28 @@ class ShoreLines:
         if n < 3:
             self._line_tree = None
             return on
+        on_all, blob = self._on_lines(allp)
+        if self.min_frames > 1 and blob.any():
+            # In a rough sea the window's thousands of clutter returns can link the walls round the boat into one
+            # blob far too thick for a line: its returns in places that recurred are looked at again, away from the
+            # boat (where the clutter is dense enough to recur, and its patch drawn out along the course looks long).
+            frame = np.repeat(np.arange(len(self._frames) + 1), [len(p) for _, p in self._frames] + [len(pts)])
+            far = np.hypot(allp[:, 0] - self.sensor_ne[0], allp[:, 1] - self.sensor_ne[1]) >= self.recheck_min_range_m
+            idx = np.flatnonzero(blob & far)
+            if idx.size:
+                idx = idx[self._recurring(allp[idx], frame[idx])]
+            if idx.size >= 3:
+                found = idx[self._on_lines(allp[idx])[0]]
+                on_all[found] = True
+                if found.size:
+                    # this frame's returns beside them as between searches (its own cell may not have recurred yet)
+                    dist, _ = kd_tree(allp[found]).query(pts, k=1, distance_upper_bound=self.link_m)
+                    on_all[n - pts.shape[0] :] |= np.isfinite(dist)
+        self._line_tree = kd_tree(allp[on_all]) if on_all.any() else None
+        return on_all[n - pts.shape[0] :]
+
+    def _on_lines(self, allp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(n,) bool each: the return lies on a line, and on a structure as long as a line but too thick for one."""
         comp = self._components(allp)
         count = np.bincount(comp)
         # Principal axes of every component at once from its first and second moments.
@@ -112,10 +138,22 @@ class ShoreLines:
         # Azimuth noise smears a far wall across the line of sight: the allowed thickness grows with range.
         rng = np.hypot(mx - self.sensor_ne[0], my - self.sensor_ne[1])
         thick = self.max_thickness_m + self.thickness_per_m * rng
-        line = (count >= 3) & (hi - lo >= self.min_extent_m) & (np.sqrt(minor) <= thick)
-        on_all = line[comp]
-        self._line_tree = kd_tree(allp[on_all]) if on_all.any() else None
-        return on_all[n - pts.shape[0] :]
+        long = (count >= 3) & (hi - lo >= self.min_extent_m)
+        thin = np.sqrt(minor) <= thick
+        return (long & thin)[comp], (long & ~thin)[comp]
+
+    def _recurring(self, pts: np.ndarray, frame: np.ndarray) -> np.ndarray:
+        """(n,) bool: the return's link cell (a quarter of the link wide) holds returns of ``min_frames`` frames of the
+        window or more. A wall returns from the same places frame after frame; sea clutter lands somewhere new each
+        frame."""
+        if self.link_m <= 0:
+            return np.ones(pts.shape[0], bool)
+        cell = np.floor(pts / (self.link_m / 4.0)).astype(np.int64)
+        cell -= cell.min(axis=0)
+        key = cell[:, 0] * (int(cell[:, 1].max()) + 1) + cell[:, 1]
+        of_point = group_keys(key)[3]
+        seen = np.unique(of_point * (int(frame.max()) + 1) + frame) // (int(frame.max()) + 1)
+        return np.bincount(seen, minlength=int(of_point.max()) + 1)[of_point] >= self.min_frames
 
     def _components(self, pts: np.ndarray) -> np.ndarray:
         """(n,) component label 0..k-1 of each point, linked at ``link_m``, through "link cells" a quarter of the
