@@ -127,9 +127,10 @@ class ShoreConfig:
     # Not in the paper: a structure as long as a line but too thick for one (walls linked by a rough sea's clutter)
     # is searched again, only its returns at least line_recheck_min_range_m from the radar in places (line_link_m / 4
     # cells) that returned in line_min_frames frames of the window or more (ShoreLines._recurring): sea clutter
-    # lands somewhere new each frame, except next to the boat. line_min_frames = 1: no second search.
+    # lands somewhere new each frame, except near the boat, where it is dense enough to recur (at 15 m a ring of it
+    # drew false lines: tuning seed 30). line_min_frames = 1: no second search.
     line_min_frames: int = 2
-    line_recheck_min_range_m: float = 15.0
+    line_recheck_min_range_m: float = 25.0
 
     def __post_init__(self) -> None:
         no_nan(self)
