@@ -7,6 +7,11 @@ gives 50-100 returns that link into one long, thin line: at least ``shore.min_ex
 most ``shore.line_max_thickness_m`` plus ``kalman.position_std_per_m`` per metre of range (azimuth scatter) RMS across
 it. Boats are shorter than the extent; sea clutter near the radar links into blobs, not lines; a slow boat's returns in
 half a second are a boat-sized patch. Returns on such a line are shore now, whatever the map says yet.
+
+In a rough sea the window's thousands of clutter returns link the walls round the boat into one blob, as long as a
+line and far too thick for one. Such a blob is searched again using only its returns away from the boat in places
+that returned in more than one frame: a wall returns from the same places frame after frame, clutter lands somewhere
+new.
 """
 
 from __future__ import annotations
