@@ -153,10 +153,7 @@ class ShoreLines:
         frame."""
         if self.link_m <= 0:
             return np.ones(pts.shape[0], bool)
-        cell = np.floor(pts / (self.link_m / 4.0)).astype(np.int64)
-        cell -= cell.min(axis=0)
-        key = cell[:, 0] * (int(cell[:, 1].max()) + 1) + cell[:, 1]
-        of_point = group_keys(key)[3]
+        of_point = self._link_cells(pts)
         seen = np.unique(of_point * (int(frame.max()) + 1) + frame) // (int(frame.max()) + 1)
         return np.bincount(seen, minlength=int(of_point.max()) + 1)[of_point] >= self.min_frames
 
@@ -167,12 +164,7 @@ class ShoreLines:
         ``link_m`` (the effective link shifts by up to a cell diagonal, 0.35 x link)."""
         if self.link_m <= 0:  # nothing links: every return is its own component
             return np.arange(pts.shape[0])
-        side = self.link_m / 4.0
-        cell = np.floor(pts / side).astype(np.int64)
-        key = (cell[:, 0] - cell[:, 0].min()) * (int(cell[:, 1].max() - cell[:, 1].min()) + 1) + (
-            cell[:, 1] - cell[:, 1].min()
-        )
-        of_point = group_keys(key)[3]  # each point's cell, cells in key order (as np.unique's inverse)
+        of_point = self._link_cells(pts)
         w = np.bincount(of_point).astype(float)
         centroid = np.column_stack([np.bincount(of_point, pts[:, 0]), np.bincount(of_point, pts[:, 1])]) / w[:, None]
         pairs = kd_tree(centroid).query_pairs(self.link_m, output_type="ndarray")
@@ -180,6 +172,13 @@ class ShoreLines:
         # it less than building the sparse matrix does (same labels, numbered by their lowest cell).
         lowest = component_labels(centroid.shape[0], pairs[:, 0], pairs[:, 1])
         return lowest_to_ranks(lowest)[of_point]
+
+    def _link_cells(self, pts: np.ndarray) -> np.ndarray:
+        """(n,) each return's link cell (a quarter of the link wide), numbered 0..k-1 in key order (as np.unique's
+        inverse)."""
+        cell = np.floor(pts / (self.link_m / 4.0)).astype(np.int64)
+        cell -= cell.min(axis=0)
+        return group_keys(cell[:, 0] * (int(cell[:, 1].max()) + 1) + cell[:, 1])[3]
 
     def near(self, points_ne: np.ndarray, margin_m: float) -> np.ndarray:
         """(n,) bool: within ``margin_m`` of a return found on a line at the last full search."""
