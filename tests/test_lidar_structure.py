@@ -253,6 +253,24 @@ def test_a_boats_side_pointing_across_a_quay_is_no_piece_of_it(flank_m: float, p
     assert detections_near(tracker, wall(45.0, 47.0), 6.0, 46.0, 16.0) == 0
 
 
+def test_a_boats_side_whose_line_runs_into_a_quay_at_a_slant_is_no_piece_of_it() -> None:
+    """A moored boat's near side 4 m in front of a remembered quay face and 15 m past the end of what is remembered
+    of it, its measured axis 11 deg off the face's (a line through a few metres of returns is good to a few
+    degrees): followed on, the line meets the face about 20 m away, and on one flank it runs past the face's end, so
+    the flank test lets it through. The face met runs at a slant to the piece and the piece stands a beam in front
+    of it: a vessel (tuning seed 98: a 12 m boat made structure this way and untracked for 20 s). A piece on the
+    face's own line beyond its end is still wall."""
+    tracker = LidarTracker(LidarTrackerConfig())
+    assert tracker.detect(wall(-40.0, 32.0), 0.0, OWN) == []
+    centre = np.array([47.0, 12.0])
+    axis = (centre - np.array([26.0, 16.0])) / np.linalg.norm(centre - np.array([26.0, 16.0]))
+    along = np.arange(-3.5, 3.5, 0.1)
+    side = centre + along[:, None] * axis
+    points = np.concatenate([np.column_stack([side, np.full(along.size, z)]) for z in (-0.4, -0.9)])
+    assert detections_near(tracker, points, 5.0, 47.0, 12.0) == 1
+    assert detections_near(tracker, wall(36.0, 40.0), 6.0, 38.0, 16.0) == 0
+
+
 @pytest.mark.parametrize("corner_reach_m, end_is_vessel", [(5.0, False), (0.0, True)])
 def test_a_quays_end_face_seen_from_beyond_the_end_is_structure(corner_reach_m: float, end_is_vessel: bool) -> None:
     """The end face of a quay, seen from out beyond its end, runs from the remembered front face's last corner

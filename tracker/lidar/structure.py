@@ -44,6 +44,17 @@ _NEXT_BEAM_TAN = math.tan(math.radians(2.0))
 # sides offset from it and from each other by their differing beams).
 _RUN_MAX_ANGLE_RAD = math.radians(5.0)
 _RUN_MAX_OFFSET_M = 1.0
+# Where a piece's line meets remembered structure (StructureMemory._wall_line_holds): the cells this far around the
+# meeting show the wall's own line when they spread across it by at most _WALL_THIN_M (a face one or two 0.5 m cells
+# thick); a piece more than _WALL_FRONT_MIN_M in front of that line, on the own boat's side, is on it only within
+# _RUN_MAX_ANGLE_RAD and _WALL_MAX_OFFSET_M. Ours, from the geometry: a boat's near side stands its beam plus the
+# fender gap in front (at least 1.3 m for a 1 m USV); on tuning seeds 1-30 the accepted pieces on boats met the
+# face at a median 11 deg and stood a median 3.7 m in front of it, those on quays 1.7 deg and 0.7 m.
+_WALL_WINDOW_M = 3.0
+_WALL_THIN_M = 0.3
+_WALL_FRONT_MIN_M = 0.5
+_WALL_MAX_OFFSET_M = 2.0
+_OWN_CELL = np.zeros((1, 2), dtype=np.int64)
 # A line followed along a wall: on its emptier flank at most this share of what lies on the line itself.
 _FLANK_MAX_RATIO = 0.5
 # A wall's end met end-on by a thin piece (StructureMemory.wall_ends): past the corner, at most this share of what
@@ -279,8 +290,8 @@ class StructureMemory:
         boat moored against the wall shows its near side, a beam's width off that line. Tested by sampling the
         piece's principal axis beyond both ends (``line_reach_m`` each way, one sample a cell) and asking whether
         at least ``line_min_share`` of one side's samples fall on remembered structure; for a piece shorter than
-        ``line_min_length_m`` (down to ``short_line_min_length_m``), ``short_line_min_share``. ``own_ne`` is not
-        needed (the signature is :meth:`wall_ends`'s)."""
+        ``line_min_length_m`` (down to ``short_line_min_length_m``), ``short_line_min_share``; and the wall met must
+        run along the piece's line (:meth:`_wall_line_holds`, which needs ``own_ne``; None leaves it out)."""
         cfg = self.cfg
         out, lids, pieces = self._thin_pieces_to_test(t, footprints, cfg.line_reach_m > 0)
         if pieces is None:
@@ -295,7 +306,8 @@ class StructureMemory:
         samples = np.stack([beyond_lo, beyond_hi], axis=1)  # (P, 2, S, 2)
         p_count = mean.shape[0]
         needed = np.where(length >= cfg.line_min_length_m, cfg.line_min_share, cfg.short_line_min_share)
-        on_line = self.known(t, samples.reshape(-1, 2)).reshape(p_count, 2, s_count).mean(axis=2)  # (P, 2)
+        hit = self.known(t, samples.reshape(-1, 2)).reshape(p_count, 2, s_count)
+        on_line = hit.mean(axis=2)  # (P, 2)
         along = on_line >= needed[:, None]
         piece, side = np.nonzero(along)
         if cfg.line_flank_m > 0 and piece.size:  # only the sides whose line met enough wall: few
@@ -306,9 +318,48 @@ class StructureMemory:
             flanks = np.stack([line + cfg.line_flank_m * normal, line - cfg.line_flank_m * normal], axis=1)
             on_flank = self.known(t, flanks.reshape(-1, 2)).reshape(piece.size, 2, s_count).mean(axis=2)
             along[piece, side] = on_flank.min(axis=1) <= _FLANK_MAX_RATIO * on_line[piece, side]
+        piece, side = np.nonzero(along)
+        if piece.size and own_ne is not None:
+            along[piece, side] = self._wall_line_holds(
+                t, samples[piece, side], hit[piece, side], mean[piece], axis[piece], np.asarray(own_ne, float)[:2]
+            )
         out[idx] = along.any(axis=1)
         lids[idx] = self.lids_at(t, samples.reshape(-1, 2)).reshape(p_count, -1).min(axis=1)
         return out, lids
+
+    def _wall_line_holds(
+        self, t: float, samples: np.ndarray, hit: np.ndarray, mean: np.ndarray, axis: np.ndarray, own_ne: np.ndarray
+    ) -> np.ndarray:
+        """(C,) bool: each piece (its ``mean`` and unit ``axis``, (C, 2)) may be the wall its line met (``samples``
+        (C, S, 2) along the line, ``hit`` (C, S) where they met remembered structure).
+
+        A line drawn from a few metres of returns is good to a few degrees only, and 20 m on it crosses a wall it
+        does not continue: the near side of a boat moored along a quay, a beam in front of the face, took the quay
+        for its own line (tuning seed 98: a 12 m boat untracked for 20 s). So where the remembered structure met is
+        a thin face (cells within _WALL_WINDOW_M of where the line met it, spread across their principal axis by at
+        most _WALL_THIN_M), a piece standing more than _WALL_FRONT_MIN_M in front of that face's line, on the own
+        boat's side, continues it only with its axis within _RUN_MAX_ANGLE_RAD of the face's and its centre within
+        _WALL_MAX_OFFSET_M of the line. A piece behind the line (a quay bent towards the land past a kink) and
+        structure too thick or too sparse to draw a line through keep the rule as it was."""
+        count = hit.sum(axis=1)
+        centre = (samples * hit[..., None]).sum(axis=1) / np.maximum(count, 1)[:, None]
+        r = round(_WALL_WINDOW_M / self.cfg.cell_m)
+        di, dj = np.mgrid[-r : r + 1, -r : r + 1]
+        cells = centre[:, None, :] + np.column_stack([di.ravel(), dj.ravel()])[None, :, :] * self.cfg.cell_m
+        seen = self._seen_within(t, cells.reshape(-1, 2), _OWN_CELL).reshape(cells.shape[:2])  # (C, K)
+        holds = np.ones(len(samples), dtype=bool)
+        fit = np.flatnonzero(seen.sum(axis=1) >= 3)
+        if fit.size == 0:
+            return holds
+        w_mean, w_axis, _lo, _hi, spread = principal_extents([cells[c][seen[c]] for c in fit])
+        normal = np.column_stack([-w_axis[:, 1], w_axis[:, 0]])
+        normal *= np.where(np.einsum("ij,ij->i", own_ne - w_mean, normal) < 0.0, -1.0, 1.0)[:, None]
+        in_front = np.einsum("ij,ij->i", mean[fit] - w_mean, normal)
+        aligned = np.abs(np.einsum("ij,ij->i", w_axis, axis[fit])) >= math.cos(_RUN_MAX_ANGLE_RAD)
+        holds[fit] = ~(
+            (spread <= _WALL_THIN_M) & (in_front > _WALL_FRONT_MIN_M) & (~aligned | (in_front > _WALL_MAX_OFFSET_M))
+        )
+        return holds
 
     def wall_ends(self, t: float, footprints: list[np.ndarray], own_ne: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(k,) bool: each footprint is a thin straight piece meeting remembered structure end-on where that
