@@ -184,3 +184,28 @@ def test_a_bent_quay_alone_and_land_behind_a_broken_face_give_no_hull() -> None:
     top = np.array([(n, e) for n in np.arange(-30.0, 30.0, 1.5) for e in (32.0, 34.0)])
     groups = hull_cells(np.concatenate([broken, hull, top]), ORIGIN, 0.8, 1.5, 1.5, 0.5)
     assert [sorted(cells.tolist()) for cells, _ in groups] == [list(range(len(broken), len(broken) + len(hull)))]
+
+
+def test_boats_end_to_end_hiding_most_of_the_wall_are_carved() -> None:
+    """Boats moored end to end along a low quay, 27 m of hulls in front of 20 m of face left in view: fewer than
+    half the cells are face, but most of those in front of it (the hulls' near sides) lie in one strip parallel to
+    it, so they are left out of the share (tuning seed 27, 80 m off: both boats untracked for 40 s while their
+    cluster was structure)."""
+    wall = wall_cells(20.0)  # north -10..10 at east 30: 67 cells
+    sides = np.column_stack([np.arange(12.0, 39.0, 0.45), np.full(60, 25.5)])  # 4.5 m in front
+    cabins = np.column_stack([np.arange(14.0, 21.0, 0.5), np.full(14, 27.0)])  # returns off a cabin, 3 m in front
+    fp = np.concatenate([wall, sides, cabins])
+    assert len(wall) < 0.5 * len(fp)
+    groups = hull_cells(fp, ORIGIN, 0.8, 1.5, 1.5, 0.5)
+    assert [sorted(g.tolist()) for g, _ in groups] == [list(range(len(wall), len(fp)))]
+
+
+def test_a_quays_top_seen_from_beyond_its_end_is_no_hull() -> None:
+    """From beyond a quay's end, across the line of its face, the top of the quay lies "in front" of the face, spread
+    over its depth rather than in one strip: it still counts against the face's share, and nothing is carved
+    (tuning seed 38: pieces of a quay's top carved as hulls tracked as vessels at its end)."""
+    wall = wall_cells(20.0)
+    north, east = np.meshgrid(np.arange(-10.0, 10.0, 0.5), np.arange(25.5, 29.4, 0.5))
+    top = np.column_stack([north.ravel(), east.ravel()])  # 4 m of top, on the sensor's side of the face's line
+    fp = np.concatenate([wall, top])
+    assert hull_cells(fp, ORIGIN, 0.8, 1.5, 1.5, 0.5) == []

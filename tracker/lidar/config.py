@@ -581,7 +581,8 @@ class StructureConfig:
     # track-frames 3.2 -> 2.6 % of matches, 10 scenes better and 1 worse (by 0.0006).
     run_min_pieces: int = 3
     # Hulls moored against a wall (tracker.lidar.moored): in a cluster too big for a vessel with a straight face
-    # (at least moored_face_min_share of its cells within 0.5 m of one line), the cells standing
+    # (at least moored_face_min_share of its cells within 0.5 m of one line, not counting hulls' near sides in one
+    # strip in front of it: tracker.lidar.moored.HULL_SIDES_MIN_SHARE), the cells standing
     # moored_min_offset_m or more in front of the face, towards the sensor, in runs along it with gaps under
     # moored_gap_m and at least moored_min_length_m long, are clusters of their own. 0 turns it off. Ours, chosen
     # from the geometry (a beam of 1 m or more plus the 0.3 m fender gap); held out (random:1001-1050, fused)

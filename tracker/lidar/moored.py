@@ -11,9 +11,12 @@ footprint (occupied grid cells, world north/east) of a cluster too big for a ves
 across: the face is the densest 1 m strip over all directions (a Hough search; a vertical face stacks every ring's
 returns onto one line); when at least ``face_min_share`` of the cells lie in it, the cells standing
 ``min_offset_m`` or more in front of it, grouped along the face with gaps under ``gap_m``, are hulls of at least
-``min_length_m``. Land behind the face lies away from the sensor and is never carved; a cluster with no straight
-face (a corner, rough shore) is left whole; a convex hull has no cells in front of its own face, so a vessel alone
-is never carved. The work is a few array passes per long cluster, over at most a thousand of its cells.
+``min_length_m``. Boats moored end to end can hide more of a wall than is left in view: their near sides, in one
+strip parallel to the face, are then left out of that share (on tuning seed 27 two boats 27 m long hid a low quay
+seen 80 m off, 98 of the 219 cells were its face, and both boats went untracked for 40 s). Land behind the face
+lies away from the sensor and is never carved; a cluster with no straight face (a corner, rough shore) is left
+whole; a convex hull has no cells in front of its own face, so a vessel alone is never carved. The work is a few
+array passes per long cluster, over at most a thousand of its cells.
 
 A wall need not be straight from end to end: a quay's end bent towards the land by some degrees carries boats too,
 and they lie behind the main face's line (on tuning seed 78 a 12.6 m boat on a bent end stood 4.6 m behind it to
@@ -48,6 +51,13 @@ BEND_STEP_DEG = 0.5  # the bent face's search step: 0.5 deg is 0.17 m across at 
 BEND_MIN_RUN_M = 5.0  # m: an unbroken run of the main face this long is wall (a boat crossing its line makes less)
 FIRST_SEEN_BIN_DEG = 0.25  # the bent face is searched among the cells first seen in each this much of bearing
 BEND_MIN_CELLS = 5  # cells on a bent face (0.75 m of 0.15 m cells) for it to be a face at all
+# Boats moored along a wall show their near sides in one strip parallel to its face: when at least this share of the
+# cells in front of the face lie in one such strip, they are hulls and do not count against the face's share.
+HULL_SIDES_MIN_SHARE = 0.5
+# m: and that strip lies within a beam of the face: a 50 m ship is 8.5 m wide. Farther on, a strip parallel to the
+# face is something else (seen from beyond a quay's end, with its end face taken for the face, the long face itself
+# runs away in front of it and a boat 18 m off stands parallel: tuning seed 94).
+HULL_SIDES_MAX_M = 10.0
 
 
 @dataclass(frozen=True)
@@ -83,12 +93,12 @@ def hull_cells(
     coarse = _densest_strip(sample, np.radians(np.arange(0.0, 180.0, 2.0)))  # thousands, and this runs every scan
     fine = rel[:: max(1, rel.shape[0] // FINE_CELLS)]
     angle, face, held = _densest_strip(fine, coarse[0] + np.radians(np.arange(-2.0, 2.05, 0.2)))
-    if held < face_min_share * fine.shape[0]:
-        return []
     axis = np.array([np.cos(angle), np.sin(angle)])
     normal = np.array([-axis[1], axis[0]])
     if float((own - mean) @ normal) < 0.0:
         normal, face = -normal, -face
+    if held < face_min_share * (fine.shape[0] - _hull_sides(fine @ normal - face, min_offset_m)):
+        return []
     across = rel @ normal
     along = rel @ axis
     face = float(np.median(across[np.abs(across - face) <= FACE_HALF_WIDTH_M]))
@@ -122,6 +132,20 @@ def hull_cells(
             if _parallel(along_bent[g], across_bent[g]):
                 found.append((g, bent))
     return found
+
+
+def _hull_sides(in_front: np.ndarray, min_offset_m: float) -> int:
+    """How many cells (their distances ``in_front`` of a face, m) stand ``min_offset_m`` or more in front of it
+    as the near sides of hulls moored along it: all of those cells when at least HULL_SIDES_MIN_SHARE of them lie in
+    one 2 * FACE_HALF_WIDTH_M strip parallel to the face and nearer to it than HULL_SIDES_MAX_M, else none. A
+    quay's top seen from beyond its end lies "in front" of the face too, but spread over its depth."""
+    ahead = in_front[in_front >= min_offset_m]
+    beam = ahead[ahead < HULL_SIDES_MAX_M]
+    if beam.size == 0:
+        return 0
+    bins = np.bincount(((beam - min_offset_m) * (1.0 / FACE_HALF_WIDTH_M)).astype(np.int64))
+    strip = int((bins[:-1] + bins[1:]).max()) if bins.size > 1 else int(bins[0])
+    return int(ahead.size) if strip >= HULL_SIDES_MIN_SHARE * ahead.size else 0
 
 
 def _runs_along(cells: np.ndarray, along: np.ndarray, min_length_m: float, gap_m: float) -> list[np.ndarray]:
