@@ -728,12 +728,13 @@ class LidarTracker:
         return life
 
     def _static_structure(self, t: float, own: np.ndarray) -> list[int]:
-        """Tracks that are quay, not vessel: confirmed, at least ``static_min_length_m`` long and slower than
-        ``static_max_speed_mps`` for ``static_min_age_s``. Their clusters are remembered as structure (so the next
-        pieces of the same wall get no track either) and the tracks end. On the tuning scenes a 25-45 m stretch of
-        quay with the land behind it was tracked as a "vessel" moving at its changing ends' 0.1-0.8 m/s, most of the
-        false track-frames; no vessel that size lies still in a harbour's fairway, and a moored ship stays an
-        obstacle in the array, built from its returns."""
+        """Tracks that are quay, not vessel: confirmed, at least ``static_min_length_m`` long, at least
+        ``static_min_age_s`` old and no faster than ``static_max_speed_mps`` now. Their clusters are remembered as
+        structure (so the next pieces of the same wall get no track either) and the tracks end. On the tuning scenes
+        a 25-45 m stretch of quay with the land behind it was tracked as a "vessel" moving at its changing ends'
+        0.1-0.8 m/s, most of the false track-frames; no vessel that size lies still in a harbour's fairway, and a
+        moored ship stays an obstacle in the array, built from its returns. A ship under way whose speed the track
+        underestimates (its visible extent growing as it comes into view) is ended too: see Known limitations."""
         cfg = self.config.structure
         if cfg.static_min_length_m <= 0 or cfg.memory_s <= 0 or self._cluster_result is None:
             return []
