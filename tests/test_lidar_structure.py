@@ -173,6 +173,26 @@ def test_a_line_with_its_ends_in_view_is_no_vessel_until_it_moves(
     assert track.confirmed == reported
 
 
+@pytest.mark.parametrize("thin_seen_min_scans, reported", [(10, False), (0, True)])
+def test_a_line_first_seen_short_is_thin_once_its_detections_say_so(thin_seen_min_scans: int, reported: bool) -> None:
+    """A still line of returns 50 m off, at 45 deg to the line of sight, first seen 1.3 m long and growing to 6 m
+    (a piece of quay coming out of a moored boat's shadow): its track keeps the beam prior of that first view (a
+    third of its 1.1 m fitted extent, 0.37 m, wider than thin_max_width_m), since an end face so narrow would not
+    show from 50 m. A hull
+    with a beam of a third of 6 m would have shown one, and the detections stay a few centimetres wide: after
+    thin_seen_min_scans such scans the track is thin, a piece of quay, reported tentative; with the rule off it is
+    a vessel."""
+    tracker = LidarTracker(LidarTrackerConfig(structure=StructureConfig(thin_seen_min_scans=thin_seen_min_scans)))
+    direction = np.array([-1.0, 1.0]) / np.sqrt(2.0)
+    for k in range(50):  # 5 s at 10 Hz
+        tracks = tracker.step(line_of_returns(np.array([50.0, 0.0]), direction, min(1.3 + 0.1 * k, 6.0)), 0.1 * k, OWN)
+    assert len(tracks) == 1
+    track = tracks[0]
+    assert abs(track.width - 0.37) < 0.02  # the first view's prior, never measured
+    assert abs(track.length - 6.0) < 0.5
+    assert track.confirmed == reported
+
+
 @pytest.mark.parametrize(
     "easts, run_min_pieces, vessels",
     [

@@ -29,6 +29,7 @@ from tracker.lidar.ekf import (
     WID,
     EkfBank,
     Measurement,
+    faces_seen,
     measurement_noises,
     visibility,
 )
@@ -81,6 +82,7 @@ class LidarTracker:
         # (t deleted, life, t last seen, centre NE, velocity NE or zeros, half-size): see _remember_lost
         self._lost: list[tuple[float, TrackLife, float, np.ndarray, np.ndarray, float]] = []
         self._last_seen: dict[int, tuple[float, np.ndarray, np.ndarray, float]] = {}  # by track id, see _note_seen
+        self._thin_runs: dict[int, int] = {}  # by track id: scans in a row its detection was a thin line in full view
         self._kinds: list[ShapeKind] = []
         self._t: float | None = None
         self.last_clusters: list[np.ndarray] = []  # (n, 3) world NED points per cluster, nearest first
@@ -637,6 +639,8 @@ class LidarTracker:
         for ti, di in assignment.matches:
             self._lives[ti].hit(t, alone=bool(alone[di]))
             self._kinds[ti] = measurements[di].kind
+            tid = self._lives[ti].id
+            self._thin_runs[tid] = self._thin_runs.get(tid, 0) + 1 if self._thin_line(measurements[di]) else 0
             for k in self._detection_clusters[di]:
                 self.last_cluster_track[k] = self._lives[ti].id
         for ti in assignment.unmatched_rows:
@@ -651,6 +655,7 @@ class LidarTracker:
             dead_set = set(dead)
             for i in dead:
                 self._last_seen.pop(self._lives[i].id, None)
+                self._thin_runs.pop(self._lives[i].id, None)
             self._lives = [life for i, life in enumerate(self._lives) if i not in dead_set]
             self._kinds = [k for i, k in enumerate(self._kinds) if i not in dead_set]
         for di in assignment.unmatched_cols:
@@ -894,6 +899,19 @@ class LidarTracker:
         births[at.any(axis=0), 3] = self._t  # a track living there keeps the place
         return (at & (births[None, :, 3] - births[None, :, 2] >= settled_s)).any(axis=1)
 
+    def _thin_line(self, m: Measurement) -> bool:
+        """``m`` is a line thinner than any hull (``thin_max_width_m``, at least ``thin_min_length_m`` long) seen
+        from where a hull with a beam of ``beam_ratio`` x its length would have shown an end face."""
+        cfg = self.config.structure
+        if cfg.thin_seen_min_scans <= 0 or m.sensor is None or m.kind is ShapeKind.POINT:
+            return False
+        long_side, short_side = max(m.length, m.width), min(m.length, m.width)
+        if short_side >= cfg.thin_max_width_m or long_side < cfg.thin_min_length_m:
+            return False
+        heading = m.heading if m.length >= m.width else m.heading + 0.5 * math.pi
+        beam = self.config.ekf.beam_ratio * long_side
+        return faces_seen(m.center, heading, long_side, beam, m.sensor, self.config.ekf.face_min_angle)[1]
+
     def _unproven_structure(self, x: np.ndarray, velocities: np.ndarray) -> np.ndarray:
         """(T,) bool: tracks shaped like structure that have not shown a speed above ``static_max_speed_mps``
         (``velocities`` NaN where unknown), reported tentative until they move. Structure-sized ones
@@ -903,10 +921,18 @@ class LidarTracker:
         ``flat_thin_min_length_m`` long, spanning less than ``flat_max_height_m`` of height is one beam along a quay,
         tentative however it seems to move."""
         cfg = self.config.structure
-        shaped = (x[:, WID] < cfg.thin_max_width_m) & (x[:, LEN] >= cfg.thin_min_length_m)
+        # a line seen thin for thin_seen_min_scans scans in a row is thin whatever the width its first view gave it
+        seen_thin = np.array(
+            [
+                cfg.thin_seen_min_scans > 0 and self._thin_runs.get(life.id, 0) >= cfg.thin_seen_min_scans
+                for life in self._lives
+            ],
+            dtype=bool,
+        )
+        shaped = ((x[:, WID] < cfg.thin_max_width_m) | seen_thin) & (x[:, LEN] >= cfg.thin_min_length_m)
         long_line = (
             (cfg.flat_thin_min_length_m > 0)
-            & (np.minimum(x[:, LEN], x[:, WID]) < cfg.thin_max_width_m)
+            & ((np.minimum(x[:, LEN], x[:, WID]) < cfg.thin_max_width_m) | seen_thin)
             & (np.maximum(x[:, LEN], x[:, WID]) >= cfg.flat_thin_min_length_m)
         )
         if cfg.static_min_length_m > 0:
