@@ -650,7 +650,8 @@ class StructureConfig:
     # width, too narrow for an end face ever to show, and keeps it however long the line grows (tuning seeds 48 and
     # 95: quay pieces 0.33-0.35 m "wide" tracked as vessels for 14-16 s). One scan is not enough: a hull's end face
     # at long range often returns nothing for a scan. 0 turns it off. Ours, chosen on tuning seeds 1-100 (fused
-    # MOTA 0.9654 -> 0.9655, false positives 5,081 -> 4,933, matches -130; every scan: seeds 101-140 0.9519 -> 0.9491).
+    # MOTA 0.9654 -> 0.9655, false positives 5,081 -> 4,933, matches -130; seeds 101-140 0.9519 -> 0.9524, against
+    # 0.9522 with 5 scans, 0.9521 with 20 and 0.9491 with every scan).
     # Held out (random:1001-1050, fused) against none: false track-frames 1.54 -> 1.47 % of matches, track-ticks on a
     # quay 2,024 -> 1,901, worst scene 0.721 -> 0.724, MOTA 0.95338 -> 0.95341 (5 scenes better, 9 worse).
     thin_seen_min_scans: int = 10
