@@ -178,10 +178,9 @@ def test_a_line_first_seen_short_is_thin_once_its_detections_say_so(thin_seen_mi
     """A still line of returns 50 m off, at 45 deg to the line of sight, first seen 1.3 m long and growing to 6 m
     (a piece of quay coming out of a moored boat's shadow): its track keeps the beam prior of that first view (a
     third of its 1.1 m fitted extent, 0.37 m, wider than thin_max_width_m), since an end face so narrow would not
-    show from 50 m. A hull
-    with a beam of a third of 6 m would have shown one, and the detections stay a few centimetres wide: after
-    thin_seen_min_scans such scans the track is thin, a piece of quay, reported tentative; with the rule off it is
-    a vessel."""
+    show from 50 m. A hull with a beam of a third of 6 m would have shown one, and the detections stay a few
+    centimetres wide: after thin_seen_min_scans such scans the track is thin, a piece of quay, reported tentative;
+    with the rule off it is a vessel."""
     tracker = LidarTracker(LidarTrackerConfig(structure=StructureConfig(thin_seen_min_scans=thin_seen_min_scans)))
     direction = np.array([-1.0, 1.0]) / np.sqrt(2.0)
     for k in range(50):  # 5 s at 10 Hz

@@ -180,6 +180,14 @@ def faces_seen(
     return side_angle >= min_angle, end_angle >= min_angle
 
 
+def prior_beam_would_show(
+    center: np.ndarray, heading: float, length: float, sensor: np.ndarray, config: EkfConfig
+) -> bool:
+    """Whether a hull ``length`` long along ``heading``, with the prior beam (``beam_ratio`` x ``length``), would
+    show an end face from ``sensor`` (:func:`faces_seen`): if so, a thinner outline seen there is the whole object."""
+    return faces_seen(center, heading, length, config.beam_ratio * length, sensor, config.face_min_angle)[1]
+
+
 def _update_full(filters: list[ExtendedKalmanFilter], ms: list[Measurement]) -> None:
     """Eq. 7's update of each filter with its measurement (all six components), stacked."""
     x = np.array([f.x for f in filters])
@@ -266,8 +274,7 @@ class EkfBank:
         assert m.sensor is not None
         prior = cfg.beam_ratio * m.length
         # Would a hull of the prior's beam show an end face from here? Then the thin outline is the whole object.
-        _, width_seen = faces_seen(m.center, m.heading, m.length, prior, m.sensor, cfg.face_min_angle)
-        if width_seen or m.width >= prior:
+        if prior_beam_would_show(m.center, m.heading, m.length, m.sensor, cfg) or m.width >= prior:
             return
         c, s = math.cos(m.heading), math.sin(m.heading)
         e_v = np.array([-s, c])

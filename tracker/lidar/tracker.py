@@ -29,8 +29,8 @@ from tracker.lidar.ekf import (
     WID,
     EkfBank,
     Measurement,
-    faces_seen,
     measurement_noises,
+    prior_beam_would_show,
     visibility,
 )
 from tracker.lidar.level_returns import LevelRule, horizontal_tops
@@ -909,8 +909,7 @@ class LidarTracker:
         if short_side >= cfg.thin_max_width_m or long_side < cfg.thin_min_length_m:
             return False
         heading = m.heading if m.length >= m.width else m.heading + 0.5 * math.pi
-        beam = self.config.ekf.beam_ratio * long_side
-        return faces_seen(m.center, heading, long_side, beam, m.sensor, self.config.ekf.face_min_angle)[1]
+        return prior_beam_would_show(m.center, heading, long_side, m.sensor, self.config.ekf)
 
     def _unproven_structure(self, x: np.ndarray, velocities: np.ndarray) -> np.ndarray:
         """(T,) bool: tracks shaped like structure that have not shown a speed above ``static_max_speed_mps``
