@@ -3,7 +3,7 @@
 Ray casting a revolution and packing 754 packets a second is about a quarter of a core here. A real sensor is a
 machine of its own, so this one is a process of its own: its work never takes the daemon's interpreter lock, and
 the demo's and the end-to-end tests' daemon meets a sensor as it would on the boat (in paired demo runs the cycle
-moved within the machine's noise: README, "What the demo shows").
+moved within the machine's noise: docs/measured.md, "The demo's cycle").
 """
 
 from __future__ import annotations

@@ -559,8 +559,8 @@ class StructureConfig:
     # quay's end for 15-22 s (seeds 38, 14, 79, 17, 29). Ours, from the geometry (a quay's face runs on past 5 m from
     # its corner; a boat moored alongside stands on the own boat's side of its wall). Tuning seeds 1-100 (fused):
     # MOTA 0.9552 -> 0.9613, false positives 6,536 -> 4,848, 18 scenes better and 4 worse (26: 0.944 -> 0.922, a
-    # moored boat already remembered as wall); without the side test 0.9609 (95: 0.919 -> 0.901). Held out in the
-    # README's table. corner_reach_m 0 turns it off.
+    # moored boat already remembered as wall); without the side test 0.9609 (95: 0.919 -> 0.901). Held out in
+    # docs/tracking.md. corner_reach_m 0 turns it off.
     corner_reach_m: float = 5.0
     corner_touch_m: float = 1.0
     corner_side_margin_m: float = 2.0

@@ -4,7 +4,7 @@ Paper 001 = Xu et al. 2024, "ROTracker: a novel MMW radar-based object tracking 
 vehicle in offshore environments" (Front. Mar. Sci. 11:1411920). Values the paper gives cite their section;
 values it leaves open say "not in the paper" and why the default was chosen.
 
-One group per role of a frame's path (README, "Tracker architecture"): the region of interest, the own boat's motion,
+One group per role of a frame's path (README, "Tracking"): the region of interest, the own boat's motion,
 clustering, the static map and shore filter, multipath, the velocity profile, the Kalman filter, the Doppler
 measurement, the visible side, occlusion, association, births, existence, the lifecycle and the motion
 discriminator. In the daemon's TOML each is a table: ``[tracker.radar.clustering]`` and so on.
