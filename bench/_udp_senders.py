@@ -14,30 +14,54 @@ from typing import Any
 
 import numpy as np
 
-from drivers.vlp16.packet import DATA_PORT, POSITION_PORT
+from drivers.vlp16.packet import (
+    DATA_PACKET_DTYPE,
+    DATA_PORT,
+    MICROSECONDS_PER_HOUR,
+    POSITION_PACKET_DTYPE,
+    POSITION_PORT,
+)
 from drivers.vlp16.pcap import PcapReader
 
 
 def replay_capture(
-    path: str, data_port: int, position_port: int, speed: float, start_at: float, results: Any, host: str = "127.0.0.1"
+    path: str,
+    data_port: int,
+    position_port: int,
+    speed: float,
+    start_at: float,
+    results: Any,
+    host: str = "127.0.0.1",
+    seconds: float | None = None,
 ) -> None:
     """Send the capture's VLP-16 data and position packets to ``host`` at ``speed`` times their recorded pace, from
-    one socket (one sender address, as a sensor), starting at monotonic time ``start_at``."""
+    one socket (one sender address, as a sensor), starting at monotonic time ``start_at``. ``seconds``: play the
+    capture over again until this many seconds have been sent (None: once); each pass carries the device clock on
+    (``_restamped``), so the sensor looks like one that kept running, not one whose clock jumped back."""
     datagrams = [(d.timestamp_s, d.dst_port, d.payload) for d in PcapReader(path, {DATA_PORT, POSITION_PORT})]
     t0 = datagrams[0][0]
+    # One pass lasts the capture plus one packet period, so the next pass's first packet follows on time.
+    span = datagrams[-1][0] - t0 + (datagrams[-1][0] - datagrams[-2][0] if len(datagrams) > 1 else 0.0)
+    passes = 1 if seconds is None else max(1, int(np.ceil(seconds * speed / span)))
     sent = {"data": 0, "position": 0}
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
         sock.bind((host, 0))
         _wait_until(start_at)
         begin, begin_wall = time.monotonic(), time.time()
-        for t, port, payload in datagrams:
-            _wait_until(begin + (t - t0) / speed)
-            if port == DATA_PORT:
-                sock.sendto(payload, (host, data_port))
-                sent["data"] += 1
-            else:
-                sock.sendto(payload, (host, position_port))
-                sent["position"] += 1
+        for k in range(passes):
+            for t, port, payload in datagrams:
+                offset = k * span + (t - t0)
+                if seconds is not None and offset > seconds * speed:
+                    break
+                _wait_until(begin + offset / speed)
+                if k:
+                    payload = _restamped(payload, port, round(k * span * 1e6))
+                if port == DATA_PORT:
+                    sock.sendto(payload, (host, data_port))
+                    sent["data"] += 1
+                else:
+                    sock.sendto(payload, (host, position_port))
+                    sent["position"] += 1
         end = time.monotonic()
         results.put(
             {
@@ -51,6 +75,15 @@ def replay_capture(
                 }
             }
         )
+
+
+def _restamped(payload: bytes, port: int, shift_us: int) -> bytes:
+    """The packet with its device timestamp (microseconds past the hour) moved on by ``shift_us``."""
+    dtype = DATA_PACKET_DTYPE if port == DATA_PORT else POSITION_PACKET_DTYPE
+    offset = dtype.fields["timestamp"][1]
+    stamp = int.from_bytes(payload[offset : offset + 4], "little")
+    new = ((stamp + shift_us) % MICROSECONDS_PER_HOUR).to_bytes(4, "little")
+    return payload[:offset] + new + payload[offset + 4 :]
 
 
 def send_junk(
