@@ -290,6 +290,11 @@ def figures(
         "deadline_misses": int((ms > 100.0).sum()),
         "deadline_misses_whole_run": daemon["loop"]["deadline_misses"],
         "tick_gap_max_ms": float(gaps.max()) if len(gaps) else math.nan,
+        # when the long gaps came, s into the loaded window: a pattern (the start, every pass of a looped capture)
+        # tells a cause from the machine's noise
+        "tick_gaps_over_110_ms": [
+            (round(float(cycles[k, 0] - begin), 2), round(float(g), 1)) for k, g in enumerate(gaps) if g > 110.0
+        ],
         "failed_cycles": daemon["loop"]["failed_ticks"],
         "obstacle_distance_received": obstacle_messages,
         "health_last": last.groupdict() if last else None,
@@ -328,6 +333,8 @@ def print_run(name: str, r: dict[str, Any]) -> None:
         f"OBSTACLE_DISTANCE {r['obstacle_distance_received'] / r['seconds']:.1f}/s",
         flush=True,
     )
+    if r["tick_gaps_over_110_ms"]:
+        print(f"  gaps over 110 ms between cycles (s into the run, ms): {r['tick_gaps_over_110_ms']}")
     for p in r["problems"]:
         print(f"  daemon said: {p}")
 
