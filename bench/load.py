@@ -2,7 +2,7 @@
 
     python bench/load.py               # two runs of 60 s: a random harbour scene, then 50 vessels in view (~6 min)
     python bench/load.py --seconds 20  # shorter, printed only
-    python bench/load.py --worst       # issue 13's worst case live for 10 minutes (~14 min)
+    python bench/load.py --worst       # issue 13's worst case live for 10 minutes (~11 min)
 
 Each run: the daemon live in its own process (bench/_load_daemon.py: daemon.runner's start_daemon and run_live, as
 `usv-tracker run` starts it) on real loopback I/O as the end-to-end tests set it up: the simulated AWR1843 over two
