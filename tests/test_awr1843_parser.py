@@ -456,3 +456,47 @@ def test_a_view_of_the_buffer_held_elsewhere_does_not_stop_the_stream() -> None:
     assert parser.stats.frames_ok == 3 and parser.stats.bytes_skipped == 0
     held.release()
     held2.release()
+
+
+def _shipped_profile():  # type: ignore[no-untyped-def]
+    from simulator.radar_model import SHIPPED_PROFILE
+
+    return parse_profile(SHIPPED_PROFILE.read_text())
+
+
+def test_frames_one_late_read_returns_keep_the_radars_spacing() -> None:
+    """A busy host reads the data port late and gets three frames in one read: they are stamped by their frame numbers
+    on the radar's 0.1 s period (shifted by the least delay seen), not all at that read's time. Stamped 2 ms apart, a
+    still boat's returns from three frames read the position noise as metres per second of speed."""
+    profile = _shipped_profile()
+    assert profile.frame_period_s == pytest.approx(0.1)
+    frames = _stream(41, 8)
+    parser = RadarFrameParser(profile)
+    reads = [1000.004, 1000.109, 1000.203, 1000.306]  # frames 41-44 read 3-9 ms after they start
+    got = [f for frame, t in zip(frames[:4], reads, strict=True) for f in parser.feed(frame, t)]
+    got += parser.feed(b"".join(frames[4:7]), 1000.731)  # frames 45-47 in one read, 0.33 s late for the first
+    got += parser.feed(frames[7], 1000.805)
+    assert [f.frame_number for f in got] == list(range(41, 49))
+    # A read that came least late so far stands; the others are the radar's time plus the least delay before them:
+    # frame 41's 4 ms, then frame 43's 3 ms.
+    least_41, least_43 = 1000.004 - 4.1, 1000.203 - 4.3
+    expected = [1000.004, 4.2 + least_41, 1000.203] + [n / 10 + least_43 for n in range(44, 49)]
+    np.testing.assert_allclose([f.stamp for f in got], expected, rtol=0, atol=1e-9)
+    assert (got[0].stamp, got[2].stamp) == (1000.004, 1000.203)  # exactly their reads
+    np.testing.assert_allclose(np.diff([f.stamp for f in got[3:]]), 0.1, rtol=0, atol=1e-9)
+    assert all(f.stamp <= t for f, t in zip(got, reads + [1000.731] * 3 + [1000.805], strict=True))
+
+
+def test_frame_stamps_without_a_profile_or_after_a_radar_restart() -> None:
+    """No profile, no period: each frame keeps its read's time. A frame number going back is a radar that started
+    counting again: the old delays say nothing of its new count, and no stamp goes back in time."""
+    frames = _stream(41, 3)
+    bare = RadarFrameParser()
+    assert [f.stamp for f in bare.feed(b"".join(frames), 7.5)] == [7.5, 7.5, 7.5]
+    parser = RadarFrameParser(_shipped_profile())
+    assert [f.stamp for f in parser.feed(frames[0], 50.0)] == [50.0]
+    assert [f.stamp for f in parser.feed(frames[1], 50.1)] == [50.1]
+    restarted = _stream(1, 2)  # frames 1 and 2 of a new count
+    got = parser.feed(restarted[0], 50.21) + parser.feed(restarted[1], 50.31)
+    assert [f.frame_number for f in got] == [1, 2]
+    assert [f.stamp for f in got] == [50.21, 50.31]

@@ -6,7 +6,8 @@ import logging
 import os
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -70,6 +71,24 @@ class Reader:
         self.stop.set()
         self.thread.join(timeout=10.0)
         assert not self.thread.is_alive()
+
+
+@contextmanager
+def data_port_on_a_pty(profile: Path | None) -> Iterator[tuple[int, Reader]]:
+    """A data-port-only source (no CLI, no cfg sent) reading a pty's slave, the reader running; the master's fd to
+    write the radar's bytes to."""
+    master, slave = os.openpty()
+    try:
+        source = SerialRadarSource("", os.ttyname(slave), profile, configure=False, stop_sensor_on_exit=False)
+        reader = Reader(source)
+        try:
+            time.sleep(0.2)  # the reader has opened the port
+            yield master, reader
+        finally:
+            reader.close()
+    finally:
+        os.close(master)
+        os.close(slave)
 
 
 def test_live_stream_with_injected_damage(fast_profile: RadarProfile) -> None:
@@ -381,17 +400,36 @@ def test_a_frame_ending_like_a_magic_word_goes_out_in_the_pause_after_its_burst(
 
     frame = encode_frame(7, np.array([[1.0, 5.0, 0.0], [2.0, 9.0, 0.0]]), [0.5, -0.25], 20.0, 60.0)
     assert frame[-1:] == MAGIC[:1]
-    master, slave = os.openpty()
-    try:
-        source = SerialRadarSource("", os.ttyname(slave), None, configure=False, stop_sensor_on_exit=False)
-        reader = Reader(source)
-        try:
-            time.sleep(0.2)  # the reader has opened the port
-            os.write(master, frame)
-            reader.wait_for(lambda: len(reader.frames) >= 1, timeout=5.0)
-        finally:
-            reader.close()
-    finally:
-        os.close(master)
-        os.close(slave)
+    with data_port_on_a_pty(None) as (master, reader):
+        os.write(master, frame)
+        reader.wait_for(lambda: len(reader.frames) >= 1, timeout=5.0)
     assert [(f.frame_number, f.n_points) for f in reader.frames] == [(7, 2)]
+
+
+def test_frames_a_late_read_gets_together_keep_their_spacing_over_a_pty() -> None:
+    """The radar sends a frame each 0.1 s; the host stalls and one read returns three frames at once (as a Pi busy
+    with its autopilot does). Each frame is stamped by its frame number on the radar's period, shifted by the least
+    delay seen, so the three stay 0.1 s apart and before the read that got them; before, they came 0-2 ms apart.
+    Timing assumption: the burst is written 0.5 s after the last frame on time, so it would set the least delay
+    only if all four frames before it had been read 0.3 s late or more (a busy 2-core machine: tens of ms)."""
+    from drivers.awr1843.parser import encode_frame
+    from simulator.radar_model import SHIPPED_PROFILE
+
+    def frame(number: int) -> bytes:
+        return encode_frame(number, np.array([[1.0, 20.0, 0.0], [1.5, 20.5, 0.0], [2.0, 20.0, 0.0]]), 0.0, 25.0, 60.0)
+
+    with data_port_on_a_pty(SHIPPED_PROFILE) as (master, reader):
+        start = time.monotonic()
+        for k in range(4):  # frames 1-4 on time
+            time.sleep(max(0.0, start + 0.1 * k - time.monotonic()))
+            os.write(master, frame(k + 1))
+        time.sleep(max(0.0, start + 0.3 + 0.5 - time.monotonic()))
+        burst_written = time.monotonic()
+        os.write(master, frame(5) + frame(6) + frame(7))
+        reader.wait_for(lambda: len(reader.frames) >= 7, timeout=5.0)
+    assert [f.frame_number for f in reader.frames] == list(range(1, 8))
+    burst = [f.stamp for f in reader.frames[4:]]
+    np.testing.assert_allclose(np.diff(burst), 0.1, rtol=0, atol=1e-6)
+    assert burst[-1] < burst_written  # 0.2 s and more before the read that got them
+    stamps = [f.stamp for f in reader.frames]
+    assert stamps == sorted(stamps)

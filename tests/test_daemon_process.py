@@ -136,4 +136,6 @@ def test_a_replay_with_a_sensor_switched_off_never_reports_it_silent(tmp_path: P
     assert res.stderr.count(f"{name} off by configuration: not expected, not reported silent") == 1
     assert f"{name} silent" not in res.stderr
     ticks = re.search(r"replay: (\d+) ticks over ([\d.]+) s of data", res.stderr)
-    assert ticks is not None and int(ticks[1]) >= 50 and float(ticks[2]) >= 5.0  # the test's premise held
+    # the test's premise held: ticks went on past the 3 s grace and the 0.5 s timeout (radar frames are stamped at
+    # when they were sent, up to 29 ms before their recorded reads, so 5 s of captures replay as 4.9 s or more)
+    assert ticks is not None and int(ticks[1]) >= 40 and float(ticks[2]) >= 4.0

@@ -18,6 +18,12 @@ configuration is rejected whole and counted (``frames_rejected``), never decoded
 Frames: points arrive in TI axes (x right, y boresight, z up), go through ``TI_TO_FRD`` into the
 sensor-FRD frame and then through the configured ``Mount`` into the body FRD frame. The velocity is the
 radial (line-of-sight) speed, a scalar, so the mount does not change it.
+
+Stamps: a frame is stamped on the host clock at the read that found its header; when a read comes late (a busy
+host, a stalled USB bridge) it returns several frames at once. With the profile known, each frame's stamp is its
+number times the frame period, shifted by the least delay seen (``_frame_time``), so that frames keep the radar's
+own spacing: stamped a couple of milliseconds apart, a still boat's returns from three frames read the position
+noise as metres per second of speed.
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ import numpy as np
 
 from drivers.awr1843.profile import RadarProfile
 from drivers.frames import RadarFrame
+from drivers.least_delay import LeastDelayOffset
 from drivers.mount import TI_TO_FRD, Mount
 
 if TYPE_CHECKING:
@@ -40,6 +47,9 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
+# s of host time over which a frame's stamp takes the least delay of any frame (drivers/least_delay.py): the VLP-16's
+# device clock window, 20 frames at 10 Hz.
+CLOCK_WINDOW_S = 2.0
 REJECTION_LOG_INTERVAL_S = 60.0  # rejected frames: the first is logged at once, then one summary a minute at most
 
 MAGIC = bytes.fromhex("0201040306050807")
@@ -205,6 +215,8 @@ class RadarFrameParser:
         self._skipped_since_frame = 0
         self._last_frame_number: int | None = None
         self._warned: set[str] = set()
+        self._clock = LeastDelayOffset(CLOCK_WINDOW_S)
+        self._last_stamp = -math.inf
 
     # ------------------------------------------------------------------ stream
     @property
@@ -248,6 +260,7 @@ class RadarFrameParser:
         self._skip(len(self._buf) - self._pos)
         self._pending = None
         self._firmware = None
+        self._clock.reset()  # the delays before a reconnect say nothing of those after it
         self._compact()
 
     def _drain(self, host_time: float, final: bool) -> list[RadarFrame]:
@@ -280,7 +293,7 @@ class RadarFrameParser:
             self._pending = None
             if self.expected is not None and self._firmware is None:
                 self._firmware = hdr.version
-            frame.stamp = self._pending_stamp
+            frame.stamp = self._frame_time(hdr.frame_number, self._pending_stamp)
             frame.bytes_skipped = self._skipped_since_frame
             self._skipped_since_frame = 0
             self._count_frame_number(hdr.frame_number)
@@ -357,6 +370,23 @@ class RadarFrameParser:
                 # with exports cannot shrink, and raising here would stop the radar's reader until a restart.
                 self._buf = self._buf[self._pos :]
             self._pos = 0
+
+    def _frame_time(self, frame_number: int, read_time: float) -> float:
+        """When the frame was sent, on the host clock: its number times the frameCfg period (the radar's own frame
+        timer) shifted by the least delay of the last CLOCK_WINDOW_S (drivers/least_delay.py), so that frames one
+        late read returned together keep their period's spacing; never after the read that found it, nor before
+        the frame before it. Without a profile the period is unknown and the read time stands."""
+        if self.profile is None:
+            return read_time
+        if self._last_frame_number is not None and frame_number <= self._last_frame_number:
+            self._clock.reset()  # the radar counts from the start again: a new timeline
+        device = frame_number * self.profile.frame_period_s
+        self._clock.accept(device, read_time)
+        least = self._clock.offset
+        stamp = read_time if least >= read_time - device else min(read_time, device + least)
+        stamp = max(stamp, self._last_stamp)
+        self._last_stamp = stamp
+        return stamp
 
     def _count_frame_number(self, number: int) -> None:
         last = self._last_frame_number

@@ -29,13 +29,13 @@ from __future__ import annotations
 
 import logging
 import math
-from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
 import velodyne_decoder as vd
 
 from drivers.frames import LidarScan
+from drivers.least_delay import LeastDelayOffset
 from drivers.mount import FLU_TO_FRD, Mount
 from drivers.vlp16.packet import (
     AZIMUTH_UNITS,
@@ -138,12 +138,12 @@ class DeviceClock:
         self.window_s = window_s
         self._last_device: float | None = None
         self._last_host: float | None = None
-        self._offsets: deque[tuple[float, float]] = deque()  # (host_time, host - device), increasing offset
+        self._least = LeastDelayOffset(window_s)
 
     def reset(self) -> None:
         self._last_device = None
         self._last_host = None
-        self._offsets.clear()
+        self._least.reset()
 
     def resolve(self, timestamp_us: int, host_time: float, wall_time: float) -> float:
         """Absolute device time of a packet: the hour chosen to keep the stream continuous.
@@ -167,18 +167,12 @@ class DeviceClock:
     def accept(self, device_time: float, host_time: float) -> None:
         self._last_device = device_time
         self._last_host = host_time
-        offset = host_time - device_time
-        # Monotone deque: the window minimum stays at the front in O(1) per packet.
-        while self._offsets and self._offsets[-1][1] >= offset:
-            self._offsets.pop()
-        self._offsets.append((host_time, offset))
-        while self._offsets[0][0] < host_time - self.window_s:
-            self._offsets.popleft()
+        self._least.accept(device_time, host_time)
 
     @property
     def offset(self) -> float:
         """Host time minus device time (s), the least-delayed packet of the window."""
-        return self._offsets[0][1] if self._offsets else 0.0
+        return self._least.offset
 
     @property
     def last_device_time(self) -> float | None:
