@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from drivers.awr1843.parser import MAGIC, RadarFrameParser, encode_frame
-from drivers.awr1843.profile import parse_profile
+from drivers.awr1843.profile import RadarProfile, parse_profile
 from drivers.frames import RadarFrame
 from drivers.mount import Mount
 
@@ -458,7 +458,7 @@ def test_a_view_of_the_buffer_held_elsewhere_does_not_stop_the_stream() -> None:
     held2.release()
 
 
-def _shipped_profile():  # type: ignore[no-untyped-def]
+def _shipped_profile() -> RadarProfile:
     from simulator.radar_model import SHIPPED_PROFILE
 
     return parse_profile(SHIPPED_PROFILE.read_text())

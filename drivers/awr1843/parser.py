@@ -293,10 +293,10 @@ class RadarFrameParser:
             self._pending = None
             if self.expected is not None and self._firmware is None:
                 self._firmware = hdr.version
+            self._count_frame_number(hdr.frame_number)
             frame.stamp = self._frame_time(hdr.frame_number, self._pending_stamp)
             frame.bytes_skipped = self._skipped_since_frame
             self._skipped_since_frame = 0
-            self._count_frame_number(hdr.frame_number)
             self.stats.frames_ok += 1
             out.append(frame)
         return out
@@ -378,8 +378,6 @@ class RadarFrameParser:
         the frame before it. Without a profile the period is unknown and the read time stands."""
         if self.profile is None:
             return read_time
-        if self._last_frame_number is not None and frame_number <= self._last_frame_number:
-            self._clock.reset()  # the radar counts from the start again: a new timeline
         device = frame_number * self.profile.frame_period_s
         self._clock.accept(device, read_time)
         least = self._clock.offset
@@ -399,6 +397,7 @@ class RadarFrameParser:
             log.warning("AWR1843 data: %d frame(s) lost between frame %d and %d", step - 1, last, number)
         elif step <= 0:
             self.stats.frame_number_resets += 1
+            self._clock.reset()  # the radar counts from the start again: a new timeline for the stamps
             log.warning("AWR1843 data: frame number went from %d back to %d (device reset?)", last, number)
 
     def _reject(self, hdr: FrameHeader, why: str, host_time: float) -> None:

@@ -135,7 +135,6 @@ class DeviceClock:
     """Resolves microseconds-past-the-hour to absolute sensor time and maps it onto the host clock."""
 
     def __init__(self, window_s: float = 2.0) -> None:
-        self.window_s = window_s
         self._last_device: float | None = None
         self._last_host: float | None = None
         self._least = LeastDelayOffset(window_s)
