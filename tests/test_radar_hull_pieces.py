@@ -45,11 +45,25 @@ def _track(
 
 
 def _pieces(
-    tracks: list[Track], covs: np.ndarray | None = None, apart: set[tuple[int, int]] | None = None
+    tracks: list[Track],
+    covs: np.ndarray | None = None,
+    apart: set[tuple[int, int]] | None = None,
+    course_tolerance_deg: float = 0.0,
 ) -> list[int | None]:
     velocities = np.array([tr.velocity for tr in tracks])
     covs = np.repeat(SMALL_COV[None], len(tracks), axis=0) if covs is None else covs
-    hull_pieces(tracks, velocities, covs, ALONG, ACROSS, MIN_SPEED, SPEED_DIFF, CHI2, set() if apart is None else apart)
+    hull_pieces(
+        tracks,
+        velocities,
+        covs,
+        ALONG,
+        ACROSS,
+        MIN_SPEED,
+        SPEED_DIFF,
+        CHI2,
+        set() if apart is None else apart,
+        math.radians(course_tolerance_deg),
+    )
     return [tr.part_of for tr in tracks]
 
 
@@ -88,6 +102,28 @@ def test_ties_go_to_the_older_track_and_a_piece_hosts_no_piece() -> None:
 )
 def test_two_boats_that_do_not_move_as_one_hull_stay_two(second: Track, why: str) -> None:
     assert _pieces([_track(1, 0.0, 0.0, (4.0, 0.0), 20), second]) == [None, None], why
+
+
+def test_a_piece_off_a_course_the_radar_got_wrong_by_30_deg() -> None:
+    """Bow and stern 9 m apart on a boat heading north, both filters' course 30 deg off it (the radar measures the
+    radial speed only): 7.8 m along their course, 4.5 m across it. With 25 deg of course tolerance 3.5 m across
+    grows to 3.5 + 7.8 tan(25 deg) = 7.1 m: a piece. Without it, two vessels."""
+    v = (4.0 * math.cos(math.radians(30.0)), 4.0 * math.sin(math.radians(30.0)))
+    pair = [_track(1, 0.0, 0.0, v, 20), _track(2, 9.0, 0.0, v, 5)]
+    assert _pieces(pair, course_tolerance_deg=0.0) == [None, None]
+    pair = [_track(1, 0.0, 0.0, v, 20), _track(2, 9.0, 0.0, v, 5)]
+    assert _pieces(pair, course_tolerance_deg=25.0) == [None, 1]
+
+
+@pytest.mark.parametrize(
+    ("second", "why"),
+    [
+        (_track(2, 0.0, 4.0, (4.0, 0.0), 5), "abreast, 4 m apart across the course: nothing along to widen"),
+        (_track(2, 3.0, 6.0, (4.0, 0.0), 5), "3 m along, 6 m across: beyond 3.5 + 3 tan(25 deg) = 4.9 m"),
+    ],
+)
+def test_boats_abreast_stay_two_with_the_course_tolerance(second: Track, why: str) -> None:
+    assert _pieces([_track(1, 0.0, 0.0, (4.0, 0.0), 20), second], course_tolerance_deg=25.0) == [None, None], why
 
 
 def test_slow_tracks_are_left_to_the_duplicate_test() -> None:

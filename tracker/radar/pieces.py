@@ -18,6 +18,8 @@ are two boats for good.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from tracker.radar.kalman import mahalanobis2_many
@@ -34,10 +36,13 @@ def hull_pieces(
     max_speed_diff: float,
     chi2: float,
     apart: set[tuple[int, int]],
+    course_tolerance_rad: float = 0.0,
 ) -> None:
     """Set ``part_of`` on each confirmed track of ``tracks`` that lies within ``along_m`` of a better confirmed
     track along their common course and within ``across_m`` across it, both at ``min_speed`` or more, moving alike:
-    velocities within ``max_speed_diff`` or their difference within ``chi2`` of the two covariances. Better: more
+    velocities within ``max_speed_diff`` or their difference within ``chi2`` of the two covariances. The course is
+    the sum of their velocities, whose direction the radar knows poorly (it measures the radial speed only), so
+    ``across_m`` grows by ``tan(course_tolerance_rad)`` a metre along. Better: more
     hits, then older (lower id); a piece hosts no piece. ``apart`` holds the (lower, higher) id pairs of confirmed
     tracks once seen further apart than ``along_m + across_m``: never a hull and its piece. Updated in place.
 
@@ -60,7 +65,8 @@ def hull_pieces(
     alike = (np.linalg.norm(dv, axis=2) <= max_speed_diff) | (
         mahalanobis2_many(dv, cov[:, None] + cov[None, :]) <= chi2
     )
-    pair = (along <= along_m) & (across <= across_m) & alike & fast[:, None] & fast[None, :]
+    in_line = across <= across_m + along * math.tan(course_tolerance_rad)
+    pair = (along <= along_m) & in_line & alike & fast[:, None] & fast[None, :]
     ids = np.array([tracks[i].id for i in idx])
     lo, hi = np.minimum.outer(ids, ids), np.maximum.outer(ids, ids)
     far = np.triu(np.linalg.norm(rel, axis=2) > along_m + across_m, 1)

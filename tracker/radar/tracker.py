@@ -924,6 +924,7 @@ class RadarTracker:
                 a.duplicate_velocity_mps,
                 a.duplicate_velocity_chi2,
                 self._apart,
+                math.radians(a.piece_course_tolerance_deg),
             )
             live = {tr.life.id for tr in self.tracks}
             self._apart = {pair for pair in self._apart if pair[0] in live and pair[1] in live}
