@@ -17,11 +17,12 @@ from daemon.tracker_adapters import tracker_factories
 from drivers.awr1843.parser import RadarFrameParser, encode_frame
 from simulator.radar_model import SHIPPED_PROFILE, Awr1843Model
 from simulator.scene import OwnBoat, Scene, Trajectory, Vessel
+from tracker.radar.config import AssociationConfig
 from tracker.radar.kalman import mahalanobis2_many
 from tracker.radar.pieces import hull_pieces
 from tracker.types import Track
 
-ALONG, ACROSS, MIN_SPEED, SPEED_DIFF, CHI2 = 12.0, 3.5, 1.0, 1.0, 9.21
+ALONG, ACROSS, MIN_SPEED, SPEED_DIFF, CHI2 = 12.0, 3.5, 0.5, 1.0, 9.21  # the shipped AssociationConfig's
 SMALL_COV = np.eye(2) * 0.01  # (m/s)^2: a settled velocity
 
 
@@ -127,8 +128,16 @@ def test_boats_abreast_stay_two_with_the_course_tolerance(second: Track, why: st
 
 
 def test_slow_tracks_are_left_to_the_duplicate_test() -> None:
-    """Two boats at anchor 6 m apart move alike too; below 1 m/s nothing says they are one hull."""
-    assert _pieces([_track(1, 0.0, 0.0, (0.5, 0.0), 20), _track(2, 6.0, 0.0, (0.5, 0.0), 5)]) == [None, None]
+    """Two boats at anchor 6 m apart move alike too; below 0.5 m/s nothing says they are one hull. At 0.6 m/s (a boat
+    crossing slowly) the same pair is one hull."""
+    assert _pieces([_track(1, 0.0, 0.0, (0.4, 0.0), 20), _track(2, 6.0, 0.0, (0.4, 0.0), 5)]) == [None, None]
+    assert _pieces([_track(1, 0.0, 0.0, (0.6, 0.0), 20), _track(2, 6.0, 0.0, (0.6, 0.0), 5)]) == [None, 1]
+
+
+def test_the_constants_here_are_the_shipped_ones() -> None:
+    a = AssociationConfig()
+    assert (a.piece_along_m, a.piece_across_m, a.piece_min_speed_mps) == (ALONG, ACROSS, MIN_SPEED)
+    assert (a.duplicate_velocity_mps, a.duplicate_velocity_chi2) == (SPEED_DIFF, CHI2)
 
 
 def test_a_young_velocity_not_told_apart_counts_as_alike() -> None:
