@@ -420,9 +420,10 @@ class AssociationConfig:
     # 0.5 m/s rather than 1 (stop 89): of the second tracks left on hulls another track matched (seeds 101-140,
     # radar alone), a third were on boats making 0.3-1 m/s. Tuning seeds 1-100 (radar alone) against 1 m/s: MOTA
     # 0.5997 -> 0.6117 (64 scenes better, 8 worse by 0.005 at most), false positives 5,248 -> 4,371, matches 50,651
-    # -> 50,566. Held out (random:1001-1050), radar alone: MOTA 0.561 -> 0.572 (34 better, 2 worse by 0.0043 at
-    # most), false track-frames 16.2 -> 14.5 % of matches; the LiDAR alone and fused identical. Boats at anchor
-    # swing slower; the duplicate test judges them.
+    # -> 50,566; 0.3 m/s: 0.6135, 4,142 and 50,457, 16 scenes worse than at 0.5 (by up to 0.010). Held out
+    # (random:1001-1050), radar alone: MOTA 0.561 -> 0.572 (34 better, 2 worse by 0.0043 at most), false
+    # track-frames 16.2 -> 14.5 % of matches; the LiDAR alone and fused identical. Boats at anchor swing slower;
+    # the duplicate test judges them.
     piece_min_speed_mps: float = 0.5
     # The common course is the sum of the two velocities, and the radar knows their direction poorly: on seeds
     # 101-140 (radar alone), of the second tracks moving with a hull another track matched, the course lay 22 deg off
