@@ -23,6 +23,7 @@ from tracker.radar.pieces import hull_pieces
 from tracker.types import Track
 
 ALONG, ACROSS, MIN_SPEED, SPEED_DIFF, CHI2 = 12.0, 3.5, 0.5, 1.0, 9.21  # the shipped AssociationConfig's
+COURSE_TOLERANCE_DEG = 25.0  # the shipped piece_course_tolerance_deg
 SMALL_COV = np.eye(2) * 0.01  # (m/s)^2: a settled velocity
 
 
@@ -49,7 +50,7 @@ def _pieces(
     tracks: list[Track],
     covs: np.ndarray | None = None,
     apart: set[tuple[int, int]] | None = None,
-    course_tolerance_deg: float = 0.0,
+    course_tolerance_deg: float = COURSE_TOLERANCE_DEG,
 ) -> list[int | None]:
     velocities = np.array([tr.velocity for tr in tracks])
     covs = np.repeat(SMALL_COV[None], len(tracks), axis=0) if covs is None else covs
@@ -138,6 +139,7 @@ def test_the_constants_here_are_the_shipped_ones() -> None:
     a = AssociationConfig()
     assert (a.piece_along_m, a.piece_across_m, a.piece_min_speed_mps) == (ALONG, ACROSS, MIN_SPEED)
     assert (a.duplicate_velocity_mps, a.duplicate_velocity_chi2) == (SPEED_DIFF, CHI2)
+    assert a.piece_course_tolerance_deg == COURSE_TOLERANCE_DEG
 
 
 def test_a_young_velocity_not_told_apart_counts_as_alike() -> None:

@@ -42,9 +42,9 @@ def hull_pieces(
     track along their common course and within ``across_m`` across it, both at ``min_speed`` or more, moving alike:
     velocities within ``max_speed_diff`` or their difference within ``chi2`` of the two covariances. The course is
     the sum of their velocities, whose direction the radar knows poorly (it measures the radial speed only), so
-    ``across_m`` grows by ``tan(course_tolerance_rad)`` a metre along. Better: more
-    hits, then older (lower id); a piece hosts no piece. ``apart`` holds the (lower, higher) id pairs of confirmed
-    tracks once seen further apart than ``along_m + across_m``: never a hull and its piece. Updated in place.
+    ``across_m`` grows by ``tan(course_tolerance_rad)`` a metre along. Better: more hits, then older (lower id); a
+    piece hosts no piece. ``apart`` holds the (lower, higher) id pairs of confirmed tracks once seen further apart
+    than ``along_m + across_m``: never a hull and its piece. Updated in place.
 
     ``velocities`` (T, 2) m/s and ``velocity_covs`` (T, 2, 2) world north, east: the filters' own estimates, one
     row per track (a track whose motion is not judged yet publishes no velocity, but its filter knows it moves
