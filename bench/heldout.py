@@ -91,6 +91,8 @@ def run_scene(seed: int, seconds: float, modes: tuple[str, ...] = tuple(MODES)) 
                 "id_switches": tr["id_switches"],
                 "position_error_m": _num(tr["position_error_m"]["mean"]),
                 "speed_error_mps": _num(tr["speed_error_mps"]["mean"]),
+                # the hull's axis, bow or stern either way: a still hull shows no bow, its heading is a guess
+                "heading_axis_error_deg": _num(tr["heading_axis_error_deg"]["mean"]),
                 "false_clear_bins": bins.get("false_clear", 0),
                 # of those, the bins that went out "clear" (free water to ArduPilot); the rest went out "unknown"
                 "false_clear_sent_clear": bins.get("false_clear_sent_clear", 0),
@@ -173,6 +175,7 @@ COLUMNS = (
     ("id_switches", "id switches", "{:.0f}", "high"),
     ("position_error_m", "position error (m)", "{:.2f}", "high"),
     ("speed_error_mps", "speed error (m/s)", "{:.2f}", "high"),
+    ("heading_axis_error_deg", "heading axis error (deg)", "{:.1f}", "high"),
     ("false_clear_bins", "false-clear bins", "{:.0f}", "high"),
     ("false_obstacle_share", "false-obstacle bins (share)", "{:.2%}", "high"),
 )

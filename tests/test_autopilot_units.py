@@ -145,7 +145,10 @@ def test_pose_assembler_prefers_local_and_waits_for_it() -> None:
     assert a.position_source == LOCAL and a.world_epoch == 0
     p = a.on_attitude(0.55, 0.0, 0.0, 0.5, 0.0, 0.0, 0.2)
     assert p is not None
-    np.testing.assert_allclose(p.position, [10.1, 20.0, 0.0], atol=1e-12)  # reckoned 50 ms ahead
+    # Reckoned 50 ms ahead along the turn: 2 m/s north turning at 0.2 rad/s has turned 0.01 rad east by then, and
+    # the chord runs at half that.
+    np.testing.assert_allclose(p.position, [10.0 + 0.1 * np.cos(0.005), 20.0 + 0.1 * np.sin(0.005), 0.0], atol=1e-12)
+    np.testing.assert_allclose(p.velocity, [2.0 * np.cos(0.01), 2.0 * np.sin(0.01), 0.0], atol=1e-12)
     assert p.yaw_rate == pytest.approx(0.2)
     a.on_global_position(3.0, 59.41, 10.49, 0.0, np.zeros(3))
     assert a.position_source == LOCAL and a.global_ignored == 1
