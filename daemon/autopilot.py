@@ -207,6 +207,8 @@ class AutopilotLink:
             pose_skipped_no_position=a.skipped_no_position,
             pose_rejected=a.rejected,
             global_ignored_local_active=a.global_ignored,
+            pose_local_rejected=a.local_rejected,
+            pose_velocity_held=a.velocity_held,
         )
         return out
 

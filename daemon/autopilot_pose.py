@@ -67,6 +67,8 @@ class PoseAssembler:
         self.skipped_no_position = 0
         self.rejected = 0  # non-finite attitude (autopilots send NaN before their estimator is up)
         self.global_ignored = 0
+        self.local_rejected = 0  # LOCAL_POSITION_NED without a finite position, or velocity with none to hold
+        self.velocity_held = 0  # LOCAL_POSITION_NED with a non-finite velocity: the last one was kept
         self._lock = threading.Lock()  # guards the geodetic anchor read by other threads
         self._pos: tuple[float, np.ndarray, np.ndarray] | None = None  # (t, position NED, velocity NED)
         self._plane: LocalTangentPlane | None = None  # projection of GLOBAL_POSITION_INT (first fix)
@@ -82,6 +84,10 @@ class PoseAssembler:
         """One pose at the attitude's instant ``t``; None without a recent position."""
         # ATTITUDE carries body rates; the history extrapolates Euler angles, so it needs their rates (a rolling
         # boat's roll held still for the 0.3 s the history may extrapolate tilts the water by metres at range)
+        if not all(math.isfinite(v) for v in (roll, pitch, yaw, p, q, r)):
+            # before any maths: cos(inf) raises, and one such message must not end a replay or a reader
+            self.rejected += 1
+            return None
         roll_rate, pitch_rate, yaw_rate = body_rates_to_euler(roll, pitch, p, q, r)
         self._check_yaw_reset(t, yaw, yaw_rate)
         if self._pos is None or abs(t - self._pos[0]) > self.position_timeout:
@@ -114,8 +120,19 @@ class PoseAssembler:
     def on_local_position(self, t: float, position: np.ndarray, velocity: np.ndarray) -> None:
         pos = np.asarray(position, dtype=float).reshape(3)
         vel = np.asarray(velocity, dtype=float).reshape(3)
-        if not (np.isfinite(pos).all() and np.isfinite(vel).all()):
+        if not np.isfinite(pos).all():
+            self.local_rejected += 1
             return
+        if not np.isfinite(vel).all():
+            # A position without its velocity (an estimator that has lost one axis): the position still places the
+            # boat; the velocity is the last one while it is recent, since a guessed 0 would make every still
+            # return move to the radar's Doppler.
+            last = self._last_local
+            if last is None or not 0.0 <= t - last[0] <= self.position_timeout:
+                self.local_rejected += 1
+                return
+            vel = last[2]
+            self.velocity_held += 1
         if self.position_source != LOCAL:
             if self.position_source is not None:
                 self._new_world(f"position source {self.position_source} -> LOCAL_POSITION_NED")

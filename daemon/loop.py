@@ -104,6 +104,7 @@ class DaemonLoop:
         self.s = settings
         self.notifier = notifier or SystemdNotifier("")
         self.tracks_out = tracks_out
+        self.tracks_out_failed: str | None = None  # why the tracks file stopped being written, once it has
         self.clock = clock
         self.stats = CycleStats(period_s=1.0 / settings.rate_hz)
         self.sent = 0
@@ -206,7 +207,14 @@ class DaemonLoop:
             own = self.poses.at(out.t) if self.poses is not None and out.ego_available else None
             origin = self._world_origin() if own is not None else None
             record = tick_record(out, sent=send, own=own, world_origin=origin)
-            self.tracks_out.write(json.dumps(record, separators=(",", ":")) + "\n")
+            try:
+                self.tracks_out.write(json.dumps(record, separators=(",", ":")) + "\n")
+            except OSError as exc:
+                # A full or failing disk costs the run its record, never the autopilot its obstacles: said once,
+                # and no more lines are tried (each would fail the same way).
+                self.tracks_out_failed = exc.strerror or str(exc)
+                log.error("tracks file: %s; no more tracks are written this run", self.tracks_out_failed)
+                self.tracks_out = None
 
     def _world_origin(self) -> tuple[float, float] | None:
         """Latitude and longitude (deg) of the world frame's origin, when the autopilot link has anchored it."""

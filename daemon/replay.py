@@ -108,6 +108,7 @@ class ReplaySummary:
     cycle_p99_ms: float = 0.0
     interrupted: bool = False
     no_pose: int = 0  # ticks with poses in use but none for the tick's time
+    tracks_out_failed: str | None = None  # why the tracks file stopped being written (a full disk), if it did
 
     @property
     def ratio(self) -> float:
@@ -142,6 +143,9 @@ def run_replay(config: Config, duration_s: float | None = None, fast: bool = Tru
     tlog = config.mavlink.url if config.mavlink.url.endswith(".tlog") else None
     summary = replay(config, ReplayOptions(speed=None if fast else 1.0, duration_s=duration_s, tlog=tlog, view=view))
     log.info("replay: %s", summary.details())
+    if summary.tracks_out_failed is not None:  # a replay's tracks file is its result: a part of it is a failure
+        log.error("replay: the tracks file %s is cut short: %s", config.output.tracks_out, summary.tracks_out_failed)
+        return 2
     return 130 if summary.interrupted else 0
 
 
@@ -174,7 +178,10 @@ def replay(config: Config, options: ReplayOptions) -> ReplaySummary:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
         for it in streams:
-            close_stream(it)
+            try:
+                close_stream(it)
+            except OSError as exc:  # the tracks file's last flush on a full disk
+                log.error("closing %s failed: %s", getattr(it, "name", "a replay stream"), exc.strerror or exc)
 
 
 def _replay(config: Config, options: ReplayOptions, streams: list[Any], wall_start: float) -> ReplaySummary:
@@ -290,6 +297,12 @@ def _replay(config: Config, options: ReplayOptions, streams: list[Any], wall_sta
     summary.wall_seconds = time.monotonic() - wall_start
     summary.decoder_waits = _waits(lidar_it, radar_it) - waits_before if options.prefetch else None
     summary.cycle_p50_ms, summary.cycle_p99_ms = loop.stats.percentiles()
+    if loop.tracks_out is not None:
+        try:  # the buffered last lines: a full disk shows here, not in the writes that fitted the buffer
+            loop.tracks_out.flush()
+        except OSError as exc:
+            loop.tracks_out_failed = exc.strerror or str(exc)
+    summary.tracks_out_failed = loop.tracks_out_failed
     if summary.no_pose:
         # A .tlog cut short, or captures on another clock (a radar dump without its .times sidecar is paced from
         # t = 0): without this the run looked whole, and half of it had gone without tracking.

@@ -121,4 +121,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     log.debug("replay: %s", summary.details())
     print(summary_line(summary, args.tracks_out), file=sys.stderr, flush=True)
+    if summary.tracks_out_failed is not None:
+        log.error("the tracks file %s is cut short: %s", args.tracks_out, summary.tracks_out_failed)
+        return 2
     return 130 if summary.interrupted else 0

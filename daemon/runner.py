@@ -22,6 +22,7 @@ from typing import IO, Any
 
 from daemon.buffers import BoundedQueue, LatestSlot
 from daemon.config import Config, signing_passphrase
+from daemon.config_schema import ConfigError
 from daemon.ego import HistoryEgo
 from daemon.health import source_status
 from daemon.heap import limit_arenas
@@ -237,8 +238,23 @@ class RunningDaemon:
                 with contextlib.suppress(Exception):
                     close()
         if self.tracks_file is not None:
-            self.tracks_file.close()
+            try:
+                self.tracks_file.close()
+            except OSError as exc:  # the last lines' flush on a full disk: the loop has said so already
+                log.error("tracks file: closing it failed: %s", exc.strerror or exc)
             self.tracks_file = None
+
+
+def open_tracks_out(path: str) -> IO[str] | None:
+    """The ``--tracks-out`` file opened for line-by-line writing (None when not asked for); StartupError naming the
+    path when it cannot be created."""
+    if not path:
+        return None
+    try:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        return open(path, "w", encoding="utf-8", buffering=1)
+    except OSError as exc:
+        raise StartupError(f"--tracks-out: cannot write {path}: {exc.strerror or exc}") from None
 
 
 def start_daemon(
@@ -253,31 +269,44 @@ def start_daemon(
     from daemon.autopilot import AutopilotLink
 
     limit_arenas()  # before any reader thread allocates (daemon.heap)
-    sources = open_sources(config, fast)
+    m = config.mavlink
+    # What can fail without a sensor is settled before the sensors open: a radar once started must be stopped, and
+    # a half-started daemon would leave it running.
+    try:
+        signing_key = _signing_key(signing_passphrase(m))
+    except ConfigError as exc:
+        raise StartupError(str(exc)) from None
+    tracks_file = open_tracks_out(config.output.tracks_out)
+    recorder = None
+    try:
+        if config.output.record_dir:
+            from daemon.recorder import Recorder
+
+            run_dir = Path(config.output.record_dir) / time.strftime("%Y%m%d-%H%M%S")
+            try:
+                recorder = Recorder(run_dir)
+            except OSError as exc:
+                raise StartupError(f"--record: cannot create {run_dir}: {exc.strerror or exc}") from None
+        sources = open_sources(config, fast)
+    except BaseException:
+        if tracks_file is not None:
+            with contextlib.suppress(OSError):
+                tracks_file.close()
+        raise
     stop = threading.Event()
     inputs = SensorInputs(LatestSlot[LidarScan](), BoundedQueue[RadarFrame](64))
-    m = config.mavlink
     link = AutopilotLink(
         m.url,
         system_id=m.system_id,
         component_id=m.component_id,
         target_system=m.target_system,
         baud=m.baud,
-        signing_key=_signing_key(signing_passphrase(m)),
+        signing_key=signing_key,
         clock=clock,
     )
-    recorder = None
-    if config.output.record_dir:
-        from daemon.recorder import Recorder
-
-        run_dir = Path(config.output.record_dir) / time.strftime("%Y%m%d-%H%M%S")
-        recorder = Recorder(run_dir)
+    if recorder is not None:
         recorder.attach(sources.lidar, sources.radar, link, config.radar.profile)
     link.start()
-    tracks_file = None
-    if config.output.tracks_out:
-        Path(config.output.tracks_out).parent.mkdir(parents=True, exist_ok=True)
-        tracks_file = open(config.output.tracks_out, "w", encoding="utf-8", buffering=1)  # noqa: SIM115
     o = config.output
     loop = DaemonLoop(
         pipeline_for(config),
