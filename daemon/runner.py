@@ -178,6 +178,16 @@ def _radar_may_come(exc: BaseException) -> bool:
     return isinstance(exc, (RadarPortError, serial.SerialException))
 
 
+def _radar_min_range(config: Config) -> float:
+    """The radar detector's nearest range (its ROI, ``[tracker.radar.roi] min_range_m``), m."""
+    from daemon.tracker_adapters import radar_tracker_table
+    from tracker.radar.config import RoiConfig
+
+    roi = radar_tracker_table(config).get("roi", {})
+    value = roi.get("min_range_m", RoiConfig.min_range_m) if isinstance(roi, dict) else RoiConfig.min_range_m
+    return float(value) if isinstance(value, int | float) and math.isfinite(value) else RoiConfig.min_range_m
+
+
 def pipeline_for(config: Config) -> PerceptionPipeline:
     from daemon.tracker_adapters import tracker_factories
 
@@ -194,6 +204,8 @@ def pipeline_for(config: Config) -> PerceptionPipeline:
         clear_inner_m=config.output.clear_inner_m or None,
         lidar_origin_height_above_water_m=config.boat.water_z_m,
         radar_height_m=config.boat.water_z_m - config.radar.mount.z,
+        radar_offset_fwd_stbd_m=(config.radar.mount.x, config.radar.mount.y),
+        radar_min_range_m=_radar_min_range(config),
     )
     lidar, radar, preprocess = tracker_factories(config)
     return PerceptionPipeline(

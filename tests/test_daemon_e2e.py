@@ -139,10 +139,12 @@ def test_radar_only_leaves_uncovered_bearings_unknown() -> None:
     with SimulationRun(settings, scene=one_box_scene()) as sim:
         config = config_for_simulation(sim)
         config.lidar.enabled = False
-        # The radar vouches out to its 50 m; with the array's range at 40 m and the blind 2 m next to the hull
-        # accepted (its elevation beam passes over a 0.5 m solid nearer than 1.5 m), its wedge can be sent clear.
+        # The radar vouches out to its 50 m; with the array's range at 40 m and the blind 3 m next to the hull
+        # accepted, its wedge can be sent clear: its elevation beam passes over a 0.5 m solid nearer than 1.5 m to
+        # it, and it sits 1.2 m forward of the body origin, from which the bins are judged (2.7 m ahead, 2.4 m at 30
+        # deg off the bow).
         config.output.max_distance_m = 40.0
-        config.output.clear_inner_m = 2.0
+        config.output.clear_inner_m = 3.0
         with running(sim, config):
             ap = sim.autopilot
             assert ap is not None

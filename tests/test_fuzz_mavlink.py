@@ -77,11 +77,13 @@ def test_the_input_path_takes_real_messages() -> None:
     finally:
         feeder.close()
     assert counters.get("link_failures", 0) == 0
-    # both attitudes came before the first position (no pose yet); the TIMESYNC with tc1 = 0 asked for our clock
+    # the first attitude came before the first position (no pose yet), the second's NaN roll is rejected before
+    # that is asked; the TIMESYNC with tc1 = 0 asked for our clock
     expected = {
         "rx_messages": 11,
         "autopilot_heartbeats": 1,
-        "pose_skipped_no_position": 2,
+        "pose_skipped_no_position": 1,
+        "pose_rejected": 1,
         "global_ignored_local_active": 1,
         "timesync_answered": 1,
         "obstacle_distance_ignored": 1,

@@ -75,6 +75,21 @@ def test_hull_outline_marks_every_bin_it_spans() -> None:
     assert d[4] == 10001 and d[68] == 10001
 
 
+def test_a_hull_beside_the_boat_marks_each_bin_with_its_near_side() -> None:
+    """A 4 m x 2 m hull whose near side runs 1.5 m off the starboard beam spans bins 7-29. Each bin must hold the
+    near side at its nearest within the bin (1.5 m / sin of the bin's angle nearest the beam), not the far side
+    2 m further out, which 0.25 m between outline points gave in bins 12, 15, 17, 19, 21 and 24 (3.5-3.8 m)."""
+    corners = np.array([[2.0, 1.5], [2.0, 3.5], [-2.0, 3.5], [-2.0, 1.5]])  # body forward, starboard
+    d = build_obstacle_distances([outline_points(corners)], np.zeros(72), 0.5, 20.0).astype(float) / 100.0
+    for j in range(8, 29):  # wholly within the near side's angular span (36.9-143.1 deg)
+        lo, hi = np.radians(5.0 * j - 2.5), np.radians(5.0 * j + 2.5)
+        exact = 1.5 / np.sin(np.clip(np.pi / 2, lo, hi))
+        # points a quarter bin (1.25 deg) apart: the nearest sampled lies at most that far from the exact angle,
+        # 1.5 m x d(1/sin)/d(angle) x 0.022 rad = 6 cm at the span's ends (40 deg)
+        assert d[j] == pytest.approx(exact, abs=0.07), j
+    assert d[7] == pytest.approx(2.5, abs=0.07) and d[29] == pytest.approx(2.5, abs=0.07)  # the near corners
+
+
 def test_a_return_beside_a_bins_edge_counts_in_the_neighbour_too() -> None:
     # Bin 1 spans 2.5-7.5 deg. At 20 m, 7.0 deg is 0.17 m (20 sin 0.5 deg) across the line of sight from its upper
     # edge, 3.5 deg is 0.35 m from its lower edge, 5.0 deg 0.87 m from both.

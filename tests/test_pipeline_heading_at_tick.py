@@ -4,6 +4,7 @@ from: the autopilot turns the bins by its current heading, and a boat turning 50
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -24,14 +25,15 @@ def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 class TurnedEgo(SteadyEgo):
-    """Heading YAW through the sweep (t <= 0.1 s), YAW + TURN after it."""
+    """Heading YAW through the sweep (t <= 0.1 s), YAW + ``turn`` after it."""
 
-    def __init__(self) -> None:
+    def __init__(self, turn: float = TURN) -> None:
         super().__init__(level, YAW)
+        self.turn = turn
 
     def at(self, t: float) -> EgoPose:
         pose = super().at(t)
-        return EgoPose(t, pose.position, pose.velocity, pose.roll, pose.pitch, YAW + (TURN if t > 0.1 else 0.0))
+        return EgoPose(t, pose.position, pose.velocity, pose.roll, pose.pitch, YAW + (self.turn if t > 0.1 else 0.0))
 
 
 def test_the_bins_follow_the_heading_at_the_tick() -> None:
@@ -51,3 +53,27 @@ def test_the_bins_follow_the_heading_at_the_tick() -> None:
         obstacle_bins.append(near.tolist())
     # 5 deg of turn to starboard moves the post 5 deg to port: bin 6 -> bin 5
     assert obstacle_bins == [[6], [5]]
+
+
+def test_the_radar_speaks_where_the_turned_lidar_did_not_look() -> None:
+    """Where the radar alone may put an obstacle is judged against the LiDAR's beams as the tick's body frame sees
+    them: a revolution whose bins 10-14 returned nothing (a fouled window), the boat turned 10 deg (two bins) to
+    starboard before the tick."""
+    ret = revolution_over_water(MOUNT, level, yaw=YAW)
+    keep = ~np.isin(bearing_bins(ret.xyz_body[:, :2]), [10, 11, 12, 13, 14])
+    ret = dataclasses.replace(
+        ret,
+        xyz_body=ret.xyz_body[keep],
+        t=ret.t[keep],
+        ring=ret.ring[keep],
+        xyz_world=ret.xyz_world[keep],
+        wall=ret.wall[keep],
+    )
+    pipeline = lidar_pipeline(MOUNT)
+    pipeline.step(0.2, scan_of(ret, 0.1), [], TurnedEgo(math.radians(10.0)))
+    bins = np.arange(4, 17)
+    at_14m = 14.0 * np.column_stack([np.cos(np.radians(5.0 * bins)), np.sin(np.radians(5.0 * bins))])
+    speaks = pipeline._radar_speaks_at(at_14m, lidar_fresh=True)
+    # the dead bins 10-14 of the revolution are bins 8-12 at the tick; judged in the revolution's frame, 13-14
+    # spoke (where the LiDAR vouched) and 8-9 were muted (where it never looked)
+    assert bins[speaks].tolist() == [8, 9, 10, 11, 12]

@@ -168,12 +168,25 @@ def _least_per_bin(b: np.ndarray, r2: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return runs.sorted_bins[runs.starts].astype(np.int64), least
 
 
+# Outline points lie no more than a quarter bin apart as seen from the own boat, so that each bin a hull's side
+# overlaps gets a point of that side: at 0.25 m apart, a side 1.5 m off skipped bins, which then took the far side
+# of the hull, 2 m further. Never closer than this (a hull over the sensor itself would ask for endless points).
+_OUTLINE_MIN_SPACING_M = 0.01
+
+
 def outline_points(corners_fwd_stbd: np.ndarray, spacing: float = 0.25) -> np.ndarray:
-    """Points every ``spacing`` metres along a closed polygon, so a hull marks every bin its extent overlaps."""
+    """Points along a closed polygon (body frame, m), so a hull marks every bin its extent overlaps with its nearest
+    side: every ``spacing`` metres, closer on a side near the own boat (a quarter bin's arc at the side's least
+    distance from the body origin)."""
     a = corners_fwd_stbd
     b = np.roll(a, -1, axis=0)
-    lengths = np.hypot(*(b - a).T)
-    n = np.maximum(np.ceil(lengths / spacing).astype(int), 1)
+    d = b - a
+    lengths = np.hypot(*d.T)
+    # each side's least distance from the body origin: the foot of the perpendicular, clipped to the side
+    along = np.clip(-np.einsum("ij,ij->i", a, d) / np.maximum(lengths**2, 1e-12), 0.0, 1.0)
+    least = np.hypot(*(a + d * along[:, None]).T)
+    step = np.clip(least * (BIN_WIDTH_RAD / 4.0), _OUTLINE_MIN_SPACING_M, spacing)
+    n = np.maximum(np.ceil(lengths / step).astype(int), 1)
     seg = np.repeat(np.arange(len(a)), n)
     frac = np.concatenate([np.arange(k) / k for k in n])
     return a[seg] + (b[seg] - a[seg]) * frac[:, None]

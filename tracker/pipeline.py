@@ -163,6 +163,10 @@ class PipelineSettings:
     clear_inner_m: float | None = None
     lidar_origin_height_above_water_m: float = 0.0  # body origin above the waterline: [boat] water_z_m (z down)
     radar_height_m: float = 0.9  # radar above the waterline
+    # The radar's place on the deck (body forward, starboard, m) and the detector's nearest range (its ROI): a
+    # sensor off the body origin sees a bearing of the array from elsewhere, and near the boat at another azimuth.
+    radar_offset_fwd_stbd_m: tuple[float, float] = (0.0, 0.0)
+    radar_min_range_m: float = 0.0
     # Half the AWR1843BOOST's elevation beam: a low solid nearer than (height - obstacle) / tan(this) passes under it.
     radar_half_vfov_rad: float = np.radians(15.0)
     # Returns within the sea margin inside a confirmed LiDAR track's footprint, grown by this (m), are its hull and
@@ -351,6 +355,7 @@ class PerceptionPipeline:
         self._lidar_coverage = SensorCoverage(0.0, 2 * np.pi, self.settings.lidar_max_range_m)
         # newest revolution's beam bands per bearing (lo, hi), in the body frame of its solid returns' pose
         self._lidar_bands = _no_bands()
+        self._lidar_bands_now = self._lidar_bands  # turned to the tick's heading (step)
         # the newest revolution's solid returns (placed with the pose at the sweep's end), the newest radar frame's
         # solid returns and all its returns (with the frame's pose)
         self._lidar_solid: Placed = (np.empty((0, 2)), None)
@@ -463,6 +468,8 @@ class PerceptionPipeline:
         lidar_fresh = t - self._last_lidar_t <= self.freshness_s
         radar_fresh = t - self._last_radar_t <= self.freshness_s
         own = _pose_now(ego, ego_ok, t)
+        # the LiDAR's bands as the tick's body frame sees them: the radar's points are judged against them there
+        self._lidar_bands_now = bands_turned(*self._lidar_bands, _turned_since(self._lidar_solid[1], own))
         if lidar_fresh:
             solid.append(_at_tick(self._lidar_solid, own))
         if radar_fresh:
@@ -641,7 +648,7 @@ class PerceptionPipeline:
         if self.settings.radar_alone_beyond_m is not None:
             return r > self.settings.radar_alone_beyond_m
         b = bearing_bins(points_fwd_stbd)
-        lo, hi = self._lidar_bands[0][BIN_CENTRES][b], self._lidar_bands[1][BIN_CENTRES][b]
+        lo, hi = self._lidar_bands_now[0][BIN_CENTRES][b], self._lidar_bands_now[1][BIN_CENTRES][b]
         return ~np.any((lo <= r[:, None]) & (r[:, None] <= hi), axis=1)
 
     def _radar_speaks(self, points_fwd_stbd: np.ndarray, lidar_fresh: bool) -> np.ndarray:
@@ -700,7 +707,7 @@ class PerceptionPipeline:
         s = self.settings
         los, his = [], []
         if lidar_fresh:
-            lo, hi = bands_turned(*self._lidar_bands, _turned_since(self._lidar_solid[1], own))
+            lo, hi = self._lidar_bands_now
             los.append(lo)
             his.append(hi)
         if radar_returns is not None:
@@ -890,9 +897,36 @@ def lidar_bands(
     returning nothing at all."""
     elevation, height = beams.over_surface(water, s.lidar_origin_height_above_water_m)
     lo, hi = band_intervals(elevation, height, water.margin, s.min_obstacle_height_m, s.lidar_max_range_m)
+    lo, hi = bands_in_body(lo, hi, (s.lidar_mount.x, s.lidar_mount.y))
     dead = ~np.repeat(live, SUB_BEARINGS.size)
     lo[dead], hi[dead] = np.inf, -np.inf
     return lo, hi
+
+
+def bands_in_body(
+    lo: np.ndarray, hi: np.ndarray, offset_fwd_stbd: tuple[float, float]
+) -> tuple[np.ndarray, np.ndarray]:
+    """(216, K) intervals of range from a sensor (at ``offset_fwd_stbd``, m, on the deck) along each judged bearing,
+    as ranges from the body origin along the same bearing: the array's bins are judged from the body origin, and a
+    band a LiDAR 2 m forward vouches for lies 2 m nearer astern of the origin. Along bearing b the point R u (u the
+    bearing's direction) lies sqrt(R^2 - 2 R u.t + |t|^2) from the sensor at t; solved for its far root, monotone,
+    so a bearing's bands keep their order and their joins (the near root, where the ray passes the sensor, is left
+    out: less is vouched, never more). An empty interval (start > end) stays empty; infinite ends stay."""
+    tf, ts = offset_fwd_stbd
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    if tf == 0.0 and ts == 0.0:
+        return lo.copy(), hi.copy()
+    along = (tf * np.cos(bin_bearings()) + ts * np.sin(bin_bearings()))[:, None]
+
+    def body(r: np.ndarray) -> np.ndarray:
+        with np.errstate(invalid="ignore"):
+            far_root = along + np.sqrt(np.maximum(r * r - (tf * tf + ts * ts) + along * along, 0.0))
+        return np.where(np.isfinite(r), far_root, r)
+
+    empty = ~(lo <= hi)
+    lo_b, hi_b = body(np.maximum(lo, 0.0)), body(hi)
+    lo_b[empty], hi_b[empty] = np.inf, -np.inf
+    return lo_b, hi_b
 
 
 def beams_of(
@@ -937,9 +971,36 @@ def _radar_band(s: PipelineSettings, roll: float = 0.0, pitch: float = 0.0) -> t
     sinks = -(elevation + s.radar_half_vfov_rad)
     far = np.where(sinks > 1e-6, max(s.radar_height_m, 0.0) / np.tan(np.maximum(sinks, 1e-6)), np.inf)
     far = np.minimum(far, rises)
-    lo = np.where(inside, near, np.inf)[:, None]
-    hi = np.where(inside, np.minimum(s.radar_max_range_m, far), -np.inf)[:, None]
+    offset = s.radar_offset_fwd_stbd_m
+    lo, hi = bands_in_body(
+        np.maximum(near, s.radar_min_range_m)[:, None], np.minimum(s.radar_max_range_m, far)[:, None], offset
+    )
+    # Off the body origin, the radar sees a bearing's near part at another azimuth: from the origin out, the ray
+    # enters the field of view where it crosses an edge of the wedge drawn from the radar.
+    lo = np.maximum(lo, _fov_entry(bearings, s.radar_yaw_rad, s.radar_fov_rad, offset)[:, None])
+    lo[~inside], hi[~inside] = np.inf, -np.inf
     return lo, hi
+
+
+def _fov_entry(bearings: np.ndarray, yaw: float, fov: float, offset: tuple[float, float]) -> np.ndarray:
+    """(B,) range from the body origin along each bearing beyond which the point lies inside a sensor's horizontal
+    field of view (``yaw`` +- ``fov`` / 2, drawn from the sensor at ``offset`` fwd/stbd): the furthest crossing of the
+    ray with the wedge's two edges; 0 where it crosses neither (for a bearing inside the wedge as seen from far)."""
+    t = np.asarray(offset, float)
+    entry = np.zeros(bearings.shape)
+    if not t.any() or fov >= 2 * np.pi:
+        return entry
+    u = np.column_stack([np.cos(bearings), np.sin(bearings)])
+    for edge in (yaw - fov / 2, yaw + fov / 2):
+        e = np.array([np.cos(edge), np.sin(edge)])
+        # R u = t + s e: by Cramer's rule on [u, -e] [R, s] = t
+        det = -u[:, 0] * e[1] + u[:, 1] * e[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = (-t[0] * e[1] + t[1] * e[0]) / det
+            along_edge = (u[:, 0] * t[1] - u[:, 1] * t[0]) / det
+        crosses = np.isfinite(r) & (r > 0) & (along_edge > 0)
+        entry = np.where(crosses, np.maximum(entry, r), entry)
+    return entry
 
 
 def lidar_coverage(scan: LidarScan, s: PipelineSettings) -> SensorCoverage:
