@@ -42,6 +42,9 @@ BIN_WIDTH_DEG = 5.0
 STATUSTEXT_CHUNK = 50
 STATUSTEXT_MAX_CHUNKS = 6  # a runaway message must not flood a telemetry radio
 SANE_UNIX_TIME_S = 1577836800.0  # 2020-01-01: a host clock before this was never set (no RTC, no NTP yet)
+# 2100-01-01: a time past this is a corrupt field (a SYSTEM_TIME of all ones), which no uint64 time_usec can carry
+# forward without overflowing
+LATEST_UNIX_TIME_S = 4102444800.0
 MAV_STATE_MAX = 8  # MAV_STATE_FLIGHT_TERMINATION
 # This many autopilot clock resets within the window are two clocks on the link, not reboots (_clock_conflict).
 CLOCK_CONFLICT_RESETS = 3  # an autopilot's reboot takes longer than the window, and is one reset
@@ -67,7 +70,7 @@ _NOT_AUTOPILOT_TYPES = frozenset(
 
 
 def host_clock_sane(wall_s: float) -> bool:
-    return wall_s > SANE_UNIX_TIME_S
+    return SANE_UNIX_TIME_S < wall_s < LATEST_UNIX_TIME_S
 
 
 class AutopilotLink:

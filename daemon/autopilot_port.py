@@ -13,6 +13,7 @@ yields no byte is treated as closed (``tcp:``: reopen; ``tcpin:``: drop the clie
 from __future__ import annotations
 
 import logging
+import struct
 import threading
 from collections.abc import Callable
 from typing import Any
@@ -80,6 +81,7 @@ class MavlinkPort:
         self._tx_lock = threading.Lock()
         self._conn: Any = None  # pymavlink mavfile; replaced only by the owner thread, under _tx_lock
         self._tx_failed = False
+        self._unpackable: set[str] = set()  # messages said once not to pack
         self._state = "closed"
         self._closing = False
         self._opener: threading.Thread | None = None
@@ -184,6 +186,14 @@ class MavlinkPort:
                 try:
                     fn(conn.mav)
                     failed = bool(getattr(conn, "portdead", False))
+                except (struct.error, OverflowError) as exc:
+                    # a field out of its range: the message is wrong, not the port (closing it for this would drop
+                    # the link every time the message is tried)
+                    self._count(f"tx_unpackable_{what}")
+                    if what not in self._unpackable:
+                        self._unpackable.add(what)
+                        log.error("autopilot link: %s cannot be packed (%s); not sent", what, exc)
+                    return False
                 except Exception as exc:  # a dying port raises anything from OSError to SerialException
                     failed = True
                     if not self._tx_failed:

@@ -47,11 +47,19 @@ class _Guarded:
                 log.error("recording %s stopped: %s", self.name, exc)
 
 
+def steady_wall_clock() -> Callable[[], float]:
+    """Unix time read once, carried forward on the monotonic clock. A Pi boots on the clock it saved at shutdown and
+    NTP or the GPS then steps it by minutes or hours: stamped with the stepping clock, a recording's sensors went
+    back in time mid-file, and a replay fed the stretch before the step at once and dropped all but one scan of it."""
+    wall0, mono0 = time.time(), time.monotonic()
+    return lambda: wall0 + (time.monotonic() - mono0)
+
+
 class Recorder:
-    def __init__(self, directory: str | Path, wall_clock: Callable[[], float] = time.time) -> None:
+    def __init__(self, directory: str | Path, wall_clock: Callable[[], float] | None = None) -> None:
         self.dir = Path(directory)
         self.dir.mkdir(parents=True, exist_ok=True)
-        self.wall_clock = wall_clock
+        self.wall_clock = wall_clock if wall_clock is not None else steady_wall_clock()
         self._pcap: PcapWriter | None = None
         self._dat: TimedCaptureWriter | None = None
         self._tlog: Any = None

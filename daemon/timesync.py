@@ -26,6 +26,9 @@ log = logging.getLogger(__name__)
 
 NS_PER_S = 1_000_000_000
 NS_PER_MS = 1_000_000
+# time_boot_ms is a uint32: it wraps after 49.7 days up, while TIMESYNC's tc1 (ns, 64 bits) runs on. A boot time
+# that falls back by more than half the range is that wrap, and is counted on, not taken for a reboot.
+BOOT_MS_WRAP = 1 << 32
 
 
 class TimeSync:
@@ -53,7 +56,8 @@ class TimeSync:
         self.past_tolerance_ns = int(past_tolerance_s * NS_PER_S)
         self._samples: deque[tuple[int, int, int]] = deque(maxlen=window)  # (rx_ns, rtt_ns, offset_ns)
         self._outstanding: deque[int] = deque(maxlen=outstanding)  # ts1 of our requests not yet answered
-        self._last_boot_ms: int | None = None
+        self._last_boot_ms: int | None = None  # unwrapped (with _boot_wraps x BOOT_MS_WRAP)
+        self._boot_wraps = 0
         self.offset_ns: int | None = None
         self.rtt_ns: int | None = None  # smallest round trip in the window
         self.resets = 0
@@ -75,6 +79,7 @@ class TimeSync:
         self._samples.clear()
         self._outstanding.clear()
         self._last_boot_ms = None
+        self._boot_wraps = 0
         self.offset_ns = None
         self.rtt_ns = None
         self.resets += 1
@@ -125,19 +130,39 @@ class TimeSync:
         self.rtt_ns = by_rtt[0][1]
 
     # ------------------------------------------------------------------ stamping
+    def unwrapped_ms(self, time_boot_ms: int, rx_ns: int) -> int:
+        """A message's uint32 ``time_boot_ms`` carried past its wraps: synced, the wraps that put it nearest to
+        where the offset (from TIMESYNC's 64-bit clock) expects it at ``rx_ns``, host ns; else those counted."""
+        raw = int(time_boot_ms) % BOOT_MS_WRAP
+        if self.offset_ns is not None:
+            wraps = round(((rx_ns + self.offset_ns) / NS_PER_MS - raw) / BOOT_MS_WRAP)
+            return raw + max(wraps, 0) * BOOT_MS_WRAP
+        return raw + self._boot_wraps * BOOT_MS_WRAP
+
     def check_boot_time(self, time_boot_ms: int, rx_ns: int) -> bool:
         """Watch a message's ``time_boot_ms``; True (and state reset) on a reboot or a clock jump."""
-        time_boot_ms = int(time_boot_ms)
         last = self._last_boot_ms
+        raw = int(time_boot_ms) % BOOT_MS_WRAP
+        time_boot_ms = self.unwrapped_ms(raw, rx_ns)
+        if (
+            self.offset_ns is None
+            and last is not None
+            and last % BOOT_MS_WRAP > BOOT_MS_WRAP - 60_000
+            and raw < 60_000
+            and time_boot_ms < last
+        ):  # not synced: from the range's last minute to its first is the wrap
+            self._boot_wraps += 1
+            time_boot_ms += BOOT_MS_WRAP
+        self._boot_wraps = time_boot_ms // BOOT_MS_WRAP
         if last is not None and time_boot_ms + self.boot_backwards_tolerance_ms < last:
             self.reset(f"autopilot boot time went back from {last} ms to {time_boot_ms} ms (reboot)")
-            self._last_boot_ms = time_boot_ms
+            self._last_boot_ms = raw
             return True
         if self.offset_ns is not None:
             predicted = time_boot_ms * NS_PER_MS - self.offset_ns
             if predicted - rx_ns > self.future_tolerance_ns or rx_ns - predicted > self.past_tolerance_ns:
                 self.reset(f"autopilot boot time {time_boot_ms} ms is {(predicted - rx_ns) / NS_PER_S:+.3f} s off")
-                self._last_boot_ms = time_boot_ms
+                self._last_boot_ms = raw
                 return True
         if last is None or time_boot_ms > last:
             self._last_boot_ms = time_boot_ms
@@ -147,10 +172,10 @@ class TimeSync:
         """Host monotonic ns of an autopilot ``time_boot_ms``; the receive time until synced."""
         if self.offset_ns is None:
             return int(rx_ns)
-        return int(time_boot_ms) * NS_PER_MS - self.offset_ns
+        return self.unwrapped_ms(time_boot_ms, rx_ns) * NS_PER_MS - self.offset_ns
 
     def to_host(self, time_boot_ms: int, rx_s: float) -> float:
         """Same as ``to_host_ns`` in seconds (host monotonic)."""
         if self.offset_ns is None:
             return float(rx_s)
-        return (int(time_boot_ms) * NS_PER_MS - self.offset_ns) / NS_PER_S
+        return (self.unwrapped_ms(time_boot_ms, int(rx_s * NS_PER_S)) * NS_PER_MS - self.offset_ns) / NS_PER_S
