@@ -12,7 +12,8 @@ import numpy as np
 from drivers.frames import EgoPose
 from drivers.mount import Mount
 from tests.sea_geometry import SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
-from tracker.obstacle_map import bearing_bins
+from tracker.obstacle_map import SensorCoverage, bearing_bins
+from tracker.pipeline import swept_at_tick
 
 MOUNT = Mount(z=-1.6)
 YAW = 0.3
@@ -77,3 +78,12 @@ def test_the_radar_speaks_where_the_turned_lidar_did_not_look() -> None:
     # the dead bins 10-14 of the revolution are bins 8-12 at the tick; judged in the revolution's frame, 13-14
     # spoke (where the LiDAR vouched) and 8-9 were muted (where it never looked)
     assert bins[speaks].tolist() == [8, 9, 10, 11, 12]
+
+
+def test_a_partial_sweeps_wedge_turns_with_the_boat() -> None:
+    """A sweep of the bow's 90 deg (bins 63-71 and 0-9 hold their centres), then 10 deg of turn to starboard: at the
+    tick the same water lies 10 deg further to port, bins 61-71 and 0-7. A LiDAR track's outline is added where the
+    sweep did not reach it, judged at the tick's heading."""
+    wedge = SensorCoverage(0.0, math.radians(90.0), 100.0)
+    assert np.flatnonzero(swept_at_tick(wedge, 0.0)).tolist() == [*range(0, 10), *range(63, 72)]
+    assert np.flatnonzero(swept_at_tick(wedge, math.radians(10.0))).tolist() == [*range(0, 8), *range(61, 72)]

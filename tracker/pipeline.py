@@ -519,7 +519,11 @@ class PerceptionPipeline:
             # LiDAR track coasting behind an occluder adds nothing: the occluder is nearer in those bins; and a
             # coasting prediction elsewhere (a quay piece taken for a vessel, a lost track) put false obstacles
             # round the boat in waves.
-            swept = self._lidar_coverage.bins() if lidar_fresh else np.zeros(72, dtype=bool)
+            swept = (
+                swept_at_tick(self._lidar_coverage, _turned_since(self._lidar_solid[1], own))
+                if lidar_fresh
+                else np.zeros(72, dtype=bool)
+            )
             lidar_confirmed = [tr for tr in tracks if tr.confirmed and tr.source != "radar"]
             unswept = {
                 id(tr)
@@ -1018,6 +1022,12 @@ def _outlines_in_body(tracks: list[Track], own: tuple[np.ndarray, float, float, 
     ``own``; None when none has one."""
     outlines = [o for o in (outline_points(tr.footprint()) for tr in tracks) if len(o)]
     return world_to_body_2d(np.concatenate(outlines), own[0][:2], own[3]) if outlines else None
+
+
+def swept_at_tick(sweep: SensorCoverage, turned: float) -> np.ndarray:
+    """(72,) bool: the bins of the tick's body frame that a sweep's wedge (in its own body frame) covered, the boat
+    having turned ``turned`` (rad, clockwise) since: the tracks judged against it are placed at the tick."""
+    return SensorCoverage(sweep.centre - turned, sweep.width, sweep.max_range).bins()
 
 
 def _swept_many(tracks: list[Track], own: tuple[np.ndarray, float, float, float], swept: np.ndarray) -> np.ndarray:
