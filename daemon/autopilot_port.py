@@ -19,12 +19,16 @@ from collections.abc import Callable
 from typing import Any
 
 from daemon.autopilot_url import parse_autopilot_url
+from daemon.change_notices import ChangeNotices
 from daemon.mavlink_env import mavlink, mavutil, open_connection
 
 log = logging.getLogger(__name__)
 
 # ArduPilot accepts these unsigned even with signing on (a SiK radio cannot sign)
 _UNSIGNED_OK = frozenset({mavlink.MAVLINK_MSG_ID_RADIO_STATUS, 166})  # 166 = RADIO
+# An endpoint that connects and drops in a loop: its up/down said twice a minute at most, then what it settled in.
+LINK_NOTICE_QUIET_S = 60.0
+LINK_NOTICE_BURST = 2
 MAX_MESSAGES_PER_READ = 1000  # bounded so the owner's periodic duties still run under a flood
 # pymavlink keeps the last message of every type it has seen, per system. A message id outside the dialect carries
 # no CRC it can check, so line noise makes up a new 'UNKNOWN_<id>' type (24-bit ids) every few bytes: unchecked,
@@ -83,6 +87,9 @@ class MavlinkPort:
         self._tx_failed = False
         self._unpackable: set[str] = set()  # messages said once not to pack
         self._state = "closed"
+        self._state_message = ""
+        self._notices = ChangeNotices(quiet_s=LINK_NOTICE_QUIET_S, burst=LINK_NOTICE_BURST)
+        self._notices.start("open", False)
         self._closing = False
         self._opener: threading.Thread | None = None
         self._opened: list[Any] = []  # the opener's result slot: [conn] or [exception]
@@ -96,6 +103,7 @@ class MavlinkPort:
     # ------------------------------------------------------------------ owner thread
     def service_open(self) -> bool:
         """Start or collect a pending open; True when the port has just been (re)opened."""
+        self._say_state()  # a state left unsaid by the rate limit, once its quiet time is over
         if self._opener is not None:
             if self._opener.is_alive():
                 return False
@@ -140,6 +148,7 @@ class MavlinkPort:
         """Wait up to ``timeout`` for data and pass every parsed message to ``handle``; False if the port
         failed (it is then closed and will be reopened by ``service_open``)."""
         conn = self._conn
+        self._say_state()  # a state left unsaid by the rate limit, once its quiet time is over
         if conn is None:
             return False
         try:
@@ -227,8 +236,23 @@ class MavlinkPort:
             _close_quietly(conn)
 
     def _set_state(self, state: str, message: str) -> None:
-        if state != self._state:
-            (log.info if state == "open" else log.warning)("autopilot link: %s", message)
-            self._state = state
-        else:
+        if state == self._state:
             log.debug("autopilot link: %s", message)
+            return
+        flip = (state == "open") != (self._state == "open")
+        self._state, self._state_message = state, message
+        if not flip:  # closed -> failed: the first word on a link that never opened
+            log.warning("autopilot link: %s", message)
+            return
+        self._say_state()
+
+    def _say_state(self) -> None:
+        """The link's up/down, said at most LINK_NOTICE_BURST times a LINK_NOTICE_QUIET_S: an endpoint that accepts
+        and drops at once would log two lines a reconnect (170,000 a day at the 1 s default). The state it settles
+        in is said once the quiet time is over, with the count of changes left unsaid."""
+        up = self._state == "open"
+        unsaid = self._notices.note("open", up, self.clock())
+        if unsaid is None:
+            return
+        more = f" ({unsaid} more up/down changes not logged)" if unsaid else ""
+        (log.info if up else log.warning)("autopilot link: %s%s", self._state_message, more)

@@ -1,0 +1,86 @@
+"""An autopilot endpoint that accepts the link's TCP connection and drops it at once, over and over (a bridge
+restarting, a busy MAVProxy): the link keeps reconnecting, but the log says its up/down twice, not at every turn."""
+
+from __future__ import annotations
+
+import logging
+import socket
+import threading
+import time
+
+import pytest
+
+from daemon.autopilot import AutopilotLink
+from simulator.autopilot import wait_until
+
+
+def test_a_link_dropped_at_every_connect_logs_twice_and_keeps_trying(caplog: pytest.LogCaptureFixture) -> None:
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(50)
+    port = server.getsockname()[1]
+
+    def accept_and_drop() -> None:
+        while True:
+            try:
+                client, _ = server.accept()
+            except OSError:
+                return
+            time.sleep(0.05)
+            client.close()
+
+    threading.Thread(target=accept_and_drop, daemon=True).start()
+    link = AutopilotLink(f"tcp:127.0.0.1:{port}", reconnect_interval=0.05)
+    with caplog.at_level(logging.INFO, logger="daemon.autopilot_port"):
+        link.start()
+        try:
+            assert wait_until(lambda: link.counters.get("link_failures", 0) >= 8, 20.0)
+        finally:
+            link.stop()
+            server.close()
+    said = [r.getMessage() for r in caplog.records if r.name == "daemon.autopilot_port"]
+    assert said[0] == f"autopilot link: opened tcp:127.0.0.1:{port}"
+    assert said[1].startswith(f"autopilot link: link to tcp:127.0.0.1:{port} lost")
+    assert len(said) == 2, said  # 8 or more opens and losses, two lines (the rest wait a minute)
+
+
+def test_the_state_a_flapping_link_settles_in_is_said_after_the_quiet_time(
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr("daemon.autopilot_port.LINK_NOTICE_QUIET_S", 1.0)  # a minute in the daemon
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(50)
+    port = server.getsockname()[1]
+    stop = threading.Event()
+
+    def accept_and_drop() -> None:
+        server.settimeout(0.1)
+        while not stop.is_set():
+            try:
+                client, _ = server.accept()
+            except OSError:
+                continue
+            time.sleep(0.05)
+            client.close()
+        server.close()  # from here every connect is refused: the link stays down
+
+    serving = threading.Thread(target=accept_and_drop, daemon=True)
+    serving.start()
+    link = AutopilotLink(f"tcp:127.0.0.1:{port}", reconnect_interval=0.05)
+    with caplog.at_level(logging.INFO, logger="daemon.autopilot_port"):
+        link.start()
+        try:
+            assert wait_until(lambda: link.counters.get("link_failures", 0) >= 4, 20.0)
+            stop.set()
+            serving.join(2.0)
+            said = lambda: [r.getMessage() for r in caplog.records if r.name == "daemon.autopilot_port"]  # noqa: E731
+            # down for good: said once the quiet time is over, with the changes it did not say
+            settled = f"autopilot link: link to tcp:127.0.0.1:{port} lost"
+            assert wait_until(
+                lambda: any(m.startswith(settled) and m.endswith("more up/down changes not logged)") for m in said()),
+                10.0,
+            )
+        finally:
+            link.stop()
+    assert len(said()) <= 2 + 2 * 12  # two a quiet second at most over the flapping and the settling
