@@ -14,22 +14,32 @@ from daemon.autopilot import AutopilotLink
 from simulator.autopilot import wait_until
 
 
-def test_a_link_dropped_at_every_connect_logs_twice_and_keeps_trying(caplog: pytest.LogCaptureFixture) -> None:
+def dropping_server(stop: threading.Event) -> tuple[int, threading.Thread]:
+    """A TCP endpoint on loopback that accepts each connection and closes it 50 ms later, until ``stop``; then it
+    closes its socket and every connect is refused. Its port and its thread (started)."""
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
     server.listen(50)
-    port = server.getsockname()[1]
+    server.settimeout(0.1)
 
     def accept_and_drop() -> None:
-        while True:
+        while not stop.is_set():
             try:
                 client, _ = server.accept()
             except OSError:
-                return
+                continue
             time.sleep(0.05)
             client.close()
+        server.close()
 
-    threading.Thread(target=accept_and_drop, daemon=True).start()
+    thread = threading.Thread(target=accept_and_drop, daemon=True)
+    thread.start()
+    return server.getsockname()[1], thread
+
+
+def test_a_link_dropped_at_every_connect_logs_twice_and_keeps_trying(caplog: pytest.LogCaptureFixture) -> None:
+    stop = threading.Event()
+    port, _ = dropping_server(stop)
     link = AutopilotLink(f"tcp:127.0.0.1:{port}", reconnect_interval=0.05)
     with caplog.at_level(logging.INFO, logger="daemon.autopilot_port"):
         link.start()
@@ -37,7 +47,7 @@ def test_a_link_dropped_at_every_connect_logs_twice_and_keeps_trying(caplog: pyt
             assert wait_until(lambda: link.counters.get("link_failures", 0) >= 8, 20.0)
         finally:
             link.stop()
-            server.close()
+            stop.set()
     said = [r.getMessage() for r in caplog.records if r.name == "daemon.autopilot_port"]
     assert said[0] == f"autopilot link: opened tcp:127.0.0.1:{port}"
     assert said[1].startswith(f"autopilot link: link to tcp:127.0.0.1:{port} lost")
@@ -48,31 +58,14 @@ def test_the_state_a_flapping_link_settles_in_is_said_after_the_quiet_time(
     caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr("daemon.autopilot_port.LINK_NOTICE_QUIET_S", 1.0)  # a minute in the daemon
-    server = socket.socket()
-    server.bind(("127.0.0.1", 0))
-    server.listen(50)
-    port = server.getsockname()[1]
     stop = threading.Event()
-
-    def accept_and_drop() -> None:
-        server.settimeout(0.1)
-        while not stop.is_set():
-            try:
-                client, _ = server.accept()
-            except OSError:
-                continue
-            time.sleep(0.05)
-            client.close()
-        server.close()  # from here every connect is refused: the link stays down
-
-    serving = threading.Thread(target=accept_and_drop, daemon=True)
-    serving.start()
+    port, serving = dropping_server(stop)
     link = AutopilotLink(f"tcp:127.0.0.1:{port}", reconnect_interval=0.05)
     with caplog.at_level(logging.INFO, logger="daemon.autopilot_port"):
         link.start()
         try:
             assert wait_until(lambda: link.counters.get("link_failures", 0) >= 4, 20.0)
-            stop.set()
+            stop.set()  # from here every connect is refused: the link stays down
             serving.join(2.0)
             said = lambda: [r.getMessage() for r in caplog.records if r.name == "daemon.autopilot_port"]  # noqa: E731
             # down for good: said once the quiet time is over, with the changes it did not say
