@@ -79,5 +79,22 @@ def source_status(lidar: Any, radar: Any, link: Any) -> str:
         )
         if getattr(ps, "frames_rejected", 0):
             parts.append(f"radar_rejected {ps.frames_rejected} ({ps.last_rejection})")
-    parts.append("autopilot " + ("up" if getattr(link, "connected", False) else "absent (no ego pose)"))
+    parts.append(_autopilot_status(link))
     return " ".join(parts)
+
+
+def _autopilot_status(link: Any) -> str:
+    """``autopilot up``, with ``no pose`` (or how old it is) when it sends none the daemon can use, and
+    ``pose_rejected N`` once any of its ATTITUDE or LOCAL_POSITION_NED messages carried a non-finite field (counted
+    and skipped, never used)."""
+    if not getattr(link, "connected", False):
+        return "autopilot absent (no ego pose)"
+    text = "autopilot up"
+    age = getattr(link, "pose_age", None)
+    if age is None:
+        text += ", no pose"
+    elif age > 1.0:
+        text += f", pose {age:.0f} s old"
+    counters = getattr(link, "counters", {})
+    rejected = counters.get("pose_rejected", 0) + counters.get("pose_local_rejected", 0)
+    return text + (f", pose_rejected {rejected}" if rejected else "")
