@@ -98,6 +98,8 @@ def run_scene(seed: int, seconds: float, modes: tuple[str, ...] = tuple(MODES)) 
                 "false_clear_sent_clear": bins.get("false_clear_sent_clear", 0),
                 "bins_with_solid": bins.get("bins_with_solid", 0),
                 "false_obstacle_bins": bins.get("false_obstacle", 0),
+                # an obstacle sent beyond a solid returned nearer throughout: more room said than there is
+                "too_far_bins": bins.get("too_far", 0),
                 "obstacle_unreturned_bins": bins.get("obstacle_unreturned", 0),
                 "bins_scored": bins.get("bins_scored", 0),
                 "false_obstacle_share": bins.get("false_obstacle", 0) / max(bins.get("bins_scored", 0), 1),
@@ -177,6 +179,7 @@ COLUMNS = (
     ("speed_error_mps", "speed error (m/s)", "{:.2f}", "high"),
     ("heading_axis_error_deg", "heading axis error (deg)", "{:.1f}", "high"),
     ("false_clear_bins", "false-clear bins", "{:.0f}", "high"),
+    ("too_far_bins", "too-far bins", "{:.0f}", "high"),
     ("false_obstacle_share", "false-obstacle bins (share)", "{:.2%}", "high"),
 )
 
@@ -223,9 +226,10 @@ def false_clear_line(rows: list[dict[str, Any]], mode: str = "fused") -> str:
     only that the daemon cannot vouch; both count against the goal of none."""
     total = sum(r[mode]["false_clear_bins"] for r in rows)
     sent_clear = sum(r[mode]["false_clear_sent_clear"] for r in rows)
+    too_far = sum(r[mode].get("too_far_bins", 0) for r in rows)
     return (
         f'False-clear bins ({mode}, pooled): {total}, of which {sent_clear} went out "clear" and '
-        f'{total - sent_clear} "unknown".'
+        f'{total - sent_clear} "unknown"; too-far bins (an obstacle sent beyond a solid returned nearer): {too_far}.'
     )
 
 

@@ -15,6 +15,9 @@ Definitions (d = the distance sent in a bin, tol(d) = max(0.5 m, 5 % of d), max 
     there is false; the neighbours absorb a bearing that moved by the boat's turn between sweep and window). An
     obstacle on a solid that was there but that no sensor returned in those windows (the daemon held it from an
     earlier sweep) is counted apart as ``obstacle_unreturned``, not as false;
+  * too far: the bin was sent with an obstacle at d while a returned solid lay nearer than d - tol(d) (and nearer
+    than 0.8 * max) in that bin in every reference window: the autopilot is told of more room than there is, as
+    unsafe as a false clear, which it is in all but name;
   * within tolerance: an obstacle bin whose d is within tol(d) of the nearest returned solid in that bin in one of
     the reference windows; its share of the obstacle bins is reported.
 Withheld ticks (bins null) and ticks whose reference windows do not cover the span are counted apart, not scored.
@@ -55,6 +58,7 @@ class BinScores:
     false_clear_sent_clear: int
     false_clear_sent_unknown: int
     false_obstacle: int
+    too_far: int  # obstacle bins beyond a solid returned nearer throughout the reference windows (by the tolerance)
     within_tolerance: int
 
     @property
@@ -136,6 +140,7 @@ def score_bins(
 
         d = sent / 100.0
         tol = np.maximum(TOL_MIN_M, TOL_SHARE * d)
+        n["too_far"] += int((should_show & obstacle & (solid_everywhere < d - tol)).sum())
         nearest_any = near.min(axis=0)  # (72,) nearest in any window
         unreturned = obstacle & ~(_around(nearest_any) <= d + tol)
         if returns.present is not None:

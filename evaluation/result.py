@@ -134,6 +134,7 @@ def format_text(r: EvaluationResult) -> str:
             f"sent clear {b.false_clear_sent_clear}, unknown {b.false_clear_sent_unknown})",
             f"  false obstacle {b.false_obstacle} of {b.obstacle_bins} obstacle bins ({_pct(b.false_obstacle_rate)}); "
             f"on a solid there but not returned in the reference windows (held or estimated): {b.obstacle_unreturned}",
+            f"  too far {b.too_far} (an obstacle sent beyond a solid returned nearer throughout, by the tolerance)",
             f"  obstacle bins within max(0.5 m, 5 %) of the nearest returned solid: {_pct(b.within_tolerance_share)}",
         ]
     for note in r.notes:

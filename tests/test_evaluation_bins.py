@@ -54,6 +54,7 @@ def test_bin_counts_exact(tmp_path: Path) -> None:
     assert b.false_obstacle == 7 * 2  # bins 5 and 20
     assert b.obstacle_unreturned == 0  # an older record: no present columns, nothing counted apart
     assert b.within_tolerance == 7  # bin 40
+    assert b.too_far == 0  # no obstacle lies beyond its bin's solid
     assert b.false_clear_rate == pytest.approx(3 / 5)
     assert b.false_obstacle_rate == pytest.approx(0.5)
     assert b.within_tolerance_share == pytest.approx(0.25)
@@ -74,15 +75,17 @@ def track_a_b() -> list[dict[str, object]]:
 
 
 @pytest.mark.parametrize(
-    ("value", "false_obstacle", "accurate"),
+    ("value", "false_obstacle", "accurate", "too_far"),
     [
-        (2000, 0, 1),  # at the solid (20 m)
-        (1951, 0, 1),  # 0.49 m nearer: within max(0.5 m, 5 % of 19.51 m = 0.98 m)
-        (1900, 1, 0),  # 1.0 m nearer, beyond its 0.95 m tolerance: nothing returned that near, a false obstacle
-        (2600, 0, 0),  # 6 m beyond the solid: there is an obstacle, nearer than said (inaccurate, not false)
+        (2000, 0, 1, 0),  # at the solid (20 m)
+        (1951, 0, 1, 0),  # 0.49 m nearer: within max(0.5 m, 5 % of 19.51 m = 0.98 m)
+        (1900, 1, 0, 0),  # 1.0 m nearer, beyond its 0.95 m tolerance: nothing returned that near, a false obstacle
+        (2104, 0, 1, 0),  # 1.04 m beyond: within 5 % of 21.04 m (1.05 m)
+        (2110, 0, 0, 1),  # 1.1 m beyond, past its 1.06 m: more room said than there is
+        (2600, 0, 0, 1),  # 6 m beyond the solid: there is an obstacle, nearer than said: too far
     ],
 )
-def test_tolerance_edges(tmp_path: Path, value: int, false_obstacle: int, accurate: int) -> None:
+def test_tolerance_edges(tmp_path: Path, value: int, false_obstacle: int, accurate: int, too_far: int) -> None:
     write_truth(tmp_path, two_boats(), 2.0)
     near = np.full((10, 72), np.inf)
     near[:, 20] = 20.0
@@ -92,7 +95,7 @@ def test_tolerance_edges(tmp_path: Path, value: int, false_obstacle: int, accura
     path = write_ticks(tmp_path / "tracks.jsonl", [tick(0.55, [], bins)])
     b = evaluate_run(tmp_path, path).bins
     assert b is not None
-    assert (b.false_obstacle, b.within_tolerance, b.obstacle_bins) == (false_obstacle, accurate, 1)
+    assert (b.false_obstacle, b.within_tolerance, b.obstacle_bins, b.too_far) == (false_obstacle, accurate, 1, too_far)
 
 
 def test_bin_beyond_max_distance_is_an_error(tmp_path: Path) -> None:
