@@ -200,6 +200,14 @@ def test_gnss_reference(tmp_path: Path) -> None:
     with pytest.raises(EvaluationError, match=r"the time column looks like milliseconds \(1760000000000\)"):
         evaluate_run(ms, tracks)
     assert "every vessel in range is to be tracked" in evaluate_run(gnss, tracks).to_text()
+    # a GNSS logger's stamps jitter by milliseconds either side of 1 s: every tick still has its reference (with a
+    # 1.0 s gap limit, the ticks in the 1.002 and 1.003 s intervals were dropped as outside the truth)
+    jitter = [0.0, 0.002, -0.001, 0.002]
+    shaky = tmp_path / "shaky.csv"
+    shaky.write_text(
+        "time,lat,lon\n" + "".join(f"{t0 + k + jitter[k]:.3f},{lat[k]:.10f},{lon[k]:.10f}\n" for k in range(4))
+    )
+    assert evaluate_run(shaky, tracks).tracks.objects == 19
     # a row short of a column is named as such, not as an index error
     rows = gnss.read_text(encoding="utf-8-sig").splitlines()
     gnss.write_text("\n".join([*rows[:2], f"{t0 + 1},{lat[1]:.10f}", *rows[3:]]) + "\n")

@@ -12,9 +12,12 @@ import numpy as np
 import pytest
 
 from daemon.autopilot_pose import PoseAssembler
+from daemon.config import Config
 from daemon.mavlink_env import mavlink, mavutil
 from daemon.pose_history import PoseHistory
 from daemon.replay import recording_config, run_replay
+from daemon.runner import pipeline_for
+from drivers.frames import EgoPose, RadarFrame
 from simulator.capture import write_captures
 
 
@@ -89,3 +92,34 @@ def test_a_replay_through_a_spoilt_attitude_and_position_runs_to_its_end(tmp_pat
     assert sum(r["obstacle_distance_cm"] is not None for r in rows) == sum(
         r["obstacle_distance_cm"] is not None for r in expected
     )
+
+
+class _EgoWithOneBadHeading:
+    """An ego source that breaks its protocol once: a NaN heading at one instant instead of None."""
+
+    epoch = 0
+    available = True
+
+    def __init__(self, bad_from: float, bad_to: float) -> None:
+        self.bad = (bad_from, bad_to)
+
+    def _yaw(self, t: float) -> float:
+        return math.nan if self.bad[0] <= t <= self.bad[1] else 0.0
+
+    def at(self, t: float) -> EgoPose:
+        return EgoPose(t, np.zeros(3), np.zeros(3), 0.0, 0.0, self._yaw(t))
+
+    def at_many(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        n = np.size(t)
+        return np.zeros((n, 3)), np.zeros(n), np.zeros(n), np.array([self._yaw(float(x)) for x in np.ravel(t)])
+
+
+def test_a_nan_heading_from_the_ego_source_is_no_pose_not_a_failed_cycle() -> None:
+    pipeline = pipeline_for(Config())
+    ego = _EgoWithOneBadHeading(0.45, 0.55)
+    xyz = np.array([[20.0, 0.0, 0.0], [20.3, 0.4, 0.0], [20.1, -0.4, 0.0]])
+    for k in range(8):
+        frame = RadarFrame(0.1 * k, k + 1, xyz, np.zeros(3), np.full(3, 20.0), np.full(3, 5.0))
+        out = pipeline.step(0.1 * k + 0.01, None, [frame], ego)  # raised ValueError (data must be finite) at k = 5
+        assert np.isfinite(out.clear_to_m).all()
+    assert pipeline.skipped_no_pose == 1

@@ -848,7 +848,7 @@ class PerceptionPipeline:
         yaw), or as body (fwd, stbd) with None when there is no pose to place them with (_at_tick turns either into
         the body frame at the tick: a boat turning 30 deg/s turns 3 deg between a frame and the next tick)."""
         finite = np.all(np.isfinite(frame.xyz), axis=1)
-        pose = ego.at(frame.stamp) if ego_ok and ego is not None else None
+        pose = _finite_pose(ego.at(frame.stamp)) if ego_ok and ego is not None else None
         if pose is not None and np.isfinite([pose.roll, pose.pitch]).all():
             self._radar_attitude = (float(pose.roll), float(pose.pitch))
         returns_body = frame.xyz[finite][:, :2]
@@ -1080,7 +1080,16 @@ def _sensor_ned(own: tuple[np.ndarray, float, float, float] | None, mount: Mount
 def _pose_now(ego: EgoSource | None, ego_ok: bool, t: float) -> tuple[np.ndarray, float, float, float] | None:
     if not ego_ok or ego is None:
         return IDENTITY
-    p = ego.at(t)
+    p = _finite_pose(ego.at(t))
     if p is None:
         return None
     return np.asarray(p.position, float), p.roll, p.pitch, p.yaw
+
+
+def _finite_pose(pose: EgoPose | None) -> EgoPose | None:
+    """The pose, or None where its heading or horizontal position is not finite: an ego source that breaks its
+    protocol (None for "no pose") must not put NaN into every return placed with it, which failed the cycle and
+    restarted every track."""
+    if pose is None or not np.isfinite([pose.yaw, *np.asarray(pose.position, float)[:2]]).all():
+        return None
+    return pose
