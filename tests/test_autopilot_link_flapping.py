@@ -37,6 +37,11 @@ def dropping_server(stop: threading.Event) -> tuple[int, threading.Thread]:
     return server.getsockname()[1], thread
 
 
+def port_lines(caplog: pytest.LogCaptureFixture) -> list[str]:
+    """What the link's port has logged so far."""
+    return [r.getMessage() for r in caplog.records if r.name == "daemon.autopilot_port"]
+
+
 def test_a_link_dropped_at_every_connect_logs_twice_and_keeps_trying(caplog: pytest.LogCaptureFixture) -> None:
     stop = threading.Event()
     port, _ = dropping_server(stop)
@@ -48,7 +53,7 @@ def test_a_link_dropped_at_every_connect_logs_twice_and_keeps_trying(caplog: pyt
         finally:
             link.stop()
             stop.set()
-    said = [r.getMessage() for r in caplog.records if r.name == "daemon.autopilot_port"]
+    said = port_lines(caplog)
     assert said[0] == f"autopilot link: opened tcp:127.0.0.1:{port}"
     assert said[1].startswith(f"autopilot link: link to tcp:127.0.0.1:{port} lost")
     assert len(said) == 2, said  # 8 or more opens and losses, two lines (the rest wait a minute)
@@ -67,13 +72,14 @@ def test_the_state_a_flapping_link_settles_in_is_said_after_the_quiet_time(
             assert wait_until(lambda: link.counters.get("link_failures", 0) >= 4, 20.0)
             stop.set()  # from here every connect is refused: the link stays down
             serving.join(2.0)
-            said = lambda: [r.getMessage() for r in caplog.records if r.name == "daemon.autopilot_port"]  # noqa: E731
             # down for good: said once the quiet time is over, with the changes it did not say
             settled = f"autopilot link: link to tcp:127.0.0.1:{port} lost"
             assert wait_until(
-                lambda: any(m.startswith(settled) and m.endswith("more up/down changes not logged)") for m in said()),
+                lambda: any(
+                    m.startswith(settled) and m.endswith("more up/down changes not logged)") for m in port_lines(caplog)
+                ),
                 10.0,
             )
         finally:
             link.stop()
-    assert len(said()) <= 2 + 2 * 12  # two a quiet second at most over the flapping and the settling
+    assert len(port_lines(caplog)) <= 2 + 2 * 12  # two a quiet second at most over the flapping and the settling

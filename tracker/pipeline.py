@@ -920,7 +920,8 @@ def bands_in_body(
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     if tf == 0.0 and ts == 0.0:
         return lo.copy(), hi.copy()
-    along = (tf * np.cos(bin_bearings()) + ts * np.sin(bin_bearings()))[:, None]
+    bearings = bin_bearings()
+    along = (tf * np.cos(bearings) + ts * np.sin(bearings))[:, None]
 
     def body(r: np.ndarray) -> np.ndarray:
         with np.errstate(invalid="ignore"):
