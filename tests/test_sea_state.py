@@ -514,3 +514,34 @@ def test_a_line_along_one_beam_that_rises_out_of_the_sea_margin_is_an_obstacle_a
     # bins 6 and 7 (27.5-36 deg): the wall 24-30 m off, within the margin; unknown without the rule
     assert 2300 <= d[6] <= 2800 and 2650 <= d[7] <= 3050
     assert d_plain[6] == d_plain[7] == UNKNOWN
+
+
+def test_a_low_buoy_beside_the_boat_keeps_its_bins_once_tracked() -> None:
+    """A buoy 1.2 m wide 6.5 m off on the 45 deg bearing, in the chop: 0.7 m of it stands over the water, the margin
+    (0.45-0.55 m) leaves its top standing and it is tracked; then it rides 0.25 m lower in the swell and all of it
+    lies under the margin. Its side is offered to the hull gate like any hull's, within the spray range (8 m) too:
+    its bins stay 6.5 m. Before, the returns under the margin there never reached the gate and the bins went out
+    unknown, or with what lay behind the buoy (tuning scene 8: a buoy 6.7 m off sent at 68 m). Only returns on a
+    face (the laser above or below returned at their range) are offered that near: the crests there are many."""
+    pipeline = lidar_pipeline(MOUNT)
+    ego = SteadyEgo(rolling, YAW)
+    bearing = math.radians(45.0) + YAW
+    radial = np.array([math.cos(bearing), math.sin(bearing)])
+    along = np.array([-math.sin(bearing), math.cos(bearing)])
+    centre = 6.5 * radial
+    for k in range(8):
+        buoy = (tuple(centre - 0.6 * along), tuple(centre + 0.6 * along), 0.7 if k < 6 else 0.45)
+        ret = revolution_over_water(
+            MOUNT, rolling, yaw=YAW, origin_height=0.2, elevation=chop, t0=0.1 * k, walls=(buoy,)
+        )
+        out = pipeline.step(0.1 * k + 0.1, scan_of(ret, 0.1 * k + 0.1), [], ego)
+        if k == 5:
+            assert [t.confirmed for t in out.tracks] == [True]
+    pre = pipeline.last_preprocess
+    assert pre.points_world.shape[0] == 0  # nothing over the margin in the last revolution
+    rel = pre.within_margin_world[:, :2] - centre
+    on_side = (np.abs(rel @ radial) <= 0.3) & (np.abs(rel @ along) <= 0.6)
+    assert np.count_nonzero(on_side) >= 10  # the side under the margin, met by the low beams
+    # the buoy spans 39.7-50.3 deg: bins 8-10, 6.5 m off (bins 7 and 11 take it across their edge: bin_edge_m)
+    np.testing.assert_allclose(out.distances_cm[7:12] / 100.0, 6.5, atol=0.2)
+    assert np.all(out.distances_cm[np.r_[0:7, 12:72]] > 10000)

@@ -43,8 +43,8 @@ class PreprocessResult:
     n_grazing: int = 0  # within the sea margin but solid: a solid's foot in calm water (see preprocess)
     water: WaterEstimate = field(default_factory=WaterEstimate)
     # (L, 3) world NED: returns within the sea margin yet above its floor (at any height in it beyond the config's
-    # waterline_gate_range), not alone in the range image and beyond the spray range: a crest's top or a hull's
-    # lower strakes or waterline; only a known hull around them can tell which
+    # waterline_gate_range), not alone in the range image, and within the spray range only on a face: a crest's top
+    # or a hull's lower strakes or waterline; only a known hull around them can tell which
     within_margin_world: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     # (L,) bool: whether each came back on a laser whose sea the grazing-line rule judged sparse (empty where that
     # rule did not judge: a calm sea, or no range image)
@@ -349,7 +349,15 @@ def preprocess(
         keep[idx[~good]] = False
     # Below the calm floor only far out, where one beam meets a hull at its waterline (config: waterline_gate_range).
     low_enough = (height > cfg.water.margin_floor) | (r2_kept >= cfg.waterline_gate_range**2)
-    undecided = in_band & ~solid & (r2_kept >= cfg.spray_near_range**2) & low_enough
+    # Within the spray range too, on a face (the laser above or below returned at its range): a buoy 0.6 m tall 6 m
+    # off stands mostly under a 0.4 m margin, and only a hull's track, never one return, makes these solid (pipeline:
+    # hull_margin_grow_m; the recurrence rule looks 12 m out). There the steep beams meet the crests by the hundred,
+    # and a coasting or false track's grown box took them in as obstacles where no solid stood.
+    undecided = in_band & ~solid & low_enough
+    if vertical is not None:
+        undecided &= vertical | (r2_kept >= cfg.spray_near_range**2)
+    else:
+        undecided &= r2_kept >= cfg.spray_near_range**2
     if image is not None:
         undecided &= neighbours > 0
     n_nonfinite = n - n_finite
