@@ -786,6 +786,7 @@ class PerceptionPipeline:
                 reasons=self.keep_view_detail,
                 beams=beams,
                 bins=point_bin,
+                on_hull=self._on_settled_hulls(),
             )
             track_points = pre.points_world
         self.last_preprocess = pre
@@ -830,6 +831,17 @@ class PerceptionPipeline:
                 solid = np.concatenate([solid, recurring])
         # without the sweep's poses, preprocess placed the returns in the body frame (zero pose)
         return (solid, (own_pos, own_yaw) if track_points is not None else None), int(solid.shape[0])
+
+    def _on_settled_hulls(self) -> Callable[[np.ndarray], np.ndarray] | None:
+        """Which world (north, east) places lie on the hull of a LiDAR track measured hull_gate_min_hits times (its
+        box grown as the hull gate grows it), or None without such a track or with that gate off."""
+        s = self.settings
+        if self.lidar_tracker is None or s.hull_margin_grow_m < 0:
+            return None
+        settled = [tr for tr in self._lidar_tracks if tr.confirmed and tr.hits >= s.hull_gate_min_hits]
+        if not settled:
+            return None
+        return lambda ne: on_tracked_hulls(ne, settled, s.hull_margin_grow_m, s.hull_coast_drift_cap_m)
 
     def _persistent_in_margin(self, pre: Any, own_pos: np.ndarray) -> np.ndarray:
         """The revolution's returns within the sea margin on lasers whose sea is sparse (world north, east) that recur

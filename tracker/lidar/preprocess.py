@@ -10,6 +10,7 @@ pose for all); output world NED. Heights are "above the water surface", up posit
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -143,6 +144,7 @@ def preprocess(
     reasons: bool = False,
     beams: BeamGeometry | None = None,
     bins: np.ndarray | None = None,
+    on_hull: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> PreprocessResult:
     """Filter one revolution and move it to the world frame.
 
@@ -158,7 +160,9 @@ def preprocess(
     ``reasons`` also returns, per point, the rule that dropped it (PreprocessResult.reason). ``beams`` (where the
     revolution's beams pointed, coverage.BeamGeometry) lets the grazing-line rule judge each laser's water returns
     against the firings that met the water (see _grazing_lines). ``bins`` (N,), the obstacle-array bin of each
-    return (obstacle_map.bearing_bins of its body x and y), spares that rule computing them again.
+    return (obstacle_map.bearing_bins of its body x and y), spares that rule computing them again. ``on_hull`` (world
+    north, east (K, 2) -> (K,) bool) says which places lie on a hull the tracker holds: returns there are not the sea,
+    whatever their height, and do not set its margin.
     """
     cfg = config or PreprocessConfig()
     xyz = np.asarray(xyz_body, dtype=float).reshape(-1, 3)
@@ -220,7 +224,7 @@ def preprocess(
             not_water = vertical.copy()
             not_water[far[runs >= cfg.grazing_line_min_run]] = True
     estimate = (
-        water.update(bx, by, height, t, rings, not_water, alone)
+        water.update(bx, by, height, t, rings, not_water, alone, _hull_test(on_hull, north, east))
         if water is not None
         else WaterEstimate(margin=cfg.water.margin_floor)
     )
@@ -521,6 +525,15 @@ def _feet_of_solid_lines(
     holds_solid = np.bincount(run_id, weights=good[members], minlength=length.size) > 0
     foot[members] = water[members] & holds_solid[run_id] & (length[run_id] >= cfg.solid_line_min_run)
     return foot
+
+
+def _hull_test(
+    on_hull: Callable[[np.ndarray], np.ndarray] | None, north: np.ndarray, east: np.ndarray
+) -> Callable[[np.ndarray], np.ndarray] | None:
+    """``on_hull`` asked by the kept returns' indices (the water fit's terms) rather than by world place."""
+    if on_hull is None:
+        return None
+    return lambda i: on_hull(np.column_stack([np.take(north, i), np.take(east, i)]))
 
 
 def _cells(ring: np.ndarray, bins: np.ndarray) -> np.ndarray:

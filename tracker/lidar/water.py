@@ -33,6 +33,7 @@ relative to the configured waterline at the body origin.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -104,11 +105,13 @@ class WaterSurface:
         ring: np.ndarray | None = None,
         vertical: np.ndarray | None = None,
         alone: np.ndarray | None = None,
+        on_hull: Callable[[np.ndarray], np.ndarray] | None = None,
     ) -> WaterEstimate:
         """Fit the surface to this revolution's returns (level-frame x, y and height above the configured
         waterline; ``ring`` the laser of each, 0 = lowest; ``vertical`` marks returns on a vertical face, never
-        water; ``alone`` those with no neighbour in the range image, which may be rain) and return the estimate to
-        classify them with."""
+        water; ``alone`` those with no neighbour in the range image, which may be rain; ``on_hull`` says, for the
+        indices of some of them, which lie on a hull the tracker holds) and return the estimate to classify
+        them with."""
         cfg = self.config
         prev = self.current(t)
         if not cfg.enabled:
@@ -183,9 +186,16 @@ class WaterSurface:
         layer = (np.abs(res) <= max(cfg.crest_sigmas * sigma, 0.05)) & ~c_alone
         if not layer.any():
             layer = np.abs(res) <= max(cfg.crest_sigmas * sigma, 0.05)
+        # A low hull's side stands in the layer too (a buoy 6 m off: three lasers, 150 returns), and its returns
+        # were the layer's highest: the margin rose over the buoy's top and hid it. The returns that could raise the
+        # crests over the sea's spread are asked whether a tracked hull holds them: those are not the sea.
+        floor = cfg.margin_sigmas * sigma
+        tail = np.flatnonzero(layer & (np.abs(res) > floor))
+        if on_hull is not None and tail.size:
+            layer[tail[on_hull(idx[tail])]] = False
         # The returns under-sample the crests (a beam meets a crest's face, seldom its top), so the sea's own spread
         # sets a floor: a Gaussian sea's crests reach about 3 sigma (Rayleigh crests: 1 in 100 above 3 sigma).
-        crest = max(_quantile(np.abs(res[layer]), cfg.margin_quantile), cfg.margin_sigmas * sigma)
+        crest = max(_quantile(np.abs(res[layer]), cfg.margin_quantile), floor) if layer.any() else floor
         margin = min(max(crest + cfg.margin_pad, cfg.margin_floor), cfg.margin_max)
         reach = _quantile(np.hypot(cx[inlier], cy[inlier]), 0.95)
         self.estimate = WaterEstimate(float(coef[0]), float(coef[1]), float(coef[2]), margin, t, n_in, sigma, reach)
