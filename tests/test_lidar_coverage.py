@@ -203,3 +203,43 @@ def test_bands_turned_with_the_boat_carry_no_coverage_into_a_bearing_that_had_no
     # not turned: as measured, to the bit
     same_lo, same_hi = bands_turned(lo, hi, 0.0)
     assert np.array_equal(same_lo, lo) and np.array_equal(same_hi, hi)
+
+
+def test_a_bearing_that_returned_nothing_is_not_vouched_for_by_points_without_a_position() -> None:
+    """Walls 30 m off all round but ahead (340-20 deg), a calm sea: the bins ahead returned nothing, so they vouch
+    for nothing and go out unknown. A revolution also carrying returns without a finite position (a decoder's NaN)
+    once counted those in bin 0 (a NaN bearing rounds to bin 0), which then counted as having returned something,
+    and was sent "clear"."""
+    import dataclasses
+    import itertools
+
+    from daemon.config import Config
+    from daemon.runner import pipeline_for
+
+    config = Config()
+    config.lidar.mount.z = MOUNT.z
+    config.radar.enabled = False
+    config.output.clear_inner_m, config.output.max_distance_m = 4.2, 11.0
+    ring = np.radians(np.arange(20.0, 341.0, 5.0))
+    corners = np.column_stack([30.0 * np.cos(ring), 30.0 * np.sin(ring)])
+    walls = tuple((tuple(a), tuple(b), 2.0) for a, b in itertools.pairwise(corners.tolist()))
+
+    def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.zeros(np.shape(t)), np.zeros(np.shape(t))
+
+    ret = revolution_over_water(MOUNT, level, yaw=0.0, walls=walls, water_returns=False)
+    scan = scan_of(ret, 0.1)
+    nan = np.full((5, 3), np.nan)
+    with_nan = dataclasses.replace(
+        scan,
+        xyz=np.r_[scan.xyz, nan],
+        intensity=np.r_[scan.intensity, np.full(5, 4.0, np.float32)],
+        ring=np.r_[scan.ring, np.full(5, 3, np.uint8)],
+        t=np.r_[scan.t, np.full(5, scan.t[-1])],
+    )
+    for s in (scan, with_nan):
+        out = pipeline_for(config).step(0.1, s, [], SteadyEgo(level, 0.0))
+        ahead = [70, 71, 0, 1, 2]
+        assert out.clear_to_m[ahead].tolist() == [0.0] * 5
+        assert out.distances_cm[ahead].tolist() == [UNKNOWN] * 5
+        assert np.all(out.distances_cm[10:60] == 1101)  # the walls are beyond 11 m: clear where the beams looked

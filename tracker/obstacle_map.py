@@ -141,8 +141,10 @@ def _finite(points_fwd_stbd: np.ndarray, with_index: bool) -> tuple[np.ndarray, 
 
 
 def _bins_of(angle: np.ndarray) -> np.ndarray:
-    """Bin (0..71, int16) of each bearing (rad, clockwise from the bow, -pi..pi)."""
-    b = np.rint(angle / BIN_WIDTH_RAD).astype(np.int16)
+    """Bin (0..71, int16) of each bearing (rad, clockwise from the bow, -pi..pi); a NaN bearing's is meaningless
+    (the cast's, 0 on x86-64 and arm64): callers that may hold points without a position drop those themselves."""
+    with np.errstate(invalid="ignore"):
+        b = np.rint(angle / BIN_WIDTH_RAD).astype(np.int16)
     return np.where(b < 0, b + np.int16(N_BINS), b)  # a masked in-place add cost twice as much
 
 

@@ -953,10 +953,16 @@ def beams_of(
     (72,) bool the bins that count as measured: swept by the received packets and returning something, and (N,)
     the bin of each return."""
     point_bin = bearing_bins(scan.xyz[:, :2])
-    count = np.bincount(point_bin, minlength=72)
+    # A return without a finite position has no bearing (its NaN rounds to bin 0): it says nothing of any bin.
+    placed = np.isfinite(scan.xyz).all(axis=1)
+    if not placed.all():
+        point_bin_placed, roll, pitch = point_bin[placed], np.asarray(roll)[placed], np.asarray(pitch)[placed]
+    else:
+        point_bin_placed = point_bin
+    count = np.bincount(point_bin_placed, minlength=72)
     with np.errstate(invalid="ignore", divide="ignore"):
-        roll_bin = np.nan_to_num(np.bincount(point_bin, weights=roll, minlength=72) / count)
-        pitch_bin = np.nan_to_num(np.bincount(point_bin, weights=pitch, minlength=72) / count)
+        roll_bin = np.nan_to_num(np.bincount(point_bin_placed, weights=roll, minlength=72) / count)
+        pitch_bin = np.nan_to_num(np.bincount(point_bin_placed, weights=pitch, minlength=72) / count)
     live = count > 0
     if scan.packet_sweeps is not None:
         live &= swept_bins(scan.packet_sweeps, s.lidar_mount)
