@@ -233,6 +233,21 @@ def false_clear_line(rows: list[dict[str, Any]], mode: str = "fused") -> str:
     )
 
 
+def false_tracks_line(rows: list[dict[str, Any]], mode: str = "fused") -> str:
+    """Pooled false track-frames, all false positives over all matches: a scene with false tracks and no match has
+    no ratio of its own, and the table's mean leaves it out."""
+    fp = sum(r[mode]["false_positives"] for r in rows)
+    matches = sum(r[mode]["matches"] for r in rows)
+    unmatched = [r for r in rows if r[mode]["false_positives"] and not r[mode]["matches"]]
+    pooled = f"{fp / matches:.2%}" if matches else "undefined (no match)"
+    named = ", ".join(f"{r['seed']} ({r[mode]['false_positives']})" for r in unmatched)
+    return (
+        f"False track-frames ({mode}, pooled): {fp:,} false positives over {matches:,} matches, {pooled}; "
+        f"{len(unmatched)} scenes with false positives and no match (left out of the mean above)"
+        + (f": {named}." if named else ".")
+    )
+
+
 def on_quay_line(rows: list[dict[str, Any]], mode: str = "fused") -> str:
     """Pooled confirmed tracks on a quay (``tracks_on_quays``) and the scenes that had any."""
     ticks = sum(r[mode]["on_quay"]["track_ticks"] for r in rows)
@@ -310,6 +325,7 @@ def main() -> None:
         print(same_truth(rows))
     for mode in modes:
         print(false_clear_line(rows, mode))
+        print(false_tracks_line(rows, mode))
         print(on_quay_line(rows, mode))
         print(by_hull_line(rows, mode))
     print(f"{len(rows)} scenes in {time.perf_counter() - t0:.0f} s")
@@ -333,6 +349,8 @@ def markdown(summary: dict[str, Any], rows: list[dict[str, Any]], seconds: float
         by_hull_line(rows) + " " + by_hull_line(rows, "lidar"),
         "",
         " ".join(false_clear_line(rows, mode) for mode in MODES),
+        "",
+        " ".join(false_tracks_line(rows, mode) for mode in MODES),
         "",
         " ".join(on_quay_line(rows, mode) for mode in MODES),
         "",
