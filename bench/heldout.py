@@ -101,6 +101,8 @@ def run_scene(seed: int, seconds: float, modes: tuple[str, ...] = tuple(MODES)) 
                 # an obstacle sent beyond a solid returned nearer throughout: more room said than there is
                 "too_far_bins": bins.get("too_far", 0),
                 "obstacle_unreturned_bins": bins.get("obstacle_unreturned", 0),
+                # ticks that sent no array at all while a returned solid lay within 80 m: silence, not a false clear
+                "ticks_withheld_with_solid": bins.get("ticks_withheld_with_solid", 0),
                 "bins_scored": bins.get("bins_scored", 0),
                 "false_obstacle_share": bins.get("false_obstacle", 0) / max(bins.get("bins_scored", 0), 1),
                 "replay_s": replay_s,
@@ -227,9 +229,11 @@ def false_clear_line(rows: list[dict[str, Any]], mode: str = "fused") -> str:
     total = sum(r[mode]["false_clear_bins"] for r in rows)
     sent_clear = sum(r[mode]["false_clear_sent_clear"] for r in rows)
     too_far = sum(r[mode].get("too_far_bins", 0) for r in rows)
+    withheld = [r[mode]["ticks_withheld_with_solid"] for r in rows if "ticks_withheld_with_solid" in r[mode]]
     return (
         f'False-clear bins ({mode}, pooled): {total}, of which {sent_clear} went out "clear" and '
-        f'{total - sent_clear} "unknown"; too-far bins (an obstacle sent beyond a solid returned nearer): {too_far}.'
+        f'{total - sent_clear} "unknown"; too-far bins (an obstacle sent beyond a solid returned nearer): {too_far}'
+        + (f"; ticks withheld with a returned solid within 80 m: {sum(withheld)}." if withheld else ".")
     )
 
 

@@ -31,3 +31,20 @@ def test_no_scene_is_named_when_every_scene_has_a_match() -> None:
         "False track-frames (fused, pooled): 0 false positives over 500 matches, 0.00%; 0 scenes with false "
         "positives and no match (left out of the mean above)."
     )
+
+
+def test_the_false_clear_line_counts_ticks_withheld_beside_a_solid_when_the_run_recorded_them() -> None:
+    from bench.heldout import false_clear_line
+
+    def row(withheld: int | None) -> dict:
+        fused = {"false_clear_bins": 5, "false_clear_sent_clear": 1, "too_far_bins": 7}
+        if withheld is not None:
+            fused["ticks_withheld_with_solid"] = withheld
+        return {"seed": 1, "fused": fused}
+
+    assert false_clear_line([row(2), row(3)]).endswith(
+        'of which 2 went out "clear" and 8 "unknown"; too-far bins (an obstacle sent beyond a solid returned '
+        "nearer): 14; ticks withheld with a returned solid within 80 m: 5."
+    )
+    # a record written before the count existed says nothing of it rather than 0
+    assert false_clear_line([row(None)]).endswith("returned nearer): 7.")
