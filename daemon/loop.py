@@ -206,7 +206,7 @@ class DaemonLoop:
         if self.tracks_out is not None:
             own = self.poses.at(out.t) if self.poses is not None and out.ego_available else None
             origin = self._world_origin() if own is not None else None
-            record = tick_record(out, sent=send, own=own, world_origin=origin)
+            record = tick_record(out, sent=send, own=own, world_origin=origin, max_distance_m=self.s.max_distance_m)
             try:
                 self.tracks_out.write(json.dumps(record, separators=(",", ":")) + "\n")
             except OSError as exc:
@@ -545,14 +545,19 @@ def lidar_phase_shift(age: float, period: float) -> float:
 
 
 def tick_record(
-    out: PerceptionOutput, sent: bool, own: EgoPose | None = None, world_origin: tuple[float, float] | None = None
+    out: PerceptionOutput,
+    sent: bool,
+    own: EgoPose | None = None,
+    world_origin: tuple[float, float] | None = None,
+    max_distance_m: float | None = None,
 ) -> dict[str, Any]:
     """One --tracks-out line: time, tracks and the 72 bins (as sent, or null when withheld).
 
     ``own`` is the own boat's pose the tick used, in the same world frame as the tracks (null in "no ego pose" mode
     or while the pose is unknown: the tracks are then in no frame a reference can be put in); ``world_origin`` the
     latitude/longitude of that frame's origin, when the autopilot has given one, so that a GNSS track can be brought
-    into the tracks' frame (usv-tracker evaluate).
+    into the tracks' frame (usv-tracker evaluate); ``max_distance_m`` the [output] max_distance_m the bins were sent
+    with ("clear" is that plus 1 cm), so that the evaluator judges them against the same.
     """
 
     def f(x: float) -> float | None:
@@ -590,6 +595,7 @@ def tick_record(
         "world_origin_lat_lon": None
         if world_origin is None
         else [round(world_origin[0], 8), round(world_origin[1], 8)],
+        **({} if max_distance_m is None else {"max_distance_m": max_distance_m}),
     }
 
 

@@ -71,6 +71,13 @@ def evaluate_run(
         notes.append("a returns record says nothing about a GNSS reference's run: not used")
         returns_path = None
 
+    stated = {tk.max_distance_m for tk in ticks if tk.max_distance_m is not None}
+    if any(abs(m - max_distance_m) > 1e-6 for m in stated):
+        m = next(v for v in sorted(stated) if abs(v - max_distance_m) > 1e-6)
+        raise EvaluationError(
+            f"{tracks}: the run sent its bins with [output] max_distance_m = {m:g} m (its tick records say so), "
+            f"not the {max_distance_m:g} m given: pass --max-distance {m:g}"
+        )
     times = np.array([tk.t for tk in ticks])
     offset, method = _align(times, reference, table, time_offset_s)
     truth_times = times + offset

@@ -59,6 +59,7 @@ class Tick:
     own: tuple[float, float, float] | None  # world north, east (m), yaw (rad); None when the tick had no ego pose
     own_recorded: bool  # the record has the "own" key at all (files from before it was added do not)
     world_origin: tuple[float, float] | None  # lat, lon (deg) of the world frame's origin
+    max_distance_m: float | None = None  # the run's [output] max_distance_m, where the record states it
 
 
 def read_ticks(path: str | Path) -> list[Tick]:
@@ -172,4 +173,6 @@ def _tick(rec: Any) -> Tick:
         if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
             raise ValueError(f"world_origin_lat_lon {origin_rec!r} is not a latitude/longitude")
         origin = (lat, lon)
-    return Tick(t, track_rows, bins_cm, own, "own" in rec, origin)
+    max_d = rec.get("max_distance_m")
+    max_distance = None if max_d is None else _number(max_d, "max_distance_m")
+    return Tick(t, track_rows, bins_cm, own, "own" in rec, origin, max_distance)

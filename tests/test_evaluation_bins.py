@@ -170,3 +170,18 @@ def test_an_obstacle_on_a_solid_there_but_unreturned_is_counted_apart(tmp_path: 
     b = evaluate_run(tmp_path, path).bins
     assert b is not None and b.ticks_scored == 5
     assert (b.obstacle_bins, b.obstacle_unreturned, b.false_obstacle) == (15, 5, 10)
+
+
+def test_a_run_whose_records_state_another_max_distance_is_refused_by_name(tmp_path: Path) -> None:
+    """A run with [output] max_distance_m = 50 sends "clear" as 5001 cm: judged with 100 m, every such bin was an
+    obstacle at 50.01 m, counted silently as false obstacles. Its tick records say what it sent with."""
+    record(tmp_path)
+    fifty = [tick(0.15 + 0.1 * k, track_a_b(), [5001] * 72, max_distance_m=50.0) for k in range(9)]
+    path = write_ticks(tmp_path / "tracks.jsonl", fifty)
+    with pytest.raises(EvaluationError, match=r"max_distance_m = 50 .*--max-distance 50"):
+        evaluate_run(tmp_path, path)
+    b = evaluate_run(tmp_path, path, max_distance_m=50.0).bins
+    assert b is not None and b.clear_bins == 8 * 72 and b.obstacle_bins == 0  # 0.15 has no reference
+    # the same run stating the evaluator's 100 m, and an older record stating nothing, are taken as they are
+    hundred = [tick(0.15 + 0.1 * k, track_a_b(), sent_bins(), max_distance_m=100.0) for k in range(9)]
+    assert evaluate_run(tmp_path, write_ticks(tmp_path / "t100.jsonl", hundred)).bins.false_obstacle == 8 * 2
