@@ -40,6 +40,14 @@ class FrameTruth:
     margin: np.ndarray  # (V,) m the footprint is grown by (a GNSS antenna's point becomes a disc)
     own: tuple[float, float, float] | None  # truth own pose (north, east, yaw); None when the truth has none
 
+    @staticmethod
+    def none() -> FrameTruth:
+        """No vessel, and no own pose of the truth's (the tick's own stands in)."""
+        empty = np.zeros(0)
+        return FrameTruth(
+            np.zeros(0, np.int64), [], np.zeros((0, 2)), np.zeros((0, 2)), empty, empty, empty, [], empty, None
+        )
+
     def select(self, keep: np.ndarray) -> FrameTruth:
         idx = np.flatnonzero(keep)
         return FrameTruth(

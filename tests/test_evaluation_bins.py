@@ -185,3 +185,21 @@ def test_a_run_whose_records_state_another_max_distance_is_refused_by_name(tmp_p
     # the same run stating the evaluator's 100 m, and an older record stating nothing, are taken as they are
     hundred = [tick(0.15 + 0.1 * k, track_a_b(), sent_bins(), max_distance_m=100.0) for k in range(9)]
     assert evaluate_run(tmp_path, write_ticks(tmp_path / "t100.jsonl", hundred)).bins.false_obstacle == 8 * 2
+
+
+def test_a_scene_without_vessels_scores_every_confirmed_track_as_false(tmp_path: Path) -> None:
+    """No vessel in the scene: the truth file holds its header only, and every tick fell "outside" the truth, so a
+    run that tracked a piece of quay for the whole scene scored no false positive. The returns record spans the
+    scene; within it there is nothing to track and every confirmed track is false."""
+    from simulator.scene import OwnBoat, Scene, Trajectory
+
+    write_truth(tmp_path, Scene("empty", OwnBoat(Trajectory.stationary((0.0, 0.0), 0.0)), [], []), 1.0)
+    near = np.full((10, 72), np.inf)
+    near[:, 0] = 30.0  # a quay's face 30 m ahead
+    write_returns(tmp_path / "returns.csv", np.zeros((10, 1, 2), int), near)
+    quay_piece = [track(7, 30.5, 0.0, length=6.0)]
+    ticks = [tick(0.25 + 0.1 * k, quay_piece if k % 2 else [], [3000] + [CLEAR] * 71) for k in range(7)]
+    r = evaluate_run(tmp_path, write_ticks(tmp_path / "tracks.jsonl", ticks))
+    # 0.25 .. 0.85: the 3 ticks at 0.35, 0.55, 0.75 carry the track
+    assert (r.tracks.frames, r.tracks.objects, r.tracks.matches, r.tracks.false_positives) == (7, 0, 0, 3)
+    assert r.bins is not None and r.bins.false_obstacle == 0 and r.bins.within_tolerance == 7
