@@ -10,6 +10,7 @@ body origin sits ``origin_height`` above the mean water (world z = -origin_heigh
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -175,6 +176,24 @@ class SteadyEgo:
     def at(self, t: float) -> EgoPose:
         roll, pitch = self.attitude(np.array([t]))
         return EgoPose(t, np.zeros(3), np.zeros(3), float(np.ravel(roll)[0]), float(np.ravel(pitch)[0]), self.yaw)
+
+
+def wall_ring(start_deg: float, stop_deg: float, step_deg: float, radius: float = 30.0, height: float = 2.0) -> tuple:
+    """Walls (for revolution_over_water) joining the points ``radius`` m off at bearings start..stop deg (world
+    frame, every ``step_deg``): a basin all round, or with an opening."""
+    ring = np.radians(np.arange(start_deg, stop_deg, step_deg))
+    corners = np.column_stack([radius * np.cos(ring), radius * np.sin(ring)])
+    return tuple((tuple(a), tuple(b), height) for a, b in itertools.pairwise(corners.tolist()))
+
+
+def clear_to_11_m_config(mount: Mount) -> Config:
+    """The shipped config, LiDAR only at ``mount``'s height, sending "clear" only where vouched from 4.2 m (past the
+    lowest beam's gap near the boat) out to a max_distance of 11 m, so the beams can vouch for whole bins."""
+    config = Config()
+    config.lidar.mount.z = mount.z
+    config.radar.enabled = False
+    config.output.clear_inner_m, config.output.max_distance_m = 4.2, 11.0
+    return config
 
 
 def lidar_pipeline(mount: Mount) -> PerceptionPipeline:

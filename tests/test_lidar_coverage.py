@@ -3,13 +3,23 @@ and the low, sparse, grazing returns of real solids reaching the bins."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
+from daemon.runner import pipeline_for
 from drivers.mount import Mount
-from tests.sea_geometry import RAIN, SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
+from tests.sea_geometry import (
+    RAIN,
+    SteadyEgo,
+    clear_to_11_m_config,
+    lidar_pipeline,
+    revolution_over_water,
+    scan_of,
+    wall_ring,
+)
 from tracker.lidar.coverage import (
     band_intervals,
     bands_turned,
@@ -210,19 +220,8 @@ def test_a_bearing_that_returned_nothing_is_not_vouched_for_by_points_without_a_
     for nothing and go out unknown. A revolution also carrying returns without a finite position (a decoder's NaN)
     once counted those in bin 0 (a NaN bearing rounds to bin 0), which then counted as having returned something,
     and was sent "clear"."""
-    import dataclasses
-    import itertools
-
-    from daemon.config import Config
-    from daemon.runner import pipeline_for
-
-    config = Config()
-    config.lidar.mount.z = MOUNT.z
-    config.radar.enabled = False
-    config.output.clear_inner_m, config.output.max_distance_m = 4.2, 11.0
-    ring = np.radians(np.arange(20.0, 341.0, 5.0))
-    corners = np.column_stack([30.0 * np.cos(ring), 30.0 * np.sin(ring)])
-    walls = tuple((tuple(a), tuple(b), 2.0) for a, b in itertools.pairwise(corners.tolist()))
+    config = clear_to_11_m_config(MOUNT)
+    walls = wall_ring(20.0, 341.0, 5.0)
 
     def level(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros(np.shape(t)), np.zeros(np.shape(t))

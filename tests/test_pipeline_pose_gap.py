@@ -4,7 +4,6 @@ companion, a telemetry gap), so the pose history reaches only the first part of 
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
@@ -12,7 +11,14 @@ import numpy as np
 from daemon.config import Config
 from daemon.runner import pipeline_for
 from drivers.mount import Mount
-from tests.sea_geometry import SteadyEgo, lidar_pipeline, revolution_over_water, scan_of
+from tests.sea_geometry import (
+    SteadyEgo,
+    clear_to_11_m_config,
+    lidar_pipeline,
+    revolution_over_water,
+    scan_of,
+    wall_ring,
+)
 from tracker.obstacle_map import UNKNOWN, bearing_bins
 
 MOUNT = Mount(z=-1.6)
@@ -81,7 +87,6 @@ def test_with_the_pose_lost_the_radar_puts_no_raw_return_in_the_bins_and_its_tra
     """Found replaying a recording whose .tlog was cut: once the pose was lost the radar's raw returns, mostly sea
     clutter, went into the bins as obstacles (4 % of the obstacle bins false), and the tracks stayed confirmed where
     they were last seen for 15 s."""
-    from daemon.config import Config
     from daemon.runner import pipeline_for
     from drivers.awr1843.parser import RadarFrameParser, encode_frame
     from simulator.radar_model import Awr1843Model
@@ -119,13 +124,8 @@ def test_with_the_pose_lost_over_a_calm_sea_the_lidar_vouches_for_nothing() -> N
     starboard, the starboard beams meet the water sooner than that; with clear sent out to 11 m from 4.2 m (beyond
     the lowest beam's gap), the level bands vouched all 72 bearings. Over a calm sea (no water returns, so no
     surface fit to stand in for the attitude) nothing may be vouched until a pose is back."""
-    config = Config()
-    config.lidar.mount.z = MOUNT.z
-    config.radar.enabled = False
-    config.output.clear_inner_m, config.output.max_distance_m = 4.2, 11.0
-    ring = np.radians(np.arange(0.0, 361.0, 7.5))
-    corners = np.column_stack([30.0 * np.cos(ring), 30.0 * np.sin(ring)])
-    walls = tuple((tuple(a), tuple(b), 2.0) for a, b in itertools.pairwise(corners.tolist()))
+    config = clear_to_11_m_config(MOUNT)
+    walls = wall_ring(0.0, 361.0, 7.5)
 
     def heeled(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.full(np.shape(t), math.radians(5.0)), np.zeros(np.shape(t))

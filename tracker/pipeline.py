@@ -469,7 +469,8 @@ class PerceptionPipeline:
         radar_fresh = t - self._last_radar_t <= self.freshness_s
         own = _pose_now(ego, ego_ok, t)
         # the LiDAR's bands as the tick's body frame sees them: the radar's points are judged against them there
-        self._lidar_bands_now = bands_turned(*self._lidar_bands, _turned_since(self._lidar_solid[1], own))
+        lidar_turned = _turned_since(self._lidar_solid[1], own)
+        self._lidar_bands_now = bands_turned(*self._lidar_bands, lidar_turned)
         if lidar_fresh:
             solid.append(_at_tick(self._lidar_solid, own))
         if radar_fresh:
@@ -519,11 +520,7 @@ class PerceptionPipeline:
             # LiDAR track coasting behind an occluder adds nothing: the occluder is nearer in those bins; and a
             # coasting prediction elsewhere (a quay piece taken for a vessel, a lost track) put false obstacles
             # round the boat in waves.
-            swept = (
-                swept_at_tick(self._lidar_coverage, _turned_since(self._lidar_solid[1], own))
-                if lidar_fresh
-                else np.zeros(72, dtype=bool)
-            )
+            swept = swept_at_tick(self._lidar_coverage, lidar_turned) if lidar_fresh else np.zeros(72, dtype=bool)
             lidar_confirmed = [tr for tr in tracks if tr.confirmed and tr.source != "radar"]
             unswept = {
                 id(tr)
@@ -819,7 +816,7 @@ class PerceptionPipeline:
         tracking = self.lidar_tracker is not None and track_points is not None
         if tracking and self.settings.hull_margin_grow_m >= 0 and pre.within_margin_world.shape[0]:
             low = pre.within_margin_world[:, :2]
-            settled = [tr for tr in self._lidar_tracks if tr.hits >= self.settings.hull_gate_min_hits]
+            settled = self._settled_lidar_tracks()
             hull = low[
                 on_tracked_hulls(low, settled, self.settings.hull_margin_grow_m, self.settings.hull_coast_drift_cap_m)
             ]
@@ -832,13 +829,18 @@ class PerceptionPipeline:
         # without the sweep's poses, preprocess placed the returns in the body frame (zero pose)
         return (solid, (own_pos, own_yaw) if track_points is not None else None), int(solid.shape[0])
 
+    def _settled_lidar_tracks(self) -> list[Track]:
+        """The LiDAR tracks measured hull_gate_min_hits times or more: the hulls the hull gate trusts (it takes the
+        confirmed ones among them)."""
+        return [tr for tr in self._lidar_tracks if tr.hits >= self.settings.hull_gate_min_hits]
+
     def _on_settled_hulls(self) -> Callable[[np.ndarray], np.ndarray] | None:
-        """Which world (north, east) places lie on the hull of a LiDAR track measured hull_gate_min_hits times (its
-        box grown as the hull gate grows it), or None without such a track or with that gate off."""
+        """Which world (north, east) places lie on the hull of a settled confirmed LiDAR track (its box grown as
+        the hull gate grows it), or None without such a track or with that gate off."""
         s = self.settings
         if self.lidar_tracker is None or s.hull_margin_grow_m < 0:
             return None
-        settled = [tr for tr in self._lidar_tracks if tr.confirmed and tr.hits >= s.hull_gate_min_hits]
+        settled = [tr for tr in self._settled_lidar_tracks() if tr.confirmed]
         if not settled:
             return None
         return lambda ne: on_tracked_hulls(ne, settled, s.hull_margin_grow_m, s.hull_coast_drift_cap_m)
