@@ -140,6 +140,69 @@ def test_a_solid_on_a_tracked_hull_moves_with_the_track() -> None:
     assert now[1] == pytest.approx(round(math.hypot(20.0, 1.0) * 100), abs=1)
 
 
+def nearer_on(tracks: list[Track], ticks: list[tuple[float, float]], hull_nearer_s: float = 0.25) -> list[int]:
+    """Bin 0 at each (tick time, range of the revolution's only return dead ahead) with ``tracks``: the
+    revolution of each tick is stamped 0.05 s before it, its return both the array's obstacle and the LiDAR's."""
+    m = ObstacleMemory()
+    out = []
+    for t, r in ticks:
+        solid = np.array([[r, 0.0]])
+        d = m.fill_unknown(
+            t,
+            t - 0.05,
+            sent({0: r}),
+            solid,
+            (np.zeros(2), 0.0),
+            tracks,
+            HOLD_S,
+            0.5,
+            MAX_M,
+            lidar=(t - 0.05, solid),
+            hull_nearer_s=hull_nearer_s,
+        )
+        out.append(int(d[0]))
+    return out
+
+
+def test_a_hulls_return_keeps_its_bin_for_the_revolution_that_missed_it() -> None:
+    """A boat 8 m ahead (a confirmed LiDAR track, box 7.5-9.5 m ahead) returned at 8.0 m; the next revolution
+    missed its end in bin 0 and returned only the quay 40 m behind: the bin stays at 8 m, not 40. Three revolutions
+    on (0.3 s after the last return on the hull, beyond 0.25 s) the quay is what the sensor says."""
+    boat = Track(1, 0.0, np.array([8.5, 0.0]), np.zeros(2), 0.0, 0.0, 2.0, 1.0, 1.0, confirmed=True)
+    assert nearer_on([boat], [(0.1, 8.0), (0.2, 40.0), (0.3, 40.0), (0.4, 40.0)]) == [800, 800, 800, 4000]
+    # nearer than the memory: the measurement is the truth
+    assert nearer_on([boat], [(0.1, 8.0), (0.2, 7.6)]) == [800, 760]
+    # off: the array as measured
+    assert nearer_on([boat], [(0.1, 8.0), (0.2, 40.0)], hull_nearer_s=0.0) == [800, 4000]
+
+
+def test_only_a_lidar_held_hull_keeps_its_bin_and_it_moves_with_its_track() -> None:
+    """A return on no track, or on a tentative or radar-only track's box (sea clutter too often), does not hold an
+    obstacle bin; a fused track's does. A boat closing at 2 m/s: its return at 8 m in the revolution of 0.05 s is
+    0.3 m nearer at the tick of 0.2 s."""
+    boat = Track(1, 0.0, np.array([8.5, 0.0]), np.zeros(2), 0.0, 0.0, 2.0, 1.0, 1.0, confirmed=True)
+    ticks = [(0.1, 8.0), (0.2, 40.0)]
+    assert nearer_on([], ticks) == [800, 4000]
+    assert nearer_on([replace(boat, confirmed=False)], ticks) == [800, 4000]
+    assert nearer_on([replace(boat, source="radar")], ticks) == [800, 4000]
+    assert nearer_on([replace(boat, source="fused")], ticks) == [800, 800]
+    assert nearer_on([replace(boat, velocity=np.array([-2.0, 0.0]))], ticks) == [800, 770]
+
+
+def test_a_hulls_return_never_closes_a_vouched_clear_or_fills_an_unknown_bin_early() -> None:
+    """The rule brings an obstacle bin in; a bin the beams vouched clear stays clear, and an unknown one is the
+    ordinary hold's (0.5 s), which fills it from what the array held."""
+    boat = Track(1, 0.0, np.array([8.5, 0.0]), np.zeros(2), 0.0, 0.0, 2.0, 1.0, 1.0, confirmed=True)
+    m = ObstacleMemory()
+    solid = np.array([[8.0, 0.0]])
+    kw = {"lidar": (0.05, solid), "hull_nearer_s": 0.25}
+    m.fill_unknown(0.1, 0.05, sent({0: 8.0}), solid, (np.zeros(2), 0.0), [boat], HOLD_S, 0.5, MAX_M, **kw)
+    empty = np.empty((0, 2))
+    kw = {"lidar": (0.15, empty), "hull_nearer_s": 0.25}
+    out = m.fill_unknown(0.2, 0.15, sent(clear=(0,)), empty, (np.zeros(2), 0.0), [boat], HOLD_S, 0.5, MAX_M, **kw)
+    assert out[0] == CLEAR and m.bins_hull_nearer == 0
+
+
 def held_on(
     track: Track | None,
     tracks_later: list[Track],

@@ -1,4 +1,5 @@
-"""A short memory of the obstacles the sensors measured, for bins that would otherwise go out "unknown".
+"""A short memory of the obstacles the sensors measured: for bins that would otherwise go out "unknown", and for a
+hull's bins that one revolution missed.
 
 Why: a solid seen one revolution is often unresolved the next. A low hull at 20 m in a sea-state-3 chop is met only
 by the -3 deg beam, 0.5 m up, and its returns fall in and out of the sea margin from one sweep to the next; a far
@@ -12,6 +13,13 @@ an obstacle measured now (the nearer truth) or a bin sent "clear" (the beams vou
 max_distance: the solid left), and a held value is never held again, so a solid the sensors stop returning is gone
 ``hold_s`` after the data that last showed it; one that lay on a LiDAR-held confirmed track's hull, ``hull_hold_s``
 after (a hull, not spray, and a low hull drops out of the sweeps for longer than half a second).
+
+A hull's returns also keep its obstacle bins from opening for a revolution or two: a bin whose obstacle now lies
+beyond a LiDAR return that lay on a LiDAR-held confirmed track's hull in a revolution of the last ``hull_nearer_s``
+seconds (moved on by the track's velocity) shows that return. One revolution misses a hull's end in a bin (a laser
+dropping out for 0.1 s, its bow in a wave's shadow, the returns at a bin's edge of a hull moving across it), and the
+bin went out with the quay 40 m behind a boat 8 m off. Only the LiDAR's returns: a track's outline is an estimate
+(offset from the hull by a metre at times, and held, it put obstacles where nothing stood).
 
 What it does not judge: a bin the beams vouch for only part of the way is "unknown", and a held solid inside the
 vouched part fills it although the beams would have returned it (dropping such points, tried on tuning seeds, cost
@@ -46,13 +54,19 @@ class ObstacleMemory:
         # the hull of a confirmed track the LiDAR holds)
         self._held: deque[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = deque()
         self.bins_filled = 0  # bins sent with a held solid instead of "unknown", since start
+        self.bins_hull_nearer = 0  # obstacle bins brought in to a hull's return of an earlier revolution, since start
         self.last_filled = np.zeros(N_BINS, dtype=bool)  # the bins the newest call filled
         self._newest = -np.inf  # the measurement time of the newest entry
+        # (revolution time, (K, 2) world north/east, (K, 2) velocity): LiDAR returns on LiDAR-held confirmed hulls
+        self._hull_returns: deque[tuple[float, np.ndarray, np.ndarray]] = deque()
+        self._newest_lidar = -np.inf
 
     def reset(self) -> None:
         """Forget everything (the world frame changed)."""
         self._held.clear()
         self._newest = -np.inf
+        self._hull_returns.clear()
+        self._newest_lidar = -np.inf
 
     def fill_unknown(
         self,
@@ -67,6 +81,8 @@ class ObstacleMemory:
         max_distance_m: float,
         hull_hold_s: float | None = None,
         on_structure: Callable[[np.ndarray], np.ndarray] | None = None,
+        lidar: tuple[float, np.ndarray] | None = None,
+        hull_nearer_s: float = 0.0,
     ) -> np.ndarray:
         """This tick's array (tick time ``t``) with its unknown bins filled from what was measured in the last
         ``hold_s`` seconds, and this tick's obstacles (``solid_body``'s nearest per obstacle bin) remembered as
@@ -80,7 +96,9 @@ class ObstacleMemory:
         tuning seeds 45-52, that cost 1,768 false-obstacle bins (2,736 -> 4,504) for 1,705 false clears, and fused
         it moved nothing. Whether the track still lives was tried as a condition too: fused, false-clear bins 36 ->
         41 for the same false obstacles. ``on_structure`` ((n, 2) world points -> (n,) bool), where given, names
-        solids on remembered structure (a quay), held ``hull_hold_s`` too: they do not move either."""
+        solids on remembered structure (a quay), held ``hull_hold_s`` too: they do not move either. ``lidar``: the
+        LiDAR's newest revolution (its time, its solid returns in the body frame at the tick) and ``hull_nearer_s``
+        (0: off): see :meth:`_hull_nearer`."""
         own_ne, own_yaw = own
         self.last_filled = np.zeros(N_BINS, dtype=bool)
         if hold_s <= 0:
@@ -106,6 +124,8 @@ class ObstacleMemory:
                 self.bins_filled += int(fill.sum())
                 self.last_filled = fill
         measured = distances_cm <= round(max_distance_m * 100)
+        if hull_nearer_s > 0:
+            out = self._hull_nearer(t, out, measured, own, tracks, lidar, hull_nearer_s, min_distance_m, max_distance_m)
         if measured.any() and measured_at > self._newest:
             # an obstacle bin's value came from solid_body: its nearest point there is the one measured, and its
             # points nearest the bin's edges say how far across the bin the solid reached (a hull ending 0.2 deg
@@ -126,4 +146,53 @@ class ObstacleMemory:
                     on_hull |= ~on & on_structure(world)
                 self._held.append((measured_at, world, vel, on_hull))
                 self._newest = measured_at
+        return out
+
+    def _hull_nearer(
+        self,
+        t: float,
+        out: np.ndarray,
+        measured: np.ndarray,
+        own: tuple[np.ndarray, float],
+        tracks: Sequence[Track],
+        lidar: tuple[float, np.ndarray] | None,
+        hull_nearer_s: float,
+        min_distance_m: float,
+        max_distance_m: float,
+    ) -> np.ndarray:
+        """``out`` with each obstacle bin (``measured``) brought in to the LiDAR's hull returns of the revolutions of
+        the last ``hull_nearer_s`` seconds, moved on by their tracks' velocities, where those lie nearer; then this
+        tick's LiDAR returns (``lidar``: the revolution's time, (N, 2) body points at the tick) on a LiDAR-held
+        confirmed track's hull (its footprint grown by HULL_GROW_M) remembered for the next ticks."""
+        own_ne, own_yaw = own
+        while self._hull_returns and t - self._hull_returns[0][0] > hull_nearer_s:
+            self._hull_returns.popleft()
+        if self._hull_returns and measured.any():
+            moved = np.concatenate([p + v * (t - t_rev) for t_rev, p, v in self._hull_returns])
+            if moved.shape[0]:
+                hull_cm = to_distances_cm(
+                    nearest_per_bin(world_to_body_2d(moved, own_ne, own_yaw)),
+                    np.zeros(N_BINS, bool),
+                    min_distance_m,
+                    max_distance_m,
+                )
+                nearer = measured & (hull_cm < out)
+                if nearer.any():
+                    out = np.where(nearer, hull_cm, out)
+                    self.bins_hull_nearer += int(nearer.sum())
+        if lidar is None or lidar[0] <= self._newest_lidar:
+            return out
+        t_rev, body = lidar
+        self._newest_lidar = t_rev
+        pts = nearest_and_edge_points_per_bin(body, np.ones(N_BINS, dtype=bool))
+        if pts.shape[0] == 0 or not tracks:
+            return out
+        world = body_to_world_2d(pts, own_ne, own_yaw)
+        hull = tracked_hull_of(world, tracks, HULL_GROW_M)
+        # a hull the LiDAR holds; a radar-only track is clutter too often (see fill_unknown's hull_hold_s)
+        held_by_lidar = np.array([tr.confirmed and tr.source != "radar" for tr in tracks])
+        velocity = np.array([tr.velocity[:2] if tr.speed_valid else (0.0, 0.0) for tr in tracks], dtype=float)
+        keep = np.flatnonzero(hull >= 0)
+        keep = keep[held_by_lidar[hull[keep]]]
+        self._hull_returns.append((t_rev, world[keep], velocity[hull[keep]]))
         return out
