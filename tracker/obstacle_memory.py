@@ -38,7 +38,14 @@ import numpy as np
 
 from tracker.ego import body_to_world_2d, world_to_body_2d
 from tracker.lidar.hull_gate import tracked_hull_of
-from tracker.obstacle_map import N_BINS, UNKNOWN, nearest_and_edge_points_per_bin, nearest_per_bin, to_distances_cm
+from tracker.obstacle_map import (
+    BIN_WIDTH_RAD,
+    N_BINS,
+    UNKNOWN,
+    nearest_and_edge_points_per_bin,
+    nearest_per_bin,
+    to_distances_cm,
+)
 from tracker.types import Track
 
 # A solid within this (m) of a confirmed track's footprint is that hull's and moves with it: the returns of a hull
@@ -184,15 +191,52 @@ class ObstacleMemory:
             return out
         t_rev, body = lidar
         self._newest_lidar = t_rev
-        pts = nearest_and_edge_points_per_bin(body, np.ones(N_BINS, dtype=bool))
-        if pts.shape[0] == 0 or not tracks:
+        # a hull the LiDAR holds; a radar-only track is clutter too often (see fill_unknown's hull_hold_s)
+        held_by_lidar = np.array([tr.confirmed and tr.source != "radar" for tr in tracks], dtype=bool)
+        wanted = _bins_under(
+            [tr for tr, held in zip(tracks, held_by_lidar, strict=True) if held], own_ne, own_yaw, HULL_GROW_M
+        )
+        # the bins those hulls span, not the revolution's thousands of returns elsewhere
+        pts = nearest_and_edge_points_per_bin(body, wanted) if wanted.any() else np.empty((0, 2))
+        if pts.shape[0] == 0:
             return out
         world = body_to_world_2d(pts, own_ne, own_yaw)
         hull = tracked_hull_of(world, tracks, HULL_GROW_M)
-        # a hull the LiDAR holds; a radar-only track is clutter too often (see fill_unknown's hull_hold_s)
-        held_by_lidar = np.array([tr.confirmed and tr.source != "radar" for tr in tracks])
         velocity = np.array([tr.velocity[:2] if tr.speed_valid else (0.0, 0.0) for tr in tracks], dtype=float)
         keep = np.flatnonzero(hull >= 0)
         keep = keep[held_by_lidar[hull[keep]]]
         self._hull_returns.append((t_rev, world[keep], velocity[hull[keep]]))
         return out
+
+
+def _bins_under(tracks: Sequence[Track], own_ne: np.ndarray, own_yaw: float, grow_m: float) -> np.ndarray:
+    """(72,) bool: the bins (body frame of the own pose) that the tracks' footprint boxes, grown by ``grow_m`` on every
+    side, reach into: from the least to the greatest bearing of a box's corners (a box that holds the boat: every
+    bin). A track without a finite size or heading reaches none."""
+    wanted = np.zeros(N_BINS, dtype=bool)
+    boxes = [tr for tr in tracks if np.isfinite([tr.length, tr.width, tr.heading, *tr.position[:2]]).all()]
+    if not boxes:
+        return wanted
+    centre = world_to_body_2d(np.array([tr.position[:2] for tr in boxes], dtype=float), own_ne, own_yaw)
+    axis = np.array([tr.heading for tr in boxes]) - own_yaw  # the boxes' long axes, body frame
+    half_len = np.array([tr.length for tr in boxes]) / 2 + grow_m
+    half_wid = np.array([tr.width for tr in boxes]) / 2 + grow_m
+    c, s = np.cos(axis), np.sin(axis)
+    # the boat (the body origin) in each box's own axes
+    if np.any(
+        (np.abs(centre[:, 0] * c + centre[:, 1] * s) <= half_len)
+        & (np.abs(centre[:, 1] * c - centre[:, 0] * s) <= half_wid)
+    ):
+        wanted[:] = True
+        return wanted
+    along = np.stack([c, s], axis=1) * half_len[:, None]
+    across = np.stack([-s, c], axis=1) * half_wid[:, None]
+    corners = centre[:, None, :] + np.stack([along + across, along - across, -along - across, -along + across], 1)
+    bearing = np.arctan2(corners[..., 1], corners[..., 0])  # (T, 4)
+    # a box that does not hold the boat spans less than half a turn: its corners' bearings about the first one's
+    off = np.remainder(bearing - bearing[:, :1] + np.pi, 2 * np.pi) - np.pi
+    first = np.rint((bearing[:, 0] + off.min(axis=1)) / BIN_WIDTH_RAD).astype(np.int64)
+    last = np.rint((bearing[:, 0] + off.max(axis=1)) / BIN_WIDTH_RAD).astype(np.int64)
+    for a, b in zip(first, last, strict=True):
+        wanted[np.arange(a, b + 1) % N_BINS] = True
+    return wanted
