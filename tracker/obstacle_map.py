@@ -49,7 +49,7 @@ def bearing_bins(points_fwd_stbd: np.ndarray) -> np.ndarray:
 def nearest_per_bin(points_fwd_stbd: np.ndarray, edge_m: float = 0.0) -> np.ndarray:
     """(72,) nearest horizontal range in metres per bin (inf where no point); with ``edge_m``, counting also the
     points of its two neighbours that lie within ``edge_m`` of its edge, across the line of sight."""
-    binned = _BinnedPoints(points_fwd_stbd)
+    binned = BinnedPoints(points_fwd_stbd)
     nearest = binned.nearest()
     return np.minimum(nearest, binned.beside(edge_m, np.ones(N_BINS, dtype=bool))) if edge_m > 0.0 else nearest
 
@@ -57,16 +57,33 @@ def nearest_per_bin(points_fwd_stbd: np.ndarray, edge_m: float = 0.0) -> np.ndar
 def nearest_beside_edges(points_fwd_stbd: np.ndarray, edge_m: float) -> np.ndarray:
     """(72,) per bin, the nearest horizontal range (m) of the points in its two neighbours that lie within ``edge_m``
     of its edge, across the line of sight; inf where none does."""
-    return _BinnedPoints(points_fwd_stbd).beside(edge_m, np.ones(N_BINS, dtype=bool))
+    return BinnedPoints(points_fwd_stbd).beside(edge_m, np.ones(N_BINS, dtype=bool))
 
 
-class _BinnedPoints:
-    """The finite points of one source with their bearing (rad), bin and squared horizontal range, computed once."""
+class BinnedPoints:
+    """The finite points of one source (fwd, stbd, m) with their bearing (rad), bin and squared horizontal range,
+    computed once: the array, the obstacle memory and its hull returns each ask a tick's solids per bin, and a
+    bearing for each of a revolution's 28k returns is the costly part."""
 
     def __init__(self, points_fwd_stbd: np.ndarray) -> None:
-        fwd, stbd, self.r2, _index = _finite(points_fwd_stbd, with_index=False)
+        p = np.asarray(points_fwd_stbd, dtype=float).reshape(-1, 2)
+        fwd, stbd, self.r2, index = _finite(p, with_index=True)
+        self.points = p if index.size == p.shape[0] else p[index]
         self.angle = np.arctan2(stbd, fwd)
         self.bin = _bins_of(self.angle)
+
+    @classmethod
+    def concat(cls, parts: list[BinnedPoints]) -> BinnedPoints:
+        """The points of ``parts`` in their order, as one source, without working out a bearing again."""
+        out = cls.__new__(cls)
+        out.points = np.concatenate([b.points for b in parts]) if parts else np.empty((0, 2))
+        out.r2 = np.concatenate([b.r2 for b in parts]) if parts else np.empty(0)
+        out.angle = np.concatenate([b.angle for b in parts]) if parts else np.empty(0)
+        out.bin = np.concatenate([b.bin for b in parts]) if parts else np.empty(0, dtype=np.int16)
+        return out
+
+    def __len__(self) -> int:
+        return int(self.r2.size)
 
     def nearest(self) -> np.ndarray:
         """(72,) nearest range per bin, m; inf where none."""
@@ -101,20 +118,18 @@ class _BinnedPoints:
         return out
 
 
-def nearest_and_edge_points_per_bin(points_fwd_stbd: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+def nearest_and_edge_points_per_bin(points_fwd_stbd: np.ndarray | BinnedPoints, wanted: np.ndarray) -> np.ndarray:
     """(K, 2) for each ``wanted`` (72,) bin that holds a point: its nearest point and its two points nearest its
     edges (least and greatest bearing within it), forward/starboard; the three may be one point. What a bin showed,
     without the thousands of returns behind it: its range and how far across the bin its solid reached."""
-    p = np.asarray(points_fwd_stbd, dtype=float).reshape(-1, 2)
-    fwd, stbd, r2, index = _finite(p, with_index=True)
-    angle = np.arctan2(stbd, fwd)
-    b = _bins_of(angle)
-    take = wanted[b]
+    binned = points_fwd_stbd if isinstance(points_fwd_stbd, BinnedPoints) else BinnedPoints(points_fwd_stbd)
+    take = wanted[binned.bin]
     if not take.any():
         return np.empty((0, 2))
-    b, r2, index = b[take], r2[take], index[take]
+    index = np.flatnonzero(take)
+    b, r2 = binned.bin[index], binned.r2[index]
     # bearing within the bin, from its centre: continuous across the -pi/pi seam of the bin astern
-    off = np.remainder(angle[take] - b * BIN_WIDTH_RAD + np.pi, 2 * np.pi) - np.pi
+    off = np.remainder(binned.angle[index] - b * BIN_WIDTH_RAD + np.pi, 2 * np.pi) - np.pi
     runs = _BinRuns(b)
     r2_sorted, off_sorted = r2[runs.order], off[runs.order]
     picked = np.concatenate(
@@ -124,7 +139,7 @@ def nearest_and_edge_points_per_bin(points_fwd_stbd: np.ndarray, wanted: np.ndar
             runs.first_at(off_sorted, np.maximum.reduceat(off_sorted, runs.starts)),
         ]
     )
-    return p[index[runs.order[picked]]]
+    return binned.points[index[runs.order[picked]]]
 
 
 def _finite(points_fwd_stbd: np.ndarray, with_index: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -209,7 +224,7 @@ def to_distances_cm(
 
 
 def build_obstacle_distances(
-    solid_points_fwd_stbd: list[np.ndarray],
+    solid_points_fwd_stbd: list[np.ndarray] | list[BinnedPoints],
     clear_to_m: np.ndarray,
     min_distance_m: float,
     max_distance_m: float,
@@ -220,10 +235,13 @@ def build_obstacle_distances(
     ``clear_to_m`` (72,) says per bin how far out the live sensors vouch that a solid would have been returned; a
     bin with no solid is "clear" (max_distance + 1) only when that reaches max_distance, else "unknown" (65535).
     One message carries everything: ArduPilot resets its whole proximity boundary on each OBSTACLE_DISTANCE, so
-    separate partial arrays per sensor would overwrite each other.
+    separate partial arrays per sensor would overwrite each other. Each source an (N, 2) array or its
+    :class:`BinnedPoints`.
     """
     sources = [
-        _BinnedPoints(np.asarray(pts, float)[:, :2]) for pts in solid_points_fwd_stbd if pts is not None and len(pts)
+        pts if isinstance(pts, BinnedPoints) else BinnedPoints(np.asarray(pts, float)[:, :2])
+        for pts in solid_points_fwd_stbd
+        if pts is not None and len(pts)
     ]
     nearest = np.full(N_BINS, np.inf)
     for source in sources:

@@ -35,6 +35,7 @@ from tracker.lidar.coverage import (
 from tracker.lidar.hull_gate import on_tracked_hulls, tracked_hull_of
 from tracker.lidar.water import WaterEstimate, WaterSurface
 from tracker.obstacle_map import (
+    BinnedPoints,
     SensorCoverage,
     bearing_bins,
     build_obstacle_distances,
@@ -479,9 +480,9 @@ class PerceptionPipeline:
         # the LiDAR's bands as the tick's body frame sees them: the radar's points are judged against them there
         lidar_turned = _turned_since(self._lidar_solid[1], own)
         self._lidar_bands_now = bands_turned(*self._lidar_bands, lidar_turned)
-        lidar_body = _at_tick(self._lidar_solid, own) if lidar_fresh else None
-        if lidar_body is not None:
-            solid.append(lidar_body)
+        lidar_at = len(solid) if lidar_fresh else None  # where the LiDAR's returns are among the solids
+        if lidar_fresh:
+            solid.append(_at_tick(self._lidar_solid, own))
         if radar_fresh:
             solid.append(self._radar_speaks(_at_tick(self._radar_solid, own), lidar_fresh))
 
@@ -576,11 +577,14 @@ class PerceptionPipeline:
             "coverage",
             lambda: self._clear_to(lidar_fresh, _at_tick(self._radar_returns, own) if radar_vouches else None, own),
         )
-        distances = _timed(
-            timings,
-            "obstacle_map",
-            lambda: build_obstacle_distances(solid, clear_to, s.min_distance_m, s.max_distance_m, s.bin_edge_m),
-        )
+        # each source's bearings once, for the array, the memory and the hull returns alike
+        binned: list[BinnedPoints] = []
+
+        def array() -> np.ndarray:
+            binned.extend(BinnedPoints(np.asarray(p, float)[:, :2]) for p in solid)
+            return build_obstacle_distances(binned, clear_to, s.min_distance_m, s.max_distance_m, s.bin_edge_m)
+
+        distances = _timed(timings, "obstacle_map", array)
         held = np.zeros(72, dtype=bool)
         # the oldest of the live sensors' newest data: what this tick's array is made of is at least that recent
         fresh_times = [
@@ -596,7 +600,7 @@ class PerceptionPipeline:
                     t,
                     measured_at,
                     distances,
-                    solid_body,
+                    BinnedPoints.concat(binned),
                     (own[0][:2], own[3]),
                     tracks,
                     s.obstacle_hold_s,
@@ -604,7 +608,7 @@ class PerceptionPipeline:
                     s.max_distance_m,
                     s.obstacle_hull_hold_s,
                     self._structure_lookup(t),
-                    lidar=(self._last_lidar_t, lidar_body) if lidar_fresh else None,
+                    lidar=(self._last_lidar_t, binned[lidar_at]) if lidar_at is not None else None,
                     hull_nearer_s=s.obstacle_hull_nearer_s,
                 ),
             )
