@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drivers.frames import LidarScan, RadarFrame
+from drivers.frames import EgoPose, LidarScan, RadarFrame
 from drivers.mount import Mount
 from tracker.obstacle_map import UNKNOWN
 from tracker.pipeline import PerceptionPipeline, PipelineSettings
@@ -249,3 +249,35 @@ def test_without_a_radar_return_by_it_a_lidar_track_in_the_gap_adds_nothing() ->
 def test_where_the_lidars_beams_vouch_a_radar_return_does_not_second_its_track() -> None:
     """24 m off the -3 deg beam vouches for a 0.5 m solid and returned none: its silence wins over the radar."""
     assert boat_only_the_lidar_tracks(24.0, [(24.5, 0.0)])[0] == UNKNOWN
+
+
+class PoseFarFromOrigin:
+    """The autopilot's pose: level, heading north, 500 m north and 300 m east of the world origin (EKF origin)."""
+
+    epoch = 1
+    available = True
+    position = np.array([500.0, 300.0, 0.0])
+
+    def at_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        n = np.asarray(times, float).size
+        return np.tile(self.position, (n, 1)), np.zeros(n), np.zeros(n), np.zeros(n)
+
+    def at(self, t: float) -> EgoPose:
+        return EgoPose(t, self.position.copy(), np.zeros(3), 0.0, 0.0, 0.0)
+
+
+def test_a_near_outline_fills_every_bin_it_spans_wherever_the_world_origin_is() -> None:
+    """A radar-only hull 2 m ahead, 6 m wide across the bow (its near side 1.5 m off, spanning 63 deg either side),
+    with the LiDAR blind: each bin within 57.5 deg either side holds its near side. Its outline was spaced by the
+    sides' distance from the world origin (580 m here), 0.25 m: at 1.5 m a point every 9.5 deg, and a bin between
+    two of them showed the far side, 1 m farther, or a neighbour's near side."""
+    boat = Track(
+        1, 0.0, np.array([502.0, 300.0]), np.zeros(2), 0.0, 0.0, 1.0, 6.0, 1.0, confirmed=True, source="radar", age=5.0
+    )
+    p = PerceptionPipeline(MOUNTED, radar_tracker_factory=lambda: FixedRadarTracks([boat]))
+    d = p.step(1.0, None, [frame(0.95)], PoseFarFromOrigin()).distances_cm
+    bins = np.arange(-11, 12)
+    # within a bin, no farther than the near side at the bin's outer edge
+    near_side_cm = 150.0 / np.cos(np.radians(np.abs(5.0 * bins) + 2.5))
+    assert np.all(d[bins % 72] <= np.ceil(near_side_cm)), d[bins % 72] - near_side_cm
+    assert d[16] == UNKNOWN and d[56] == UNKNOWN

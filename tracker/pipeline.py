@@ -1056,8 +1056,12 @@ def lidar_coverage(scan: LidarScan, s: PipelineSettings) -> SensorCoverage:
 def _outlines_in_body(tracks: list[Track], own: tuple[np.ndarray, float, float, float]) -> np.ndarray | None:
     """(M, 2) the tracks' footprint outlines moved from the world to the body frame (fwd, stbd) of the own pose
     ``own``; None when none has one."""
-    outlines = [o for o in (outline_points(tr.footprint()) for tr in tracks) if len(o)]
-    return world_to_body_2d(np.concatenate(outlines), own[0][:2], own[3]) if outlines else None
+    # the corners into the body frame first: outline_points spaces its points by each side's distance from the
+    # origin (a quarter bin's arc there), and that origin must be the boat, not the world's
+    outlines = [
+        o for o in (outline_points(world_to_body_2d(tr.footprint(), own[0][:2], own[3])) for tr in tracks) if len(o)
+    ]
+    return np.concatenate(outlines) if outlines else None
 
 
 def swept_at_tick(sweep: SensorCoverage, turned: float) -> np.ndarray:
