@@ -218,21 +218,14 @@ def _bins_under(tracks: Sequence[Track], own_ne: np.ndarray, own_yaw: float, gro
     boxes = [tr for tr in tracks if np.isfinite([tr.length, tr.width, tr.heading, *tr.position[:2]]).all()]
     if not boxes:
         return wanted
-    centre = world_to_body_2d(np.array([tr.position[:2] for tr in boxes], dtype=float), own_ne, own_yaw)
-    axis = np.array([tr.heading for tr in boxes]) - own_yaw  # the boxes' long axes, body frame
-    half_len = np.array([tr.length for tr in boxes]) / 2 + grow_m
-    half_wid = np.array([tr.width for tr in boxes]) / 2 + grow_m
-    c, s = np.cos(axis), np.sin(axis)
-    # the boat (the body origin) in each box's own axes
-    if np.any(
-        (np.abs(centre[:, 0] * c + centre[:, 1] * s) <= half_len)
-        & (np.abs(centre[:, 1] * c - centre[:, 0] * s) <= half_wid)
-    ):
+    world = np.concatenate([tr.footprint(grow_m) for tr in boxes])
+    corners = world_to_body_2d(world, own_ne, own_yaw).reshape(-1, 4, 2)
+    # the boat (the body origin) on the same side of all four sides of a box: inside it
+    side = np.roll(corners, -1, axis=1) - corners
+    turn = side[..., 1] * corners[..., 0] - side[..., 0] * corners[..., 1]
+    if np.any((turn >= 0).all(axis=1) | (turn <= 0).all(axis=1)):
         wanted[:] = True
         return wanted
-    along = np.stack([c, s], axis=1) * half_len[:, None]
-    across = np.stack([-s, c], axis=1) * half_wid[:, None]
-    corners = centre[:, None, :] + np.stack([along + across, along - across, -along - across, -along + across], 1)
     bearing = np.arctan2(corners[..., 1], corners[..., 0])  # (T, 4)
     # a box that does not hold the boat spans less than half a turn: its corners' bearings about the first one's
     off = np.remainder(bearing - bearing[:, :1] + np.pi, 2 * np.pi) - np.pi

@@ -78,10 +78,11 @@ class Track:
     def speed_valid(self) -> bool:
         return bool(np.all(np.isfinite(self.velocity)))
 
-    def footprint(self) -> np.ndarray:
-        """(4, 2) corners of the oriented rectangle in world north/east (ellipses: their bounding box)."""
+    def footprint(self, grow_m: float = 0.0) -> np.ndarray:
+        """(4, 2) corners of the oriented rectangle in world north/east (ellipses: their bounding box), grown by
+        ``grow_m`` on every side."""
         c, s = np.cos(self.heading), np.sin(self.heading)
-        along = np.array([c, s]) * self.length / 2
-        across = np.array([-s, c]) * self.width / 2
+        along = np.array([c, s]) * (self.length / 2 + grow_m)
+        across = np.array([-s, c]) * (self.width / 2 + grow_m)
         p = self.position
         return np.array([p + along + across, p + along - across, p - along - across, p - along + across])
